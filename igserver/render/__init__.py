@@ -1,0 +1,1 @@
+"""Rendering: EGL context, FrameGraph of passes, render process."""

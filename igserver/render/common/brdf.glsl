@@ -1,0 +1,43 @@
+// The one BRDF of the project (DESIGN 4.4, seed 002): metallic-roughness Cook-Torrance.
+//   Rs = D G F / (4 (N.V)(N.L)),  D = GGX/Trowbridge-Reitz,  G = height-correlated Smith,
+//   F = Schlick with F0 = 0.04 for dielectrics and base colour for metals.
+// Returns the BRDF times N.L, so a light contributes  E_light * brdf_cos(...).
+
+float ggx_distribution(float n_dot_h, float alpha) {
+    float a2 = alpha * alpha;
+    float d = n_dot_h * n_dot_h * (a2 - 1.0) + 1.0;
+    return a2 / (PI * d * d);
+}
+
+// Smith visibility V = G / (4 N.V N.L), height-correlated form (Heitz 2014).
+float smith_visibility(float n_dot_v, float n_dot_l, float alpha) {
+    float a2 = alpha * alpha;
+    float gv = n_dot_l * sqrt(n_dot_v * n_dot_v * (1.0 - a2) + a2);
+    float gl = n_dot_v * sqrt(n_dot_l * n_dot_l * (1.0 - a2) + a2);
+    return 0.5 / max(gv + gl, 1e-6);
+}
+
+vec3 fresnel_schlick(float cos_theta, vec3 f0) {
+    float m = clamp(1.0 - cos_theta, 0.0, 1.0);
+    float m2 = m * m;
+    return f0 + (1.0 - f0) * (m2 * m2 * m);
+}
+
+struct Material {
+    vec3 base_color;  // linear
+    float metallic;   // 0 dielectric .. 1 metal
+    float roughness;  // perceptual, 0 mirror .. 1 rough
+};
+
+vec3 brdf_cos(Material m, vec3 n, vec3 v, vec3 l) {
+    float n_dot_l = dot(n, l);
+    if (n_dot_l <= 0.0) return vec3(0.0);
+    float n_dot_v = max(dot(n, v), 1e-4);
+    vec3 h = normalize(v + l);
+    float alpha = max(m.roughness * m.roughness, 2e-3);
+    vec3 f0 = mix(vec3(0.04), m.base_color, m.metallic);
+    vec3 f = fresnel_schlick(max(dot(v, h), 0.0), f0);
+    vec3 specular = f * ggx_distribution(max(dot(n, h), 0.0), alpha) * smith_visibility(n_dot_v, n_dot_l, alpha);
+    vec3 diffuse = (1.0 - f) * (1.0 - m.metallic) * m.base_color / PI;
+    return (diffuse + specular) * n_dot_l;
+}

@@ -1,0 +1,108 @@
+"""Per-frame data every pass reads: the scene, the camera view, light, exposure, targets."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import moderngl
+import numpy as np
+
+from ..astro import celestial_state, direction_enu
+from ..scene.model import Scene
+from .camera import CameraView, gl_matrix, make_view
+from .lights import PointLight, gather_lights, light_uniforms
+from .sky.daylight import SUN_ANGULAR_RADIUS, Daylight, daylight
+
+MAX_LIGHTS = 16
+
+
+@dataclass(frozen=True)
+class SunMoon:
+    sun_elevation: float
+    sun_azimuth: float
+    moon_elevation: float
+    moon_azimuth: float
+    moon_phase: float
+
+    @property
+    def sun_dir(self) -> np.ndarray:
+        return np.array(direction_enu(self.sun_elevation, self.sun_azimuth))
+
+    @property
+    def moon_dir(self) -> np.ndarray:
+        return np.array(direction_enu(self.moon_elevation, self.moon_azimuth))
+
+
+def sun_and_moon(scene: Scene) -> SunMoon:
+    """From the ephemeris, or the instructor's fixed sun (the moon stays on the ephemeris)."""
+    loc = scene.location
+    state = celestial_state(scene.time.utc, loc.lat, loc.lon, loc.altitude)
+    sun_el, sun_az = state.sun_elevation, state.sun_azimuth
+    if scene.time.sun_override is not None:
+        sun_el, sun_az = scene.time.sun_override.elevation, scene.time.sun_override.azimuth
+    return SunMoon(sun_el, sun_az % 360.0, state.moon_elevation, state.moon_azimuth, state.moon_phase)
+
+
+@dataclass
+class FrameContext:
+    ctx: moderngl.Context
+    scene: Scene
+    view: CameraView
+    celestial: SunMoon
+    light: Daylight
+    exposure: float
+    lights: list[PointLight]
+    uniforms: dict = field(default_factory=dict)
+    # Shared resources the passes hand each other (e.g. "scene_distance": the copied distance texture).
+    resources: dict = field(default_factory=dict)
+
+    @property
+    def camera_altitude(self) -> float:
+        return self.scene.location.altitude + float(self.view.position[2])
+
+
+def build_frame(ctx: moderngl.Context, scene: Scene) -> FrameContext:
+    view = make_view(scene.camera)
+    celestial = sun_and_moon(scene)
+    altitude = scene.location.altitude + float(view.position[2])
+    light = daylight(celestial.sun_elevation, altitude, scene.atmosphere.turbidity,
+                     celestial.moon_elevation, celestial.moon_phase)
+    exposure = light.exposure(scene.camera.exposure_ev)
+    lights = gather_lights(scene, view, MAX_LIGHTS)
+    frame = FrameContext(ctx, scene, view, celestial, light, exposure, lights)
+    frame.uniforms = common_uniforms(frame)
+    return frame
+
+
+def _vec3(v) -> tuple[float, float, float]:
+    return tuple(float(x) for x in v)
+
+
+def common_uniforms(frame: FrameContext) -> dict:
+    view, light, scene = frame.view, frame.light, frame.scene
+    visibility = scene.atmosphere.visibility
+    return {
+        "u_view_proj": gl_matrix(view.view_proj),
+        "u_inv_view_proj": gl_matrix(np.linalg.inv(view.view_proj)),
+        "u_resolution": (float(view.width), float(view.height)),
+        "u_camera_altitude": frame.camera_altitude,
+        "u_exposure": frame.exposure,
+        "u_sun_dir": _vec3(frame.celestial.sun_dir),
+        "u_sun_illuminance": _vec3(light.sun_illuminance),
+        "u_moon_dir": _vec3(frame.celestial.moon_dir),
+        "u_moon_illuminance": _vec3(light.moon_illuminance),
+        "u_moon_phase": frame.celestial.moon_phase,
+        "u_sky_ambient": _vec3(light.sky_ambient),
+        "u_sky_zenith": _vec3(light.zenith),
+        "u_sky_horizon": _vec3(light.horizon),
+        "u_sky_below": _vec3(light.below),
+        "u_halo_color": _vec3(light.halo),
+        "u_halo_exponent": light.halo_exponent,
+        "u_sun_disk_cos": math.cos(SUN_ANGULAR_RADIUS),
+        "u_sun_disk_luminance": _vec3(light.sun_disk_luminance),
+        "u_fog_color": _vec3(light.horizon),
+        "u_fog_beta": 3.912 / visibility,  # Koschmieder: contrast 2 % at the visibility distance
+        "u_fog_scale_height": 1200.0,
+        **light_uniforms(frame.lights, view, MAX_LIGHTS),
+    }

@@ -1,0 +1,59 @@
+"""FrameGraph: per frame, the list of passes this scene needs, in order (DESIGN §5).
+
+Order: opaque surfaces (ground/entities), water, sky (fills what nothing covered), depth copy
+(only when a later pass reads scene distance), volumes, precipitation, post.
+"""
+
+from __future__ import annotations
+
+import moderngl
+
+from ..scene.model import Scene
+from .camera import CameraView, make_view
+from .passes import DepthCopyPass, RenderPass
+from .post.post import PostPass
+from .shaders import ProgramCache
+from .sky.sky import SkyPass
+from .surfaces.surfaces import SurfacesPass
+from .water.water import WaterPass
+
+# Pipelines register here, in drawing order; DepthCopyPass is inserted before the first reader.
+PASS_TYPES: list[type[RenderPass]] = [SurfacesPass, WaterPass, SkyPass, PostPass]
+
+
+def register_pass(pass_type: type[RenderPass], before: str = "post") -> None:
+    names = [p.name for p in PASS_TYPES]
+    if pass_type.name not in names:
+        PASS_TYPES.insert(names.index(before), pass_type)
+
+
+class FrameGraph:
+    def __init__(self, ctx: moderngl.Context, programs: ProgramCache):
+        self.passes: dict[str, RenderPass] = {}
+        for pass_type in [DepthCopyPass, *PASS_TYPES]:
+            self.passes[pass_type.name] = pass_type(ctx, programs)
+
+    def plan(self, scene: Scene, view: CameraView | None = None) -> list[str]:
+        view = view or make_view(scene.camera)
+        names: list[str] = []
+        for pass_type in PASS_TYPES:
+            render_pass = self.passes[pass_type.name]
+            if not render_pass.needed(scene, view):
+                continue
+            if render_pass.reads_scene_distance and "depth_copy" not in names:
+                names.append("depth_copy")
+            names.append(render_pass.name)
+        return names
+
+
+def plan_passes(scene: Scene) -> list[str]:
+    """Pass list without a GL context (tests, tools): uses the passes' class-level logic."""
+    view = make_view(scene.camera)
+    names: list[str] = []
+    for pass_type in PASS_TYPES:
+        if not pass_type.needed(pass_type.__new__(pass_type), scene, view):
+            continue
+        if pass_type.reads_scene_distance and "depth_copy" not in names:
+            names.append("depth_copy")
+        names.append(pass_type.name)
+    return names

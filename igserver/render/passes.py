@@ -1,0 +1,45 @@
+"""Base class of a render pass. One small class per pipeline (pygfx style); the FrameGraph asks
+each pass whether the scene needs it and runs only those."""
+
+from __future__ import annotations
+
+import moderngl
+
+from ..scene.model import Scene
+from .camera import CameraView
+from .shaders import ProgramCache
+from .targets import Targets
+
+
+class RenderPass:
+    name: str = "?"
+    reads_scene_distance: bool = False  # needs the depth copy before it runs
+
+    def __init__(self, ctx: moderngl.Context, programs: ProgramCache):
+        self.ctx = ctx
+        self.programs = programs
+
+    def needed(self, scene: Scene, view: CameraView) -> bool:
+        return True
+
+    def execute(self, frame, targets: Targets) -> None:  # frame: FrameContext
+        raise NotImplementedError
+
+    def fullscreen(self, program: moderngl.Program) -> None:
+        """Draw one viewport-covering triangle with ``program`` (no vertex buffers)."""
+        vao = self._vaos.get(id(program)) if hasattr(self, "_vaos") else None
+        if vao is None:
+            self._vaos = getattr(self, "_vaos", {})
+            vao = self.ctx.vertex_array(program, [])
+            self._vaos[id(program)] = vao
+        vao.render(moderngl.TRIANGLES, vertices=3)
+
+
+class DepthCopyPass(RenderPass):
+    """Copy the view distance so that volume passes can read it while drawing into the colour."""
+
+    name = "depth_copy"
+
+    def execute(self, frame, targets: Targets) -> None:
+        self.ctx.copy_framebuffer(targets.distance_copy_fbo, targets.scene_fbo)
+        frame.resources["scene_distance"] = targets.distance_copy

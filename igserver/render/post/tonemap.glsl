@@ -1,0 +1,27 @@
+// Post pass: the HDR target is already pre-exposed; tone map (ACES fit, Narkowicz 2015), encode
+// sRGB, and dither by half an 8-bit step with interleaved gradient noise to hide banding.
+#include "common/frame.glsl"
+
+uniform sampler2D u_hdr;
+in vec2 v_uv;
+out vec4 out_color;
+
+vec3 aces_fit(vec3 x) {
+    return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
+}
+
+vec3 linear_to_srgb(vec3 c) {
+    return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));
+}
+
+float interleaved_gradient_noise(vec2 p) {
+    return fract(52.9829189 * fract(dot(p, vec2(0.06711056, 0.00583715))));
+}
+
+void main() {
+    vec3 hdr = texture(u_hdr, v_uv).rgb;
+    hdr = max(hdr, vec3(0.0));  // no negative radiance; NaN-free inputs are the passes' duty
+    vec3 srgb = linear_to_srgb(aces_fit(hdr));
+    srgb += (interleaved_gradient_noise(gl_FragCoord.xy) - 0.5) / 255.0;
+    out_color = vec4(clamp(srgb, 0.0, 1.0), 1.0);
+}

@@ -1,0 +1,85 @@
+"""The in-process renderer: one GL context, resident pipelines, one frame per call.
+
+Used directly by the render worker process (and by tests/tools that own their process).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import moderngl
+import numpy as np
+
+from ..scene.model import Scene
+from .context import capabilities, create_context
+from .frame import build_frame
+from .graph import FrameGraph
+from .shaders import ProgramCache
+from .targets import Targets
+
+
+@dataclass
+class RenderResult:
+    rgba: np.ndarray  # (height, width, 4) uint8, top row first
+    passes: list[str]
+    pass_ms: dict[str, float] = field(default_factory=dict)  # only when timed
+    total_ms: float = 0.0
+
+
+class Renderer:
+    def __init__(self, ctx: moderngl.Context | None = None, device_index: int | None = None):
+        self.ctx = ctx or create_context(device_index)
+        self.caps = capabilities(self.ctx)
+        self.programs = ProgramCache(self.ctx)
+        self.graph = FrameGraph(self.ctx, self.programs)
+        self._targets: Targets | None = None
+        self.frames_rendered = 0
+
+    def targets_for(self, width: int, height: int) -> Targets:
+        if self._targets is None or self._targets.size != (width, height):
+            if self._targets is not None:
+                self._targets.release()
+            self._targets = Targets(self.ctx, width, height)
+        return self._targets
+
+    def render(self, scene: Scene, timed: bool = False) -> RenderResult:
+        """Render ``scene``; with ``timed`` each pass is bracketed by ctx.finish() and a wall clock."""
+        start = time.perf_counter()
+        frame = build_frame(self.ctx, scene)
+        targets = self.targets_for(scene.camera.width, scene.camera.height)
+        names = self.graph.plan(scene, frame.view)
+        targets.scene_fbo.use()
+        targets.scene_fbo.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
+        pass_ms: dict[str, float] = {}
+        if timed:
+            self.ctx.finish()
+            pass_ms["setup"] = (time.perf_counter() - start) * 1e3
+        for name in names:
+            t0 = time.perf_counter()
+            self.graph.passes[name].execute(frame, targets)
+            if timed:
+                self.ctx.finish()
+                pass_ms[name] = (time.perf_counter() - t0) * 1e3
+        t0 = time.perf_counter()
+        data = targets.ldr_fbo.read(components=4, alignment=1)
+        rgba = np.frombuffer(data, dtype=np.uint8).reshape(targets.size[1], targets.size[0], 4)[::-1]
+        if timed:
+            pass_ms["readback"] = (time.perf_counter() - t0) * 1e3
+        self.frames_rendered += 1
+        return RenderResult(np.ascontiguousarray(rgba), names, pass_ms, (time.perf_counter() - start) * 1e3)
+
+    def read_hdr(self) -> np.ndarray:
+        """The last frame's pre-exposed linear HDR colour (float32, top row first), for quality tools."""
+        t = self._targets
+        data = np.frombuffer(t.hdr.read(), dtype=np.float16).reshape(t.size[1], t.size[0], 4)
+        return data[::-1].astype(np.float32)
+
+    def read_distance(self) -> np.ndarray:
+        t = self._targets
+        return np.frombuffer(t.distance.read(), dtype=np.float32).reshape(t.size[1], t.size[0])[::-1].copy()
+
+    def release(self) -> None:
+        if self._targets is not None:
+            self._targets.release()
+        self.ctx.release()

@@ -1,0 +1,78 @@
+"""GLSL as package data: ``#include "path"`` resolution, feature ``#define``s, a program cache.
+
+Paths are relative to ``igserver/render`` (e.g. ``common/brdf.glsl``, ``sky/gradient.glsl``).
+Shader variants are compiled with only the features in use: the defines are part of the cache key.
+"""
+
+from __future__ import annotations
+
+import re
+from functools import lru_cache
+from importlib import resources
+
+import moderngl
+
+GLSL_VERSION = "#version 450 core"
+_INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.MULTILINE)
+
+
+@lru_cache(maxsize=None)
+def read_glsl(path: str) -> str:
+    return resources.files("igserver.render").joinpath(path).read_text()
+
+
+def expand(path: str, seen: frozenset[str] = frozenset()) -> str:
+    """Source of ``path`` with includes expanded once each (include guards are implicit)."""
+    if path in seen:
+        return ""
+    seen = seen | {path}
+
+    def repl(match: re.Match) -> str:
+        return expand(match.group(1), seen)
+
+    return _INCLUDE.sub(repl, read_glsl(path))
+
+
+def assemble(path: str, stage: str, defines: dict[str, object] | None = None) -> str:
+    lines = [GLSL_VERSION, f"#define {stage}_SHADER 1"]
+    for key, value in sorted((defines or {}).items()):
+        lines.append(f"#define {key} {value}" if value is not True else f"#define {key} 1")
+    lines.append("#line 1")
+    return "\n".join(lines) + "\n" + expand(path)
+
+
+class ProgramCache:
+    """One compiled program per (files, defines); pipelines stay resident in the render process."""
+
+    def __init__(self, ctx: moderngl.Context):
+        self.ctx = ctx
+        self._programs: dict[tuple, moderngl.Program | moderngl.ComputeShader] = {}
+
+    def program(self, vertex: str, fragment: str, defines: dict | None = None) -> moderngl.Program:
+        key = ("prog", vertex, fragment, tuple(sorted((defines or {}).items())))
+        if key not in self._programs:
+            self._programs[key] = self.ctx.program(
+                vertex_shader=assemble(vertex, "VERTEX", defines),
+                fragment_shader=assemble(fragment, "FRAGMENT", defines),
+            )
+        return self._programs[key]
+
+    def compute(self, path: str, defines: dict | None = None) -> moderngl.ComputeShader:
+        key = ("comp", path, tuple(sorted((defines or {}).items())))
+        if key not in self._programs:
+            self._programs[key] = self.ctx.compute_shader(assemble(path, "COMPUTE", defines))
+        return self._programs[key]
+
+    def __len__(self) -> int:
+        return len(self._programs)
+
+
+def set_uniforms(program, values: dict[str, object]) -> None:
+    """Set the uniforms a program actually has; the rest are silently not needed by it."""
+    for name, value in values.items():
+        if name in program:
+            member = program[name]
+            if isinstance(value, bytes):
+                member.write(value)
+            elif hasattr(member, "value"):
+                member.value = value

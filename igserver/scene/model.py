@@ -1,0 +1,277 @@
+"""The scene model: one typed description of everything the IG draws.
+
+The same model is the protocol's message schema, the scene-file format and the renderer's input.
+Every field has a unit, a default and a valid range; NaN, Inf, unknown fields and out-of-range
+values are rejected with a message naming the field (pydantic's error ``loc``).
+
+Conventions (DESIGN §3): world frame is local ENU at the scene origin (x east, y north, z up,
+metres, float64); angles on the wire are degrees (heading clockwise from north, pitch nose-up,
+roll right-wing-down); ``time.utc`` drives sun/moon/stars, ``time.sim_time`` drives animation.
+"""
+
+from __future__ import annotations
+
+import math
+from datetime import datetime, timezone
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+# Upper bound on any world coordinate (m). 1e7 m is beyond a continent; float64 keeps mm there.
+WORLD_LIMIT_M = 1.0e7
+
+MAX_EFFECTS = 64
+MAX_LIGHTS = 256
+MAX_ENTITIES = 256
+ID_PATTERN = r"^[A-Za-z0-9_.:-]{1,64}$"
+
+
+class Strict(BaseModel):
+    """Base: forbid unknown fields and non-finite floats, re-validate on assignment."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, validate_assignment=True)
+
+
+Coordinate = Annotated[float, Field(ge=-WORLD_LIMIT_M, le=WORLD_LIMIT_M)]
+Vec3 = tuple[Coordinate, Coordinate, Coordinate]
+UnitColor = tuple[
+    Annotated[float, Field(ge=0.0, le=1.0)],
+    Annotated[float, Field(ge=0.0, le=1.0)],
+    Annotated[float, Field(ge=0.0, le=1.0)],
+]
+EntityId = Annotated[str, Field(pattern=ID_PATTERN)]
+
+
+class Frustum(Strict):
+    """Asymmetric frustum as signed half-angles from the view axis (degrees), for multi-channel displays."""
+
+    left: float = Field(-30.0, ge=-89.0, le=89.0, description="deg, negative = left of axis")
+    right: float = Field(30.0, ge=-89.0, le=89.0, description="deg")
+    bottom: float = Field(-20.0, ge=-89.0, le=89.0, description="deg, negative = below axis")
+    top: float = Field(20.0, ge=-89.0, le=89.0, description="deg")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "Frustum":
+        if not self.right > self.left:
+            raise ValueError("frustum.right must be greater than frustum.left")
+        if not self.top > self.bottom:
+            raise ValueError("frustum.top must be greater than frustum.bottom")
+        return self
+
+
+class Camera(Strict):
+    position: Vec3 = Field((0.0, 0.0, 10.0), description="m, ENU world position (float64)")
+    heading: float = Field(0.0, ge=-360.0, le=360.0, description="deg clockwise from north")
+    pitch: float = Field(0.0, ge=-90.0, le=90.0, description="deg, nose up positive")
+    roll: float = Field(0.0, ge=-180.0, le=180.0, description="deg, right wing down positive")
+    fov_y: float = Field(60.0, gt=0.1, lt=170.0, description="deg, vertical field of view (symmetric frustum)")
+    frustum: Frustum | None = Field(None, description="asymmetric frustum; overrides fov_y when set")
+    near: float = Field(0.1, ge=1e-3, le=1e4, description="m, near clip distance")
+    far: float = Field(200_000.0, ge=1.0, le=1e7, description="m, far clip distance")
+    width: int = Field(640, ge=16, le=7680, description="px")
+    height: int = Field(360, ge=16, le=4320, description="px")
+    exposure_ev: float | None = Field(
+        None, ge=-20.0, le=20.0, description="EV100 exposure (absolute); None = automatic from the daylight"
+    )
+
+    @model_validator(mode="after")
+    def _clip_order(self) -> "Camera":
+        if not self.far > self.near:
+            raise ValueError("camera.far must be greater than camera.near")
+        return self
+
+
+class SunOverride(Strict):
+    """Instructor override of the sun's position (replaces the ephemeris)."""
+
+    elevation: float = Field(..., ge=-90.0, le=90.0, description="deg above the horizon")
+    azimuth: float = Field(..., ge=-360.0, le=360.0, description="deg clockwise from north")
+
+
+def _default_utc() -> datetime:
+    return datetime(2026, 6, 21, 12, 0, tzinfo=timezone.utc)
+
+
+class Time(Strict):
+    utc: datetime = Field(default_factory=_default_utc, description="ISO 8601; drives sun, moon, stars")
+    sim_time: float = Field(0.0, ge=0.0, le=1e12, description="s, drives animation (float64)")
+    sun_override: SunOverride | None = Field(None, description="fix sun elevation/azimuth instead of the ephemeris")
+
+    @field_validator("utc")
+    @classmethod
+    def _aware(cls, value: datetime) -> datetime:
+        if value.tzinfo is None:
+            value = value.replace(tzinfo=timezone.utc)
+        if not (1800 <= value.year <= 2200):
+            raise ValueError("utc year must be within 1800..2200")
+        return value.astimezone(timezone.utc)
+
+
+class Location(Strict):
+    lat: float = Field(59.93, ge=-90.0, le=90.0, description="deg, geodetic latitude of the origin")
+    lon: float = Field(30.31, ge=-180.0, le=180.0, description="deg, longitude of the origin")
+    altitude: float = Field(0.0, ge=-500.0, le=9000.0, description="m above sea level of the origin")
+
+
+class Atmosphere(Strict):
+    model: Literal["gradient", "precomputed"] = Field(
+        "gradient", description="sky tier: the paper's gradient model or precomputed scattering"
+    )
+    visibility: float = Field(30_000.0, ge=50.0, le=200_000.0, description="m, meteorological visibility")
+    turbidity: float = Field(2.0, ge=1.0, le=10.0, description="Linke-style turbidity of the surface layer")
+    ozone: bool = Field(True, description="include ozone absorption")
+    scattering_orders: int = Field(4, ge=1, le=32, description="multiple-scattering orders of the tables")
+
+
+class Precipitation(Strict):
+    type: Literal["none", "rain", "snow"] = "none"
+    rate: float = Field(0.0, ge=0.0, le=200.0, description="mm/h")
+
+
+class Weather(Strict):
+    wind_speed: float = Field(5.0, ge=0.0, le=80.0, description="m/s at 10 m")
+    wind_direction: float = Field(270.0, ge=0.0, le=360.0, description="deg, direction the wind blows FROM")
+    precipitation: Precipitation = Field(default_factory=Precipitation)
+    cirrus_coverage: float = Field(0.0, ge=0.0, le=1.0, description="fraction of the sky")
+
+
+class Bathymetry(Strict):
+    type: Literal["uniform", "slope"] = "uniform"
+    depth: float = Field(1000.0, ge=0.001, le=11_000.0, description="m, depth (offshore depth for slope)")
+    shore_distance: float = Field(500.0, ge=0.0, le=1e6, description="m, origin-to-shoreline distance (slope)")
+    shore_heading: float = Field(0.0, ge=0.0, le=360.0, description="deg, direction from origin to shore")
+    slope: float = Field(0.02, gt=0.0, le=1.0, description="bottom slope dz/dx (slope)")
+
+
+class Ocean(Strict):
+    enabled: bool = False
+    sea_state: int | None = Field(None, ge=0, le=9, description="WMO sea state; None = derived from wind")
+    level: float = Field(0.0, ge=-500.0, le=9000.0, description="m, mean water level (ENU z)")
+    bathymetry: Bathymetry = Field(default_factory=Bathymetry)
+
+
+class Effect(Strict):
+    """A volumetric effect in its bounding container (DESIGN §4.3)."""
+
+    id: EntityId
+    type: Literal["fire", "smoke", "gas_burner"] = "fire"
+    position: Vec3 = Field((0.0, 0.0, 0.0), description="m, ENU position of the container's base centre")
+    diameter: float = Field(2.0, ge=0.0, le=500.0, description="m, base diameter of the fire / plume")
+    height: float | None = Field(None, ge=0.0, le=2000.0, description="m, container height; None = Heskestad")
+    intensity: float = Field(1.0, ge=0.0, le=10.0, description="relative heat release (1 = nominal)")
+    active: bool = Field(True, description="burning (fades in) or extinguished (fades out)")
+    fade: float = Field(3.0, ge=0.0, le=600.0, description="s, fade-in/out duration")
+    emits_smoke: bool = Field(False, description="fire also emits a smoke plume")
+    seed: int = Field(1, ge=0, le=2**31 - 1, description="random seed of noise and flicker")
+    profile: str | None = Field(None, max_length=1024, description="optional profile image file")
+    changed_at: float | None = Field(
+        None, ge=0.0, le=1e12, description="s, sim_time of the last activate/deactivate (set by the IG)"
+    )
+
+
+class Flicker(Strict):
+    enabled: bool = False
+    frequency: float = Field(1.5, gt=0.0, le=50.0, description="Hz, peak frequency of the variation")
+    amplitude: float = Field(0.3, ge=0.0, le=1.0, description="relative intensity variation")
+    seed: int = Field(1, ge=0, le=2**31 - 1)
+
+
+class Light(Strict):
+    id: EntityId
+    type: Literal["point", "spot"] = "point"
+    position: Vec3 = (0.0, 0.0, 5.0)
+    color: UnitColor = Field((1.0, 0.85, 0.6), description="linear RGB, 0..1")
+    intensity: float = Field(1000.0, ge=0.0, le=1e8, description="cd, luminous intensity")
+    range: float = Field(100.0, gt=0.0, le=1e5, description="m, distance where the light is cut off")
+    heading: float = Field(0.0, ge=-360.0, le=360.0, description="deg, spot direction")
+    pitch: float = Field(0.0, ge=-90.0, le=90.0, description="deg, spot direction")
+    cone_inner: float = Field(10.0, ge=0.0, le=90.0, description="deg, spot full-intensity half-angle")
+    cone_outer: float = Field(20.0, ge=0.0, le=90.0, description="deg, spot cut-off half-angle")
+    flicker: Flicker = Field(default_factory=Flicker)
+
+    @model_validator(mode="after")
+    def _cone(self) -> "Light":
+        if self.cone_outer < self.cone_inner:
+            raise ValueError("cone_outer must be >= cone_inner")
+        return self
+
+
+class Entity(Strict):
+    id: EntityId
+    model: Literal["box", "ship", "pier"] = Field("box", description="built-in model (glTF files: not yet)")
+    position: Vec3 = (0.0, 0.0, 0.0)
+    heading: float = Field(0.0, ge=-360.0, le=360.0)
+    pitch: float = Field(0.0, ge=-90.0, le=90.0)
+    roll: float = Field(0.0, ge=-180.0, le=180.0)
+    scale: tuple[
+        Annotated[float, Field(gt=0.0, le=1e4)],
+        Annotated[float, Field(gt=0.0, le=1e4)],
+        Annotated[float, Field(gt=0.0, le=1e4)],
+    ] = Field((1.0, 1.0, 1.0), description="m, size along the model's x (starboard), y (forward), z (up)")
+    color: UnitColor = Field((0.5, 0.5, 0.5), description="linear base colour")
+    metallic: float = Field(0.0, ge=0.0, le=1.0)
+    roughness: float = Field(0.6, ge=0.02, le=1.0)
+
+
+class Ground(Strict):
+    enabled: bool = Field(True, description="draw the flat ground plane at z = level")
+    level: float = Field(-0.5, ge=-11_000.0, le=9000.0, description="m, ENU height of the plane")
+    color: UnitColor = Field((0.25, 0.24, 0.2), description="linear base colour")
+    roughness: float = Field(0.9, ge=0.02, le=1.0)
+
+
+class Quality(Strict):
+    preset: Literal["low", "medium", "high"] = "medium"
+
+
+def _unique_ids(items: list, what: str) -> list:
+    seen: set[str] = set()
+    for item in items:
+        if item.id in seen:
+            raise ValueError(f"duplicate {what} id {item.id!r}")
+        seen.add(item.id)
+    return items
+
+
+class Scene(Strict):
+    """The whole state the IG renders. Also the protocol's message body."""
+
+    version: Literal[1] = 1
+    host_frame: int = Field(0, ge=0, le=2**63 - 1, description="host frame number this state belongs to")
+    camera: Camera = Field(default_factory=Camera)
+    time: Time = Field(default_factory=Time)
+    location: Location = Field(default_factory=Location)
+    atmosphere: Atmosphere = Field(default_factory=Atmosphere)
+    weather: Weather = Field(default_factory=Weather)
+    ocean: Ocean = Field(default_factory=Ocean)
+    ground: Ground = Field(default_factory=Ground)
+    effects: list[Effect] = Field(default_factory=list, max_length=MAX_EFFECTS)
+    lights: list[Light] = Field(default_factory=list, max_length=MAX_LIGHTS)
+    entities: list[Entity] = Field(default_factory=list, max_length=MAX_ENTITIES)
+    quality: Quality = Field(default_factory=Quality)
+
+    @field_validator("effects")
+    @classmethod
+    def _effect_ids(cls, v):
+        return _unique_ids(v, "effect")
+
+    @field_validator("lights")
+    @classmethod
+    def _light_ids(cls, v):
+        return _unique_ids(v, "light")
+
+    @field_validator("entities")
+    @classmethod
+    def _entity_ids(cls, v):
+        return _unique_ids(v, "entity")
+
+
+def is_finite_tree(value) -> bool:
+    """True when no float anywhere in a plain (dict/list) tree is NaN or Inf."""
+    if isinstance(value, float):
+        return math.isfinite(value)
+    if isinstance(value, dict):
+        return all(is_finite_tree(v) for v in value.values())
+    if isinstance(value, (list, tuple)):
+        return all(is_finite_tree(v) for v in value)
+    return True

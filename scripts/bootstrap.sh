@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Install what igserver needs: the Mesa EGL system packages (when missing and we are root) and a
+# project-local virtual environment (.venv) with the pinned Python dependencies. Idempotent: a
+# second run with nothing to do takes about a second. Used by the quick start, CI and the Dockerfiles.
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$root"
+
+mesa_packages="libegl1 libgl1 libegl-mesa0 libgl1-mesa-dri"
+missing=""
+if command -v dpkg-query >/dev/null 2>&1; then
+  for p in $mesa_packages; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "ok installed" || missing="$missing $p"
+  done
+fi
+if [ -n "$missing" ]; then
+  if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+    echo "bootstrap: installing Mesa EGL packages:$missing" >&2
+    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $missing >&2
+  else
+    echo "bootstrap: missing system packages:$missing (install them as root: apt-get install$missing)" >&2
+  fi
+fi
+
+python="${PYTHON:-python3}"
+stamp=".venv/.installed"
+if [ ! -x .venv/bin/python ]; then
+  "$python" -m venv .venv
+fi
+if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
+  echo "bootstrap: installing Python dependencies into .venv" >&2
+  .venv/bin/python -m pip install -q --disable-pip-version-check -e ".[test]" 2>&1 | grep -v "is ignored: it is neither" >&2 || true
+  .venv/bin/python -c "import igserver, moderngl, fastapi" || { echo "bootstrap: install failed" >&2; exit 1; }
+  touch "$stamp"
+fi
