@@ -67,7 +67,7 @@ class Camera(Strict):
     fov_y: float = Field(60.0, gt=0.1, lt=170.0, description="deg, vertical field of view (symmetric frustum)")
     frustum: Frustum | None = Field(None, description="asymmetric frustum; overrides fov_y when set")
     near: float = Field(0.1, ge=1e-3, le=1e4, description="m, near clip distance")
-    far: float = Field(200_000.0, ge=1.0, le=1e7, description="m, far clip distance")
+    far: float = Field(1_000_000.0, ge=1.0, le=1e7, description="m, far clip distance")
     width: int = Field(640, ge=16, le=7680, description="px")
     height: int = Field(360, ge=16, le=4320, description="px")
     exposure_ev: float | None = Field(

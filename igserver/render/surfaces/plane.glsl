@@ -14,16 +14,34 @@ in vec2 v_uv;
 layout(location = 0) out vec4 out_color;
 layout(location = 1) out float out_distance;
 
+const float EARTH_RADIUS = 6.371e6;  // m
 const float WATER_R0 = 0.02037;  // Fresnel reflectance of air-water at normal incidence (seed 001)
 
 void main() {
     vec3 dir = view_ray(v_uv);
-    // Hit distance t = h / dir.z; reject rays parallel to or leaving the plane.
-    if (dir.z * u_plane_height <= 0.0) discard;
-    float t = u_plane_height / dir.z;
+    float t;
+    vec3 n;
+    if (u_plane_height < 0.0) {
+        // Seen from above, the surface is a sphere of the earth's radius R (the horizon dips and
+        // the sea ends there). Camera height H above it; centre c = (0, 0, -(R + H)). Solve
+        // t^2 - 2 b t + C = 0 with b = d.c = -(R + H) d_z and C = |c|^2 - R^2 = H (2R + H), written
+        // without the cancellation of |c|^2 - R^2, and take the near root as C / (b + sqrt(b^2 - C)).
+        float H = -u_plane_height;
+        float b = -(EARTH_RADIUS + H) * dir.z;
+        float C = H * (2.0 * EARTH_RADIUS + H);
+        float disc = b * b - C;
+        if (b <= 0.0 || disc < 0.0) discard;
+        t = C / (b + sqrt(disc));
+        vec3 centre = vec3(0.0, 0.0, -(EARTH_RADIUS + H));
+        n = normalize(dir * t - centre);
+    } else {
+        // Seen from below (under water / under ground): a flat plane is enough.
+        if (dir.z <= 0.0) discard;
+        t = u_plane_height / dir.z;
+        n = vec3(0.0, 0.0, -1.0);
+    }
     if (!(t > 0.0) || t > u_far) discard;
     vec3 p = dir * t;
-    vec3 n = vec3(0.0, 0.0, u_plane_height < 0.0 ? 1.0 : -1.0);
     vec3 v = -dir;
 #ifdef WATER
     float cos_v = max(dot(n, v), 0.0);

@@ -1,0 +1,72 @@
+"""``igserver bench``: frame time per pass and in total, per scene and resolution.
+
+Each pass is bracketed by ``ctx.finish()`` and a wall clock (llvmpipe has no usable timer queries);
+``frame`` is the same frame rendered without the per-pass synchronisation, i.e. what a client sees.
+Animation advances by 1/30 s per frame so time-dependent work (noise, flicker) is really done.
+"""
+
+from __future__ import annotations
+
+import json
+import statistics
+import time
+
+import numpy as np
+
+from .scene import apply_patch, load_scene
+from .scene.patch import patch_from_assignments
+
+DEFAULT_SCENES = ["sky_only", "clear_noon_ocean", "demo", "night_fire", "high_altitude"]
+
+
+def percentile(values: list[float], q: float) -> float:
+    return float(np.percentile(np.asarray(values), q)) if values else float("nan")
+
+
+def bench_scene(renderer, scene, frames: int, warmup: int = 3) -> dict:
+    per_pass: dict[str, list[float]] = {}
+    totals, frame_ms = [], []
+    t0 = scene.time.sim_time
+    for i in range(warmup + frames):
+        s = apply_patch(scene, {"time": {"sim_time": t0 + i / 30.0}})
+        result = renderer.render(s, timed=True)
+        start = time.perf_counter()
+        renderer.render(s, timed=False)
+        untimed = (time.perf_counter() - start) * 1e3
+        if i < warmup:
+            continue
+        for name, ms in result.pass_ms.items():
+            per_pass.setdefault(name, []).append(ms)
+        totals.append(sum(result.pass_ms.values()))
+        frame_ms.append(untimed)
+    return {
+        "passes": result.passes,
+        "pass_ms": {k: {"median": statistics.median(v), "p99": percentile(v, 99)} for k, v in per_pass.items()},
+        "total_ms": {"median": statistics.median(totals), "p99": percentile(totals, 99)},
+        "frame_ms": {"median": statistics.median(frame_ms), "p99": percentile(frame_ms, 99)},
+    }
+
+
+def run(scenes: list[str], resolutions: list[tuple[int, int]], frames: int, assignments: list[str],
+        json_path: str | None = None) -> dict:
+    from .render.renderer import Renderer
+
+    renderer = Renderer()
+    report = {"renderer": renderer.caps.renderer, "gl_version": renderer.caps.version, "frames": frames, "runs": []}
+    print(f"renderer: {renderer.caps.renderer} | GL {renderer.caps.version} | {frames} frames, medians (p99) in ms")
+    patch = patch_from_assignments(assignments)
+    for name in scenes:
+        base = apply_patch(load_scene(name), patch)
+        for width, height in resolutions:
+            scene = apply_patch(base, {"camera": {"width": width, "height": height}})
+            row = bench_scene(renderer, scene, frames)
+            row.update(scene=name, resolution=f"{width}x{height}")
+            report["runs"].append(row)
+            passes = "  ".join(f"{k} {v['median']:.2f} ({v['p99']:.2f})" for k, v in row["pass_ms"].items())
+            print(f"{name:18s} {width}x{height}  frame {row['frame_ms']['median']:.2f} ({row['frame_ms']['p99']:.2f})"
+                  f"  sum-of-passes {row['total_ms']['median']:.2f} ({row['total_ms']['p99']:.2f})  |  {passes}")
+    if json_path:
+        with open(json_path, "w") as fh:
+            json.dump(report, fh, indent=2)
+    renderer.release()
+    return report

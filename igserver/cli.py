@@ -1,0 +1,123 @@
+"""Command line: ``igserver serve | render | bench | quality``."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from pathlib import Path
+
+from pydantic import ValidationError
+
+
+def _resolution(text: str) -> tuple[int, int]:
+    w, _, h = text.lower().partition("x")
+    return int(w), int(h)
+
+
+def _scene_from_args(args):
+    from .scene import apply_patch, load_scene, patch_from_assignments
+
+    scene = load_scene(args.scene)
+    patch = patch_from_assignments(args.set or [])
+    camera = {k: v for k, v in (("width", args.width), ("height", args.height)) if v is not None}
+    if camera:
+        patch.setdefault("camera", {}).update(camera)
+    return apply_patch(scene, patch)
+
+
+def cmd_render(args) -> int:
+    from PIL import Image
+
+    from .render.worker import RenderService
+
+    scene = _scene_from_args(args)
+    with RenderService(scene) as service:
+        frame = service.render(timed=True)
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(frame.rgba[:, :, :3]).save(args.out)
+    print(f"wrote {args.out} ({frame.width}x{frame.height}, passes {' '.join(frame.passes)}, "
+          f"{frame.render_ms:.1f} ms)")
+    return 0
+
+
+def cmd_bench(args) -> int:
+    if args.service:
+        from .protocol.bench import run_service_bench
+
+        return run_service_bench(args.rest)
+    from . import bench
+
+    scenes = args.scenes.split(",") if args.scenes else bench.DEFAULT_SCENES
+    resolutions = [_resolution(r) for r in args.resolutions.split(",")]
+    bench.run(scenes, resolutions, args.frames, args.set or [], args.json)
+    return 0
+
+
+def cmd_serve(args) -> int:
+    from .protocol.app import serve
+
+    return serve(scene_path=args.scene, host=args.host, port=args.port, width=args.width, height=args.height) or 0
+
+
+def cmd_quality(args) -> int:
+    try:
+        module = importlib.import_module(f"igserver.quality.{args.pipeline}")
+    except ModuleNotFoundError:
+        print(f"no quality study named {args.pipeline!r}", file=sys.stderr)
+        return 2
+    return module.run(args.rest) or 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="igserver", description="Network image generator for training simulators")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("serve", help="start the IG service (REST, WebSocket, MJPEG, viewer page)")
+    p.add_argument("--scene", default="demo", help="scene file or name in scenes/ (default demo)")
+    p.add_argument("--host", default="127.0.0.1")
+    p.add_argument("--port", type=int, default=8600)
+    p.add_argument("--width", type=int)
+    p.add_argument("--height", type=int)
+    p.set_defaults(func=cmd_serve)
+
+    p = sub.add_parser("render", help="render one frame of a scene to a PNG")
+    p.add_argument("--scene", required=True, help="scene file or name in scenes/")
+    p.add_argument("--out", required=True, help="PNG path")
+    p.add_argument("--width", type=int)
+    p.add_argument("--height", type=int)
+    p.add_argument("--set", action="append", metavar="PATH=VALUE", help="override a field, e.g. camera.pitch=10")
+    p.set_defaults(func=cmd_render)
+
+    p = sub.add_parser("bench", help="frame time per pass and in total")
+    p.add_argument("--scenes", help="comma-separated scene names (default: all example scenes)")
+    p.add_argument("--resolutions", default="640x360")
+    p.add_argument("--frames", type=int, default=30)
+    p.add_argument("--json", help="also write the report as JSON")
+    p.add_argument("--set", action="append", metavar="PATH=VALUE")
+    p.add_argument("--service", action="store_true", help="end-to-end latency through the real server")
+    p.add_argument("rest", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
+    p.set_defaults(func=cmd_bench)
+
+    p = sub.add_parser("quality", help="error against run time for a pipeline (sky, volumes)")
+    p.add_argument("pipeline")
+    p.add_argument("rest", nargs=argparse.REMAINDER)
+    p.set_defaults(func=cmd_quality)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except ValidationError as exc:
+        for err in exc.errors():
+            print(f"invalid {'.'.join(str(p) for p in err['loc'])}: {err['msg']}", file=sys.stderr)
+        return 2
+    except (FileNotFoundError, ValueError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,82 @@
+// The project's one noise implementation: 3D simplex noise on the lattice of Gustavson & McEwan
+// 2022 ("psrdnoise"), written from the paper's description.
+//
+// Why not the classic 2012 simplex noise: its kernel radius (r^2 = 0.6) reaches past the simplex
+// and leaves seams along simplex borders, and its 12-gradient set aligned with the axes shows
+// diagonal streaks. Here:
+//   * lattice: x -> uvw = M x with M = [[0,1,1],[1,0,1],[1,1,0]]; vertices back in x-space are
+//     Mi i (Mi = M^-1, entries +-1/2), which makes every simplex the same shape;
+//   * kernel (0.5 - |d|^2)^4, zero before the kernel of a non-neighbour vertex reaches in: no seams;
+//   * gradients: an integer hash (no mod-289 repetition) mapped uniformly onto the unit sphere,
+//     so no preferred directions;
+//   * optional period per axis (any positive integer, 0 = none): vertices are wrapped in x-space,
+//     v mod p, and re-indexed with i = M v, which stays integer. A time scroll along a periodic
+//     axis can then be reduced on the CPU modulo the period without a visible jump.
+// Output range is about [-1, 1] (scaled so the observed extremes are near +-1), mean 0.
+
+uint noise_hash(ivec3 i, uint seed) {
+    uvec3 v = uvec3(i) * uvec3(0x8da6b343u, 0xd8163841u, 0xcb1ab31fu);
+    uint h = v.x ^ v.y ^ v.z ^ (seed * 0x9e3779b9u);
+    // murmur3 finaliser: every input bit affects every output bit
+    h ^= h >> 16; h *= 0x7feb352du;
+    h ^= h >> 15; h *= 0x846ca68bu;
+    h ^= h >> 16;
+    return h;
+}
+
+// Uniform unit vector from 32 hash bits: z uniform in [-1,1] (Archimedes), azimuth uniform.
+vec3 noise_gradient(uint h) {
+    float z = 1.0 - 2.0 * (float(h & 0xffffu) + 0.5) * (1.0 / 65536.0);
+    float phi = 6.28318530718 * float(h >> 16) * (1.0 / 65536.0);
+    float r = sqrt(max(1.0 - z * z, 0.0));
+    return vec3(r * cos(phi), r * sin(phi), z);
+}
+
+// Contribution of one lattice vertex (x-space position v, unwrapped) to the point x.
+float noise_corner(vec3 x, vec3 v, vec3 period, uint seed) {
+    const mat3 M = mat3(0.0, 1.0, 1.0, 1.0, 0.0, 1.0, 1.0, 1.0, 0.0);
+    vec3 d = x - v;
+    float w = max(0.5 - dot(d, d), 0.0);
+    vec3 vw = v;
+    if (period.x > 0.0) vw.x = mod(vw.x, period.x);
+    if (period.y > 0.0) vw.y = mod(vw.y, period.y);
+    if (period.z > 0.0) vw.z = mod(vw.z, period.z);
+    ivec3 i = ivec3(round(M * vw));
+    float w2 = w * w;
+    return w2 * w2 * dot(noise_gradient(noise_hash(i, seed)), d);
+}
+
+float simplex3(vec3 x, vec3 period, uint seed) {
+    const mat3 M = mat3(0.0, 1.0, 1.0, 1.0, 0.0, 1.0, 1.0, 1.0, 0.0);
+    const mat3 Mi = mat3(-0.5, 0.5, 0.5, 0.5, -0.5, 0.5, 0.5, 0.5, -0.5);
+    vec3 uvw = M * x;
+    vec3 i0 = floor(uvw);
+    vec3 f0 = uvw - i0;
+    // Which simplex of the unit cube: walk from i0 to i0 + 1 along the components of f0 in
+    // decreasing order. o1 = one-hot of the largest, o2 = the two largest.
+    vec3 g_ = step(f0.xyx, f0.yzz);
+    vec3 l_ = 1.0 - g_;
+    vec3 g = vec3(l_.z, g_.xy);
+    vec3 l = vec3(l_.xy, g_.z);
+    vec3 o1 = min(g, l);
+    vec3 o2 = max(g, l);
+    float n = noise_corner(x, Mi * i0, period, seed)
+            + noise_corner(x, Mi * (i0 + o1), period, seed)
+            + noise_corner(x, Mi * (i0 + o2), period, seed)
+            + noise_corner(x, Mi * (i0 + 1.0), period, seed);
+    return 39.5 * n;
+}
+
+// Sum of octaves: Turb(P) = sum_{i<N} 0.5^i * simplex3(P * 2^i), with a different seed per octave.
+// A period along an axis stays a period of the sum (octave i sees period * 2^i).
+float turbulence3(vec3 p, vec3 period, int octaves, uint seed) {
+    float sum = 0.0;
+    float weight = 1.0;
+    for (int i = 0; i < octaves; ++i) {
+        sum += weight * simplex3(p, period, seed + uint(i) * 0x632be5abu);
+        p *= 2.0;
+        period *= 2.0;
+        weight *= 0.5;
+    }
+    return sum;
+}

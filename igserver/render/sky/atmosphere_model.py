@@ -1,0 +1,169 @@
+"""The physical atmosphere the precomputed tables, the CPU lighting and the reference all share.
+
+Lengths inside the atmosphere model are in **kilometres** (Bruneton's convention: coefficients of
+order 1e-2 /km instead of 1e-5 /m); everything the rest of igserver sees is in metres.
+
+Composition (a spherically symmetric shell between the bottom radius R_g and the top R_t):
+
+  beta_R(h)  = beta_R0 * exp(-h / H_R)                      Rayleigh, pure scattering, lambda^-4
+  beta_M(h)  = beta_M0 * exp(-h / H_M)                      aerosol (Mie), albedo 0.9, g = 0.8
+  beta_O3(h) = beta_O0 * max(0, 1 - |h - 25 km| / 15 km)     ozone absorption (Chappuis band)
+
+Host inputs map to the aerosol: the meteorological visibility V (m) gives the total extinction at
+550 nm at the ground by Koschmieder, sigma(0) = 3.912 / V (the distance at which a black object's
+contrast falls to 2 %); the aerosol takes what the Rayleigh part leaves,
+
+  beta_M0(550 nm) = max(3.912 / V - beta_R0(550 nm), 1e-4 /km),
+
+with an Angstrom law beta_M0(lambda) = beta_M0(550) (lambda / 550 nm)^-1.3. The "turbidity of the
+surface layer" scales the aerosol layer's depth: H_M = 1.2 km * turbidity / 2, so the default
+turbidity 2 is the standard 1.2 km boundary layer and turbidity 10 a 6 km deep polluted layer.
+
+Radiance in the tables is per unit solar irradiance at the top of the atmosphere (sr^-1); the
+renderer multiplies by SOLAR_ILLUMINANCE (lux per RGB channel) to get cd/m^2 per channel.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+WAVELENGTHS_NM = np.array([680.0, 550.0, 440.0])  # the R, G, B channels
+# Solar illuminance above the atmosphere, lux per channel: 128 klx, slightly warm white (Y = 1).
+_SUN_TINT = np.array([1.0, 0.985, 0.96])
+SOLAR_ILLUMINANCE = 128_000.0 * _SUN_TINT / float(np.dot([0.2126, 0.7152, 0.0722], _SUN_TINT))
+SUN_ANGULAR_RADIUS = 0.004675  # rad (0.2679 deg)
+KOSCHMIEDER = 3.912  # -ln(0.02)
+
+
+@dataclass(frozen=True)
+class TableSizes:
+    """Quality knobs: table resolutions, scattering orders and integration sample counts."""
+
+    transmittance: tuple[int, int] = (128, 32)  # (mu, r)
+    irradiance: tuple[int, int] = (32, 8)  # (mu_s, r)
+    r: int = 16
+    mu: int = 64
+    mu_s: int = 16
+    nu: int = 8
+    orders: int = 4
+    density_samples: int = 8  # theta samples of the scattering density sphere (phi: 2x)
+
+    @property
+    def scattering(self) -> tuple[int, int, int]:
+        """3D texture size: (nu * mu_s, mu, r)."""
+        return (self.nu * self.mu_s, self.mu, self.r)
+
+
+PRESETS: dict[str, TableSizes] = {
+    "low": TableSizes((64, 16), (32, 8), 8, 32, 8, 8, 2, 6),
+    "medium": TableSizes(),
+    "high": TableSizes((256, 64), (64, 16), 32, 128, 32, 8, 6, 12),
+}
+
+
+@dataclass(frozen=True)
+class AtmosphereParameters:
+    bottom_radius_km: float = 6360.0
+    top_radius_km: float = 6420.0
+    rayleigh_scattering_km: tuple[float, float, float] = (0.005802, 0.013558, 0.0331)
+    rayleigh_scale_height_km: float = 8.0
+    mie_scattering_km: tuple[float, float, float] = (0.0036, 0.0036, 0.0036)
+    mie_extinction_km: tuple[float, float, float] = (0.004, 0.004, 0.004)
+    mie_scale_height_km: float = 1.2
+    mie_g: float = 0.8
+    ozone_absorption_km: tuple[float, float, float] = (0.000650, 0.001881, 0.000085)
+    ground_albedo: float = 0.1
+    # cos of the largest sun zenith angle in the tables: 110 deg, past astronomical twilight (108 deg).
+    mu_s_min: float = -0.342
+    sizes: TableSizes = field(default_factory=TableSizes)
+
+    def uniforms(self) -> dict:
+        """GLSL uniforms of common/atmosphere.glsl and the precompute shaders."""
+        return {
+            "u_bottom_radius_km": self.bottom_radius_km,
+            "u_top_radius_km": self.top_radius_km,
+            "u_rayleigh_scattering_km": self.rayleigh_scattering_km,
+            "u_rayleigh_scale_height_km": self.rayleigh_scale_height_km,
+            "u_mie_scattering_km": self.mie_scattering_km,
+            "u_mie_extinction_km": self.mie_extinction_km,
+            "u_mie_scale_height_km": self.mie_scale_height_km,
+            "u_mie_g": self.mie_g,
+            "u_ozone_absorption_km": self.ozone_absorption_km,
+            "u_ground_albedo": self.ground_albedo,
+            "u_mu_s_min": self.mu_s_min,
+            "u_scattering_nu_size": self.sizes.nu,
+            "u_scattering_mu_s_size": self.sizes.mu_s,
+        }
+
+    def key(self, shader_source: str = "") -> str:
+        """Cache key: the parameters, table sizes, orders and the precompute shader source."""
+        blob = json.dumps(asdict(self), sort_keys=True) + shader_source
+        return hashlib.sha256(blob.encode()).hexdigest()[:24]
+
+    # --- float64 profiles (the GLSL mirrors these) ---------------------------------------------
+    def extinction_km(self, h_km: np.ndarray) -> np.ndarray:
+        """(..., 3) extinction coefficient at altitude h (km)."""
+        h = np.asarray(h_km, dtype=np.float64)[..., None]
+        rayleigh = np.array(self.rayleigh_scattering_km) * np.exp(-h / self.rayleigh_scale_height_km)
+        mie = np.array(self.mie_extinction_km) * np.exp(-h / self.mie_scale_height_km)
+        ozone = np.array(self.ozone_absorption_km) * np.maximum(0.0, 1.0 - np.abs(h - 25.0) / 15.0)
+        return rayleigh + mie + ozone
+
+
+def atmosphere_parameters(visibility_m: float = 30_000.0, turbidity: float = 2.0, ozone: bool = True,
+                          sizes: TableSizes | None = None, orders: int | None = None) -> AtmosphereParameters:
+    """Map the host's visibility (Koschmieder) and surface-layer turbidity to the aerosol."""
+    sizes = sizes or TableSizes()
+    if orders is not None:
+        sizes = TableSizes(**{**asdict(sizes), "orders": int(orders)})
+    rayleigh = np.array(AtmosphereParameters.rayleigh_scattering_km)
+    beta_total_550 = KOSCHMIEDER / (visibility_m / 1000.0)  # 1/km
+    beta_mie_550 = max(beta_total_550 - rayleigh[1], 1e-4)
+    angstrom = (WAVELENGTHS_NM / 550.0) ** -1.3
+    mie_extinction = beta_mie_550 * angstrom
+    # Round to 4 significant digits so that float noise in the host's inputs does not miss the cache.
+    def r4(v):
+        return tuple(float(f"{x:.4g}") for x in v)
+    return AtmosphereParameters(
+        mie_scattering_km=r4(0.9 * mie_extinction),
+        mie_extinction_km=r4(mie_extinction),
+        mie_scale_height_km=float(f"{1.2 * turbidity / 2.0:.4g}"),
+        ozone_absorption_km=AtmosphereParameters.ozone_absorption_km if ozone else (0.0, 0.0, 0.0),
+        sizes=sizes,
+    )
+
+
+def optical_depth_to_top(params: AtmosphereParameters, r_km: np.ndarray, mu: np.ndarray,
+                         samples: int = 400) -> np.ndarray:
+    """(..., 3) optical depth from radius r along direction cosine mu to the top (float64, trapezoid
+    with samples concentrated near the start: d_i = D (i/N)^2, where the density is highest)."""
+    r = np.asarray(r_km, dtype=np.float64)
+    mu = np.asarray(mu, dtype=np.float64)
+    rt = params.top_radius_km
+    disc = r * r * (mu * mu - 1.0) + rt * rt
+    dist = np.maximum(-r * mu + np.sqrt(np.maximum(disc, 0.0)), 0.0)
+    t = (np.linspace(0.0, 1.0, samples + 1) ** 2)
+    d = dist[..., None] * t  # (..., N+1)
+    rr = np.sqrt(d * d + 2.0 * r[..., None] * mu[..., None] * d + r[..., None] ** 2)
+    ext = params.extinction_km(rr - params.bottom_radius_km)  # (..., N+1, 3)
+    return np.trapz(ext, d[..., None], axis=-2)
+
+
+def sun_transmittance(params: AtmosphereParameters, altitude_m: float, sun_elevation_deg: float) -> np.ndarray:
+    """RGB transmittance of the direct sun at an observer, including the disk setting behind the
+    horizon over its own diameter (the geometric horizon dips with altitude)."""
+    rg = params.bottom_radius_km
+    r = rg + max(altitude_m, 1.0) / 1000.0
+    mu_s = math.sin(math.radians(sun_elevation_deg))
+    mu_horizon = -math.sqrt(max(1.0 - (rg / r) ** 2, 0.0))
+    a = SUN_ANGULAR_RADIUS * rg / r
+    visible = float(np.clip((mu_s - mu_horizon + a) / (2 * a), 0.0, 1.0))
+    if visible == 0.0 or r >= params.top_radius_km:
+        return np.full(3, visible)
+    tau = optical_depth_to_top(params, np.array(r), np.array(max(mu_s, mu_horizon + 1e-6)))
+    return np.exp(-np.minimum(tau, 80.0)) * visible

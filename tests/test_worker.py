@@ -1,0 +1,44 @@
+"""The render process: frames through shared memory, restart after a crash without losing state."""
+
+import numpy as np
+import pytest
+
+from igserver.render.worker import RenderService
+
+from helpers import tiny
+
+
+@pytest.fixture(scope="module")
+def service():
+    with RenderService(tiny()) as svc:
+        yield svc
+
+
+def test_frames_come_back_tagged(service):
+    scene = tiny({"host_frame": 41, "camera": {"pitch": 5}})
+    service.set_state(scene)
+    frame = service.render()
+    assert frame.rgba.shape == (36, 64, 4) and frame.rgba.dtype == np.uint8
+    assert frame.host_frame == 41 and frame.ig_frame >= 1 and frame.render_ms > 0
+    assert "sky" in frame.passes
+    info = service.info()
+    assert info["ready"] and info["renderer"] and info["version"]
+
+
+def test_restart_after_kill_keeps_the_accepted_state(service):
+    state = tiny({"host_frame": 7, "camera": {"heading": 123, "pitch": 12}})
+    service.set_state(state)
+    before = service.render().rgba
+    old_pid, restarts = service.pid, service.restarts
+    service.kill_for_test()
+    assert not service.alive
+    after = service.render()  # restarts transparently and renders the same accepted state
+    assert service.alive and service.pid != old_pid and service.restarts == restarts + 1
+    assert service.state == state and after.host_frame == 7
+    assert np.abs(after.rgba.astype(int) - before.astype(int)).max() <= 2
+
+
+def test_resolution_change_reallocates_the_ring(service):
+    big = tiny({}, 128, 72)
+    assert service.render(big).rgba.shape == (72, 128, 4)
+    assert service.render(tiny()).rgba.shape == (36, 64, 4)
