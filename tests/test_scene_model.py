@@ -81,3 +81,12 @@ def test_scene_files_round_trip(name, tmp_path):
 def test_required_example_scenes_exist():
     names = {p.stem for p in SCENES_DIR.glob("*.toml")}
     assert {"demo", "clear_noon_ocean", "sky_only", "night_fire", "high_altitude"} <= names
+
+
+def test_scene_format_reference_is_current():
+    from pathlib import Path
+
+    from igserver.scene.reference import markdown_reference
+
+    doc = Path(__file__).resolve().parents[1] / "docs" / "scene-format.md"
+    assert doc.read_text() == markdown_reference(), "regenerate: python -m igserver.scene.reference > docs/scene-format.md"

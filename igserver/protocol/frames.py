@@ -1,0 +1,220 @@
+"""Frames for streams: one render loop shared by every stream client, latest-frame-wins delivery.
+
+The pump renders the latest accepted state whenever it changed (at most ``max_fps``) while anybody is
+watching, and once per ``keepalive_s`` otherwise so a static scene still shows a live picture. Each
+stream client waits for "a frame newer than the one I sent last" and takes whatever is newest then:
+a slow client skips frames instead of building a backlog, and never slows the others down.
+
+All calls into ``RenderService`` go through one executor thread: they are blocking, and one thread
+keeps their order (set_state before the render that follows it) without extra locking.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import concurrent.futures
+import contextlib
+import logging
+import threading
+import time
+from dataclasses import dataclass, field
+
+from ..scene.model import Scene
+from .imaging import encode_frame
+from .metrics import ServiceMetrics
+from .state import StateStore
+
+log = logging.getLogger("igserver.protocol")
+
+
+@dataclass
+class EncodedFrame:
+    """A rendered frame plus its encodings (made once, shared by every client that sends it)."""
+
+    frame: object  # igserver.render.worker.Frame
+    revision: int  # state revision it shows
+    accepted_at: float  # perf_counter when that state was accepted
+    render_call_ms: float  # wall time of RenderService.render in this process (render + IPC)
+    _encoded: dict = field(default_factory=dict)
+    _lock: threading.Lock = field(default_factory=threading.Lock)
+
+    @property
+    def ig_frame(self) -> int:
+        return self.frame.ig_frame
+
+    @property
+    def host_frame(self) -> int:
+        return self.frame.host_frame
+
+    def encoded(self, fmt: str, quality: int, metrics: ServiceMetrics | None = None) -> tuple[bytes, float]:
+        """(bytes, encode_ms), cached per (format, quality). Blocking: call from a thread."""
+        key = (fmt, quality if fmt == "jpeg" else 0)
+        with self._lock:
+            hit = self._encoded.get(key)
+            if hit is None:
+                t0 = time.perf_counter()
+                data = encode_frame(self.frame.rgba, fmt, quality)
+                hit = (data, (time.perf_counter() - t0) * 1e3)
+                self._encoded[key] = hit
+                if metrics is not None:
+                    metrics.encode_ms.observe(hit[1], format=fmt)
+        return hit
+
+    def headers(self) -> dict[str, str]:
+        return {
+            "X-IG-Host-Frame": str(self.host_frame),
+            "X-IG-Frame": str(self.ig_frame),
+            "X-IG-Render-Ms": f"{self.frame.render_ms:.3f}",
+            "X-IG-Width": str(self.frame.width),
+            "X-IG-Height": str(self.frame.height),
+        }
+
+
+class RenderGateway:
+    """Async face of the blocking ``RenderService``: one executor thread, metrics on every frame."""
+
+    def __init__(self, service, metrics: ServiceMetrics, timed: bool = True):
+        self.service = service
+        self.metrics = metrics
+        self.timed = timed  # per-pass times for /metrics (ctx.finish per pass: negligible on llvmpipe)
+        self.executor = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="igserver-render")
+        self.busy_since: float | None = None
+
+    async def call(self, fn, *args):
+        return await asyncio.get_running_loop().run_in_executor(self.executor, fn, *args)
+
+    def push_state(self, scene: Scene) -> None:
+        """Hand the accepted state to the service (what a restarted render process gets). Not awaited:
+        the executor keeps it ordered before any later render."""
+        self.executor.submit(self.service.set_state, scene)
+
+    async def render(self, scene: Scene, revision: int, accepted_at: float) -> EncodedFrame:
+        def blocking():
+            self.busy_since = time.perf_counter()
+            try:
+                return self.service.render(scene, timed=self.timed)
+            finally:
+                self.busy_since = None
+
+        t0 = time.perf_counter()
+        try:
+            frame = await self.call(blocking)
+        except Exception:
+            self.metrics.render_errors.inc()
+            raise
+        call_ms = (time.perf_counter() - t0) * 1e3
+        self.metrics.frames_rendered.inc()
+        self.metrics.frame_ms.observe(frame.render_ms)
+        for name, ms in (frame.pass_ms or {}).items():
+            self.metrics.pass_ms.observe(ms, **{"pass": name})
+        return EncodedFrame(frame, revision, accepted_at, call_ms)
+
+    def shutdown(self) -> None:
+        self.executor.shutdown(wait=False, cancel_futures=True)
+
+
+class FramePump:
+    def __init__(
+        self,
+        store: StateStore,
+        gateway: RenderGateway,
+        metrics: ServiceMetrics,
+        max_fps: float = 60.0,
+        keepalive_s: float = 1.0,
+        jpeg_quality: int = 85,
+    ):
+        self.store = store
+        self.gateway = gateway
+        self.metrics = metrics
+        self.min_interval = 1.0 / max_fps
+        self.keepalive_s = keepalive_s
+        self.jpeg_quality = jpeg_quality
+        self.latest: EncodedFrame | None = None
+        self.subscribers = 0
+        self.last_error: str | None = None
+        self._published = asyncio.Event()
+        self._wake = asyncio.Event()
+        self._task: asyncio.Task | None = None
+
+    # -- lifecycle
+    def start(self) -> None:
+        self._task = asyncio.get_running_loop().create_task(self._run(), name="igserver-frame-pump")
+
+    async def stop(self) -> None:
+        if self._task is not None:
+            self._task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._task
+
+    @contextlib.contextmanager
+    def subscription(self):
+        """While held, the pump keeps rendering. Stream handlers hold one per connected client."""
+        self.subscribers += 1
+        self._wake.set()
+        try:
+            yield self
+        finally:
+            self.subscribers -= 1
+
+    # -- frames
+    def publish(self, encoded: EncodedFrame) -> None:
+        """Make a frame the latest (also used by /v1/render and /v1/frame: streams show it too)."""
+        if self.latest is not None and encoded.ig_frame <= self.latest.ig_frame:
+            return
+        self.latest = encoded
+        event, self._published = self._published, asyncio.Event()
+        event.set()
+
+    async def next_frame(self, after: EncodedFrame | None, timeout: float | None = None) -> EncodedFrame | None:
+        """The newest frame newer than ``after``; None on timeout."""
+        deadline = None if timeout is None else time.perf_counter() + timeout
+        while self.latest is None or (after is not None and self.latest.ig_frame <= after.ig_frame):
+            remaining = None if deadline is None else deadline - time.perf_counter()
+            if remaining is not None and remaining <= 0:
+                return None
+            try:
+                await asyncio.wait_for(self._published.wait(), remaining)
+            except asyncio.TimeoutError:
+                return None
+        return self.latest
+
+    async def frame_of_current_state(self) -> EncodedFrame:
+        """A frame of the latest accepted state: the pump's if it shows that revision, else render one."""
+        latest = self.latest
+        if latest is not None and latest.revision == self.store.revision:
+            return latest
+        encoded = await self.gateway.render(self.store.scene, self.store.revision, self.store.accepted_at)
+        self.publish(encoded)
+        return encoded
+
+    async def _run(self) -> None:
+        last_render = 0.0
+        while True:
+            if self.subscribers == 0:
+                self._wake.clear()
+                await self._wake.wait()
+                continue
+            latest = self.latest
+            stale = latest is None or latest.revision != self.store.revision
+            since = time.perf_counter() - last_render
+            if not stale and since < self.keepalive_s:
+                # nothing new to show: sleep until the state changes or the keepalive is due
+                await self.store.wait_for_change(latest.revision, self.keepalive_s - since)
+                continue
+            if since < self.min_interval:
+                await asyncio.sleep(self.min_interval - since)
+            scene, revision, accepted_at = self.store.scene, self.store.revision, self.store.accepted_at
+            last_render = time.perf_counter()
+            try:
+                encoded = await self.gateway.render(scene, revision, accepted_at)
+                # the stream format is known: encode once here, off the event loop
+                await asyncio.to_thread(encoded.encoded, "jpeg", self.jpeg_quality, self.metrics)
+                self.last_error = None
+            except asyncio.CancelledError:
+                raise
+            except Exception as exc:  # render process failed twice in a row: keep the loop, retry soon
+                self.last_error = f"{type(exc).__name__}: {exc}"
+                log.warning("render failed: %s", self.last_error)
+                await asyncio.sleep(0.5)
+                continue
+            self.publish(encoded)

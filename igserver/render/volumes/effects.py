@@ -1,0 +1,167 @@
+"""Effect state without GL: fade, container size, wind lean, noise time, visibility (DESIGN §4.3).
+
+Everything here is a pure function of the scene, so the FrameGraph's ``needed()`` (no GL state),
+the fire lights and the volume pass all agree on which volumes exist and how big they are.
+
+Sizes: a pool fire of diameter D (m) and heat release Q (kW) has a mean flame height
+(Heskestad) L = 0.235 Q^0.4 - 1.02 D; with Q = intensity * q'' * pi D^2 / 4 and q'' = 1500 kW/m^2
+(a hydrocarbon pool). Flame tips reach above L intermittently, so the container is 1.5 L tall.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ...scene.model import Effect, Scene
+from ..camera import CameraView
+
+HEAT_RELEASE_PER_AREA = 1500.0  # kW/m^2, hydrocarbon pool fire
+NOISE_PERIOD = 32.0  # lattice units: the noise is periodic along P.z, the scroll is reduced modulo this
+NOISE_SCALE = 2.2  # lattice units per container radius (the paper's noiseScale, nominal size)
+G = 9.81
+
+
+def fade_level(effect: Effect, sim_time: float) -> float:
+    """0 = gone, 1 = fully burning. Smoothstep of the time since the last activate/deactivate.
+
+    ``changed_at`` None means the effect has been in its state forever.
+    """
+    if effect.changed_at is None:
+        return 1.0 if effect.active else 0.0
+    if effect.fade <= 0.0:
+        s = 1.0 if sim_time >= effect.changed_at else 0.0
+    else:
+        s = min(max((sim_time - effect.changed_at) / effect.fade, 0.0), 1.0)
+    s = s * s * (3.0 - 2.0 * s)
+    return s if effect.active else 1.0 - s
+
+
+def heskestad_height(diameter: float, intensity: float) -> float:
+    """Mean flame height (m) of a pool fire; at least 0.5 D so small fires keep a flame."""
+    if diameter <= 0.0:
+        return 0.0
+    q = max(intensity, 1e-6) * HEAT_RELEASE_PER_AREA * math.pi * diameter**2 / 4.0
+    return max(0.235 * q**0.4 - 1.02 * diameter, 0.5 * diameter)
+
+
+def puffing_frequency(diameter: float) -> float:
+    """Pool-fire puffing frequency f = 1.5 / sqrt(D) Hz (D in m), finite for D -> 0."""
+    return 1.5 / math.sqrt(max(diameter, 0.01))
+
+
+@dataclass(frozen=True)
+class Volume:
+    """One ray-marched container: a fire, a smoke plume, or the smoke of a fire."""
+
+    key: tuple[str, str]  # (effect id, "fire" | "smoke")
+    kind: str  # profile kind: "fire" | "gas_burner" | "smoke"
+    base: np.ndarray  # world ENU of the base centre, float64
+    radius: float  # m, container half-width (max radius of the profile), after fade
+    height: float  # m, after fade
+    nominal_radius: float  # m, before fade: the noise is attached to the nominal size
+    lean: np.ndarray  # m, horizontal offset of the top (wind), the axis bends as (z/H)^2
+    opacity: float  # profile opacity (fade)
+    level: float  # fade level 0..1
+    intensity: float
+    rise_speed: float  # m/s, upward speed of the turbulence
+    seed: int
+    profile: str | None
+    effect: Effect
+
+    @property
+    def box(self) -> tuple[np.ndarray, np.ndarray]:
+        """World AABB of the (wind-bent) container."""
+        r = self.radius
+        lo = self.base + np.array([min(-r, self.lean[0] - r), min(-r, self.lean[1] - r), 0.0])
+        hi = self.base + np.array([max(r, self.lean[0] + r), max(r, self.lean[1] + r), self.height])
+        return lo, hi
+
+    @property
+    def bounding_sphere(self) -> tuple[np.ndarray, float]:
+        lo, hi = self.box
+        return 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
+
+    def noise_offset(self, sim_time: float) -> float:
+        """Noise scroll along P.z in lattice units, reduced modulo the period in float64.
+
+        P = (q / lambda) - (0, 0, tau), lambda = nominal radius / noiseScale; tau grows by
+        rise_speed / lambda per second. fmod in float64 keeps sim_time = 1e9 s as exact as 100 s,
+        and the noise's period along z makes the wrap invisible.
+        """
+        wavelength = self.nominal_radius / NOISE_SCALE
+        phase = (self.seed % 9973) * 0.618034  # per-effect start, lattice units
+        return float(math.fmod(sim_time * self.rise_speed / wavelength + phase, NOISE_PERIOD))
+
+
+def _wind_vector(scene: Scene) -> np.ndarray:
+    """m/s, the direction the wind blows TO (weather gives the direction it comes FROM)."""
+    a = math.radians(scene.weather.wind_direction)
+    return -scene.weather.wind_speed * np.array([math.sin(a), math.cos(a)])
+
+
+def effect_volumes(effect: Effect, scene: Scene) -> list[Volume]:
+    """The containers of one effect at the scene's sim_time (empty when it is invisible)."""
+    level = fade_level(effect, scene.time.sim_time)
+    d = effect.diameter
+    if level <= 0.0 or d <= 0.0 or effect.intensity <= 0.0:
+        return []
+    wind = _wind_vector(scene)
+    # Paper: activation animates the container size and the profile opacity.
+    grow = 0.35 + 0.65 * level
+    base = np.asarray(effect.position, dtype=np.float64)
+    volumes = []
+    if effect.type in ("fire", "gas_burner"):
+        if effect.type == "gas_burner":
+            height = effect.height if effect.height is not None else 2.5 * d * math.sqrt(effect.intensity)
+            radius = 0.5 * d
+        else:
+            height = effect.height if effect.height is not None else 1.5 * heskestad_height(d, effect.intensity)
+            radius = 0.55 * d  # the base flares a little beyond the pool
+        if height <= 0.0:
+            return []
+        # Flame tilt in a cross wind: tan(theta) ~ u / sqrt(g D) (Froude scaling), at most ~55 deg.
+        tilt = min(0.7 * float(np.linalg.norm(wind)) / math.sqrt(G * d), 1.4)
+        lean = wind / max(np.linalg.norm(wind), 1e-9) * tilt * height * grow
+        rise = 0.8 * math.sqrt(G * d)  # buoyant velocity scale of the flame, m/s
+        volumes.append(Volume((effect.id, "fire"), effect.type, base, radius * grow, height * grow,
+                              radius, lean, level, level, effect.intensity, rise, effect.seed,
+                              effect.profile, effect))
+        if effect.emits_smoke and effect.type == "fire":
+            s_base = base + np.array([lean[0] * 0.5, lean[1] * 0.5, 0.55 * height * grow])
+            s_height = max(6.0 * d, 2.0 * height) * grow
+            s_radius = 1.4 * d * grow
+            volumes.append(_smoke(effect, scene, s_base, s_radius, s_height, 1.4 * d, level, wind, None))
+    else:
+        height = effect.height if effect.height is not None else 5.0 * d
+        if height <= 0.0:
+            return []
+        volumes.append(_smoke(effect, scene, base, 1.25 * d * grow, height * grow, 1.25 * d, level, wind,
+                              effect.profile))
+    return volumes
+
+
+def _smoke(effect, scene, base, radius, height, nominal_radius, level, wind, profile) -> Volume:
+    # A plume rises at a few m/s and drifts with the wind: the top moves by height * u / w_rise.
+    rise = 2.5
+    drift = min(float(np.linalg.norm(wind)) / rise, 4.0)
+    lean = wind / max(np.linalg.norm(wind), 1e-9) * drift * height
+    return Volume((effect.id, "smoke"), "smoke", base, radius, height, nominal_radius, lean, level, level,
+                  effect.intensity, rise, effect.seed ^ 0x5BD1E995, profile, effect)
+
+
+def scene_volumes(scene: Scene) -> list[Volume]:
+    return [v for e in scene.effects for v in effect_volumes(e, scene)]
+
+
+def visible_volumes(scene: Scene, view: CameraView) -> list[Volume]:
+    """Volumes that exist and intersect the view frustum, far to near (for blending)."""
+    out = []
+    for vol in scene_volumes(scene):
+        centre, radius = vol.bounding_sphere
+        if view.sphere_visible(centre, radius):
+            out.append(vol)
+    out.sort(key=lambda v: -float(np.linalg.norm(view.relative(v.bounding_sphere[0]))))
+    return out
