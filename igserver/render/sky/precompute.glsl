@@ -29,6 +29,12 @@ uniform int u_order;
 #define DENSITY_SAMPLES 8
 #endif
 
+// Texel centre of a 2D table back to unit-range coordinates (inverse of tex_coord per axis).
+vec2 unit_range_vec(ivec2 texel, ivec2 size) {
+    vec2 uv = (vec2(texel) + 0.5) / vec2(size);
+    return vec2(unit_range(uv.x, float(size.x)), unit_range(uv.y, float(size.y)));
+}
+
 // (r, mu, mu_s, nu) of a texel of the 3D scattering table.
 void scattering_params(ivec3 texel, ivec3 size, out float r, out float mu, out float mu_s, out float nu,
                        out bool hits_ground) {

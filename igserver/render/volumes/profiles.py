@@ -1,0 +1,133 @@
+"""2D profiles (a vertical slice through the effect's axis, revolved about it; DESIGN §4.3).
+
+A profile is float32 (V, U, 4): row j is the height v = (j + 0.5) / V in [0,1] of the container,
+column i the distance from the axis u = (i + 0.5) / U in [0,1] of the container's radius.
+Channels: rgb = colour (fire: linear emitted colour, max ~1, scaled by the effect's luminance;
+smoke: albedo), a = density (relative extinction, 0..1).
+
+Fire colour follows temperature: blackbody chromaticity from Planck's law at three wavelengths,
+with brightness compressed to Tn^1.5 (a real 1000 K edge is ~1e-3 of a 1500 K core; the display
+could not show both, a trainee expects to see the red tips).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from functools import lru_cache
+
+import numpy as np
+
+PROFILE_U = 64
+PROFILE_V = 128
+WAVELENGTHS_UM = np.array([0.610, 0.550, 0.465])  # representative R, G, B
+C2 = 14388.0  # um K, second radiation constant
+FIRE_SMOKE_ALBEDO = 0.25  # sooty smoke of a hydrocarbon fire
+SMOKE_ALBEDO = 0.55  # light grey smoke
+
+
+def blackbody_rgb(kelvin) -> np.ndarray:
+    """Linear RGB chromaticity (max channel 1) of a blackbody at ``kelvin`` (array or scalar)."""
+    t = np.asarray(kelvin, dtype=np.float64)[..., None]
+    lam = WAVELENGTHS_UM
+    radiance = lam**-5 / np.expm1(C2 / (lam * np.maximum(t, 100.0)))
+    return radiance / radiance.max(axis=-1, keepdims=True)
+
+
+def _smoothstep(e0, e1, x):
+    t = np.clip((x - e0) / (e1 - e0), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def _grid() -> tuple[np.ndarray, np.ndarray]:
+    u = (np.arange(PROFILE_U) + 0.5) / PROFILE_U
+    v = (np.arange(PROFILE_V) + 0.5) / PROFILE_V
+    return np.meshgrid(u, v)  # (V, U)
+
+
+def fire_profile() -> np.ndarray:
+    u, v = _grid()
+    # Envelope: flared at the pool, narrowing to the tip; density soft inside the envelope.
+    r = 0.82 * (1.0 - v) ** 0.55 * (1.0 + 0.18 * np.exp(-v / 0.06))
+    r = np.clip(r, 1e-3, 0.98)
+    density = _smoothstep(r, 0.5 * r, u) * _smoothstep(1.0, 0.8, v)
+    # Temperature: hottest on the axis low in the flame, cooling outward and upward.
+    tn = np.clip((1.0 - (u / r) ** 2) * (1.0 - 0.55 * v), 0.0, 1.0)
+    colour = blackbody_rgb(1000.0 + 520.0 * tn) * (0.04 + tn**1.5)[..., None]
+    return np.dstack([colour, density]).astype(np.float32)
+
+
+def gas_burner_profile() -> np.ndarray:
+    u, v = _grid()
+    r = np.clip(0.9 * (1.0 - v) ** 0.45, 1e-3, 0.98)
+    outer = _smoothstep(r, 0.6 * r, u) * _smoothstep(1.0, 0.85, v)
+    # Premixed inner cone: blue (CH*, C2* emission), a thin sheet, nearly transparent.
+    cone_r = np.clip(0.55 * (1.0 - v / 0.4), 0.0, None)
+    cone = _smoothstep(0.12, 0.0, np.abs(u - cone_r)) * (v < 0.4)
+    blue = np.array([0.25, 0.45, 1.0])
+    tip = blackbody_rgb(1400.0) * 0.35
+    colour = cone[..., None] * blue * 0.9 + (outer * (1.0 - cone))[..., None] * tip * _smoothstep(0.2, 0.6, v)[..., None]
+    density = 0.25 * outer + 0.35 * cone
+    return np.dstack([colour, density]).astype(np.float32)
+
+
+def smoke_profile(albedo: float = SMOKE_ALBEDO) -> np.ndarray:
+    u, v = _grid()
+    # A plume widening with height (entrainment), thinning out as it mixes with air.
+    r = 0.35 + 0.6 * v**0.7
+    density = _smoothstep(r, 0.25 * r, u) * (1.0 - v) ** 1.2 * _smoothstep(0.0, 0.08, v)
+    colour = np.full(u.shape + (3,), albedo)
+    return np.dstack([colour, density]).astype(np.float32)
+
+
+def procedural(kind: str) -> np.ndarray:
+    return {"fire": fire_profile, "gas_burner": gas_burner_profile, "smoke": smoke_profile}[kind]()
+
+
+def _srgb_to_linear(c: np.ndarray) -> np.ndarray:
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+@lru_cache(maxsize=32)
+def _image_profile(path: str, mtime: float) -> np.ndarray:
+    from PIL import Image
+
+    with Image.open(path) as img:
+        has_alpha = "A" in img.getbands()
+        rgba = np.asarray(img.convert("RGBA"), dtype=np.float64) / 255.0
+    rgb = _srgb_to_linear(rgba[..., :3])
+    alpha = rgba[..., 3] if has_alpha else rgb @ np.array([0.2126, 0.7152, 0.0722])
+    data = np.dstack([rgb, alpha])[::-1]  # image top row = top of the container (v = 1)
+    # The slice has the axis at its horizontal centre: average the two half-slices outward.
+    w = data.shape[1]
+    right = data[:, w // 2:]
+    left = data[:, : w - w // 2][:, ::-1]
+    half = 0.5 * (right + left[:, : right.shape[1]])
+    # Resample to the profile grid (bilinear via separable interpolation).
+    src_v = (np.arange(half.shape[0]) + 0.5) / half.shape[0]
+    src_u = (np.arange(half.shape[1]) + 0.5) / half.shape[1]
+    u, v = _grid()
+    out = np.empty((PROFILE_V, PROFILE_U, 4))
+    for c in range(4):
+        rows = np.stack([np.interp(u[0], src_u, half[j, :, c]) for j in range(half.shape[0])])
+        out[..., c] = np.stack([np.interp(v[:, 0], src_v, rows[:, i]) for i in range(PROFILE_U)], axis=1)
+    return out.astype(np.float32)
+
+
+def load_profile(kind: str, path: str | None) -> np.ndarray:
+    """The profile of ``kind``; an image file when ``path`` names a readable one (else procedural).
+
+    Image: a vertical slice through the axis, axis at the horizontal centre, top row = top of the
+    container; sRGB colour, alpha = density (luminance when there is no alpha). For smoke the
+    colour's luminance is the albedo.
+    """
+    if path:
+        try:
+            profile = _image_profile(path, os.path.getmtime(path)).copy()
+        except (OSError, ValueError):
+            profile = procedural(kind)
+        if kind == "smoke":
+            lum = profile[..., :3] @ np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
+            profile[..., :3] = lum[..., None]
+        return profile
+    return procedural(kind)
