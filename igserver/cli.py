@@ -42,10 +42,6 @@ def cmd_render(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    if args.service:
-        from .protocol.bench import run_service_bench
-
-        return run_service_bench(args.rest)
     from . import bench
 
     scenes = args.scenes.split(",") if args.scenes else bench.DEFAULT_SCENES
@@ -95,8 +91,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--frames", type=int, default=30)
     p.add_argument("--json", help="also write the report as JSON")
     p.add_argument("--set", action="append", metavar="PATH=VALUE")
-    p.add_argument("--service", action="store_true", help="end-to-end latency through the real server")
-    p.add_argument("rest", nargs=argparse.REMAINDER, help=argparse.SUPPRESS)
+    p.add_argument("--service", action="store_true",
+                   help="end-to-end latency through the real server (flags: --frames --width --height --modes --json)")
     p.set_defaults(func=cmd_bench)
 
     p = sub.add_parser("quality", help="error against run time for a pipeline (sky, volumes)")
@@ -107,6 +103,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:1] == ["bench"] and "--service" in argv:
+        # End-to-end latency through the real server: its own flags (--frames --width --modes ...).
+        from .protocol.bench import run_service_bench
+
+        return run_service_bench([a for a in argv[1:] if a != "--service"]) or 0
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)

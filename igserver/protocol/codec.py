@@ -117,6 +117,8 @@ def _loads_msgpack(body: bytes, limits: Limits) -> Any:
         )
     except ValueError as exc:  # includes ExtraData, FormatError and the length limits
         text = str(exc)
+        if "max_ext_len" in text:  # max_ext_len=0 refuses every extension type, timestamps included
+            raise ProblemError("malformed", "msgpack extension types are not part of the protocol") from None
         if "exceeds max_" in text:
             raise ProblemError("limits", f"msgpack: {text}") from None
         raise ProblemError("malformed", f"invalid msgpack: {text}") from None

@@ -60,6 +60,13 @@ class EncodedFrame:
                     metrics.encode_ms.observe(hit[1], format=fmt)
         return hit
 
+    async def encoded_async(self, fmt: str, quality: int, metrics: ServiceMetrics | None = None) -> tuple[bytes, float]:
+        """``encoded`` off the event loop; a cached encoding is returned without a thread hop."""
+        hit = self._encoded.get((fmt, quality if fmt == "jpeg" else 0))
+        if hit is not None:
+            return hit
+        return await asyncio.to_thread(self.encoded, fmt, quality, metrics)
+
     def headers(self) -> dict[str, str]:
         return {
             "X-IG-Host-Frame": str(self.host_frame),
@@ -208,7 +215,7 @@ class FramePump:
             try:
                 encoded = await self.gateway.render(scene, revision, accepted_at)
                 # the stream format is known: encode once here, off the event loop
-                await asyncio.to_thread(encoded.encoded, "jpeg", self.jpeg_quality, self.metrics)
+                await encoded.encoded_async("jpeg", self.jpeg_quality, self.metrics)
                 self.last_error = None
             except asyncio.CancelledError:
                 raise

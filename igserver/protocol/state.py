@@ -99,6 +99,6 @@ class StateStore:
     def patch(self, tree: Any) -> Scene:
         return self._accept(self.validate_patch(tree))
 
-    def set(self, scene: Scene) -> Scene:
-        """Accept an already validated scene (effects routes build it from the current one)."""
-        return self._accept(Scene.model_validate(scene.model_dump()))
+    def set_validated(self, scene: Scene) -> Scene:
+        """Accept a scene from ``validate_patch``/``validate_replace`` (validated against the current state)."""
+        return self._accept(scene)

@@ -12,7 +12,8 @@ from ..astro import celestial_state, direction_enu
 from ..scene.model import Scene
 from .camera import CameraView, gl_matrix, make_view
 from .lights import PointLight, gather_lights, light_uniforms
-from .sky.daylight import SUN_ANGULAR_RADIUS, Daylight, daylight
+from .sky.daylight import SUN_ANGULAR_RADIUS, Daylight
+from .sky.frame_sky import sky_frame
 
 MAX_LIGHTS = 16
 
@@ -66,12 +67,15 @@ def build_frame(ctx: moderngl.Context, scene: Scene) -> FrameContext:
     view = make_view(scene.camera)
     celestial = sun_and_moon(scene)
     altitude = scene.location.altitude + float(view.position[2])
-    light = daylight(celestial.sun_elevation, altitude, scene.atmosphere.turbidity,
-                     celestial.moon_elevation, celestial.moon_phase)
+    # Sky: resident atmosphere tables (bound on units 12..15), the light they imply, sky uniforms.
+    sky = sky_frame(ctx, scene, celestial, altitude, view.position[:2])
+    light = sky.light
     exposure = light.exposure(scene.camera.exposure_ev)
     lights = gather_lights(scene, view, MAX_LIGHTS)
     frame = FrameContext(ctx, scene, view, celestial, light, exposure, lights)
+    frame.resources["atmosphere_tables"] = sky.tables
     frame.uniforms = common_uniforms(frame)
+    frame.uniforms.update(sky.uniforms)
     return frame
 
 

@@ -15,10 +15,11 @@ from .post.post import PostPass
 from .shaders import ProgramCache
 from .sky.sky import SkyPass
 from .surfaces.surfaces import SurfacesPass
+from .volumes.volumes import VolumesPass
 from .water.water import WaterPass
 
 # Pipelines register here, in drawing order; DepthCopyPass is inserted before the first reader.
-PASS_TYPES: list[type[RenderPass]] = [SurfacesPass, WaterPass, SkyPass, PostPass]
+PASS_TYPES: list[type[RenderPass]] = [SurfacesPass, WaterPass, SkyPass, VolumesPass, PostPass]
 
 
 def register_pass(pass_type: type[RenderPass], before: str = "post") -> None:

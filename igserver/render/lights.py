@@ -1,8 +1,9 @@
 """Gathering the frame's point and spot lights: host lights plus lights that effects contribute.
 
 Flicker (a lantern, burning debris, a fire's glow) is a deterministic function of the light's
-seed and sim_time: a sum of sinusoids whose frequencies are drawn around the peak frequency f
-(log-normal spread), so the variation's spectrum peaks near f. Phases are reduced in float64.
+seed and sim_time: a sum of sinusoids log-spaced around the peak frequency f with Gaussian
+weights in ln f, so the variation's spectrum peaks at f for every seed (a fire's f is the
+pool-fire puffing frequency 1.5/sqrt(D), volumes/fire_lights.py). Phases are reduced in float64.
 """
 
 from __future__ import annotations
@@ -15,7 +16,9 @@ import numpy as np
 from ..scene.model import Flicker, Scene
 from .camera import CameraView, body_to_world
 
-FLICKER_PARTIALS = 8
+FLICKER_PARTIALS = 13  # odd: one partial sits at the peak
+FLICKER_LOG_SPREAD = 0.6  # partials span f * exp(+-0.6): a band ~1 octave wide around the peak
+FLICKER_LOG_WIDTH = 0.25  # Gaussian width (in ln f) of the partials' weights: the spectral peak
 
 
 @dataclass(frozen=True)
@@ -29,10 +32,19 @@ class PointLight:
 
 
 def _partials(frequency: float, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Frequencies log-spaced around ``frequency`` (seeded jitter), weights Gaussian in ln f.
+
+    The largest weight is always the partial nearest the peak (within exp(+-0.03)), so the
+    spectrum peaks at ``frequency`` for every seed; the neighbours make the signal irregular
+    (beats) rather than a pure tone, like a pool fire's puffing.
+    """
     rng = np.random.default_rng(seed)
-    freqs = frequency * np.exp(rng.normal(0.0, 0.25, FLICKER_PARTIALS))
+    x = np.linspace(-FLICKER_LOG_SPREAD, FLICKER_LOG_SPREAD, FLICKER_PARTIALS)
+    x = x + rng.uniform(-0.03, 0.03, FLICKER_PARTIALS)
+    freqs = frequency * np.exp(x)
     phases = rng.uniform(0.0, 2 * math.pi, FLICKER_PARTIALS)
-    weights = rng.uniform(0.5, 1.0, FLICKER_PARTIALS)
+    weights = np.exp(-0.5 * (x / FLICKER_LOG_WIDTH) ** 2) * rng.uniform(0.85, 1.0, FLICKER_PARTIALS)
+    weights[FLICKER_PARTIALS // 2] = 1.0  # the peak partial dominates
     return freqs, phases, weights / np.sqrt(np.sum(weights**2))
 
 
@@ -66,8 +78,15 @@ def host_lights(scene: Scene) -> list[PointLight]:
     return lights
 
 
+def _fire_lights(scene: Scene) -> list[PointLight]:
+    # imported on first use: volumes.fire_lights itself imports this module
+    from .volumes.fire_lights import fire_lights
+
+    return fire_lights(scene)
+
+
 # Functions (scene) -> list[PointLight] that pipelines register (fire flicker lights, ...).
-LIGHT_SOURCES = [host_lights]
+LIGHT_SOURCES = [host_lights, _fire_lights]
 
 
 def gather_lights(scene: Scene, view: CameraView, max_lights: int) -> list[PointLight]:

@@ -115,12 +115,15 @@ class Location(Strict):
 
 class Atmosphere(Strict):
     model: Literal["gradient", "precomputed"] = Field(
-        "gradient", description="sky tier: the paper's gradient model or precomputed scattering"
+        "precomputed", description="sky tier: the paper's gradient model or precomputed scattering"
     )
     visibility: float = Field(30_000.0, ge=50.0, le=200_000.0, description="m, meteorological visibility")
     turbidity: float = Field(2.0, ge=1.0, le=10.0, description="Linke-style turbidity of the surface layer")
     ozone: bool = Field(True, description="include ozone absorption")
     scattering_orders: int = Field(4, ge=1, le=32, description="multiple-scattering orders of the tables")
+    quality: Literal["low", "medium", "high"] = Field(
+        "medium", description="precomputed table sizes (see igserver quality sky for the error curve)"
+    )
 
 
 class Precipitation(Strict):
@@ -133,6 +136,10 @@ class Weather(Strict):
     wind_direction: float = Field(270.0, ge=0.0, le=360.0, description="deg, direction the wind blows FROM")
     precipitation: Precipitation = Field(default_factory=Precipitation)
     cirrus_coverage: float = Field(0.0, ge=0.0, le=1.0, description="fraction of the sky")
+    cirrus_altitude: float = Field(9_000.0, ge=5_000.0, le=14_000.0, description="m above sea level, cirrus layer")
+    cirrus_wind_speed: float | None = Field(
+        None, ge=0.0, le=120.0, description="m/s, wind at the cirrus layer; None = 4x the surface wind (jet level)"
+    )
 
 
 class Bathymetry(Strict):

@@ -69,7 +69,7 @@ PRESETS: dict[str, TableSizes] = {
 @dataclass(frozen=True)
 class AtmosphereParameters:
     bottom_radius_km: float = 6360.0
-    top_radius_km: float = 6420.0
+    top_radius_km: float = 6460.0  # 100 km: twilight down to -18 deg is lit from 60-100 km
     rayleigh_scattering_km: tuple[float, float, float] = (0.005802, 0.013558, 0.0331)
     rayleigh_scale_height_km: float = 8.0
     mie_scattering_km: tuple[float, float, float] = (0.0036, 0.0036, 0.0036)
@@ -151,7 +151,7 @@ def optical_depth_to_top(params: AtmosphereParameters, r_km: np.ndarray, mu: np.
     d = dist[..., None] * t  # (..., N+1)
     rr = np.sqrt(d * d + 2.0 * r[..., None] * mu[..., None] * d + r[..., None] ** 2)
     ext = params.extinction_km(rr - params.bottom_radius_km)  # (..., N+1, 3)
-    return np.trapz(ext, d[..., None], axis=-2)
+    return np.trapezoid(ext, d[..., None], axis=-2)
 
 
 def sun_transmittance(params: AtmosphereParameters, altitude_m: float, sun_elevation_deg: float) -> np.ndarray:

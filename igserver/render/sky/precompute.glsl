@@ -17,12 +17,12 @@ layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 #endif
 
-uniform sampler2D u_transmittance_in;    // unit 0
-uniform sampler2D u_delta_irradiance_in; // unit 1
-uniform sampler3D u_delta_rayleigh_in;   // unit 2
-uniform sampler3D u_delta_mie_in;        // unit 3
-uniform sampler3D u_delta_multiple_in;   // unit 4
-uniform sampler3D u_delta_density_in;    // unit 5
+layout(binding = 0) uniform sampler2D u_transmittance_in;    // unit 0
+layout(binding = 1) uniform sampler2D u_delta_irradiance_in; // unit 1
+layout(binding = 2) uniform sampler3D u_delta_rayleigh_in;   // unit 2
+layout(binding = 3) uniform sampler3D u_delta_mie_in;        // unit 3
+layout(binding = 4) uniform sampler3D u_delta_multiple_in;   // unit 4
+layout(binding = 5) uniform sampler3D u_delta_density_in;    // unit 5
 uniform int u_order;
 
 #ifndef DENSITY_SAMPLES
@@ -86,7 +86,7 @@ vec3 scattering_of_order(float r, float mu, float mu_s, float nu, bool hits_grou
 }
 
 #if defined(STAGE_TRANSMITTANCE)
-layout(rgba32f) uniform writeonly image2D u_out;
+layout(binding = 0, rgba32f) uniform writeonly image2D u_out;
 void main() {
     ivec2 texel = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(u_out);
@@ -113,7 +113,7 @@ void main() {
 }
 
 #elif defined(STAGE_DIRECT_IRRADIANCE)
-layout(rgba32f) uniform writeonly image2D u_out;
+layout(binding = 0, rgba32f) uniform writeonly image2D u_out;
 void main() {
     ivec2 texel = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(u_out);
@@ -129,8 +129,8 @@ void main() {
 }
 
 #elif defined(STAGE_SINGLE_SCATTERING)
-layout(rgba32f) uniform writeonly image3D u_out_rayleigh;
-layout(rgba32f) uniform writeonly image3D u_out_mie;
+layout(binding = 0, rgba32f) uniform writeonly image3D u_out_rayleigh;
+layout(binding = 1, rgba32f) uniform writeonly image3D u_out_mie;
 void main() {
     ivec3 texel = ivec3(gl_GlobalInvocationID);
     ivec3 size = imageSize(u_out_rayleigh);
@@ -158,7 +158,7 @@ void main() {
 }
 
 #elif defined(STAGE_SCATTERING_DENSITY)
-layout(rgba32f) uniform writeonly image3D u_out;
+layout(binding = 0, rgba32f) uniform writeonly image3D u_out;
 void main() {
     ivec3 texel = ivec3(gl_GlobalInvocationID);
     ivec3 size = imageSize(u_out);
@@ -207,8 +207,8 @@ void main() {
 }
 
 #elif defined(STAGE_INDIRECT_IRRADIANCE)
-layout(rgba32f) uniform writeonly image2D u_out_delta;
-layout(rgba32f) uniform image2D u_accumulate;
+layout(binding = 0, rgba32f) uniform writeonly image2D u_out_delta;
+layout(binding = 1, rgba32f) uniform image2D u_accumulate;
 void main() {
     ivec2 texel = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(u_out_delta);
@@ -236,8 +236,8 @@ void main() {
 }
 
 #elif defined(STAGE_MULTIPLE_SCATTERING)
-layout(rgba32f) uniform writeonly image3D u_out_delta;
-layout(rgba32f) uniform image3D u_accumulate;
+layout(binding = 0, rgba32f) uniform writeonly image3D u_out_delta;
+layout(binding = 1, rgba32f) uniform image3D u_accumulate;
 void main() {
     ivec3 texel = ivec3(gl_GlobalInvocationID);
     ivec3 size = imageSize(u_out_delta);

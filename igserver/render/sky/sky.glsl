@@ -1,14 +1,55 @@
-// Sky pass: fills every pixel no surface covered (drawn at the far plane with depth test LEQUAL).
+// Sky pass: fills every pixel no surface covered (drawn at the far plane with depth test LEQUAL):
+// sky radiance, the sun's disk (limb-darkened, reddened per pixel by the view transmittance),
+// the moon with its phase, the natural night sky, and the cirrus layer.
 #include "common/frame.glsl"
 #include "common/atmosphere.glsl"
+#include "sky/cirrus.glsl"
 
 in vec2 v_uv;
 layout(location = 0) out vec4 out_color;
 layout(location = 1) out float out_distance;
 
+uniform vec3 u_night_sky;            // cd/m^2 at the zenith: airglow, zodiacal light, faint stars
+uniform float u_moon_disk_cos;       // cos of the moon's angular radius
+uniform vec3 u_moon_disk_luminance;  // cd/m^2 of the lit part, after the atmosphere
+
+// Limb darkening of the sun, normalised to a mean of 1 over the disk (linear law, u = 0.6).
+float sun_limb(vec3 dir) {
+    float c = dot(dir, u_sun_dir);
+    if (c < u_sun_disk_cos) return 0.0;
+    float r = sqrt(max(1.0 - c * c, 0.0)) / sqrt(max(1.0 - u_sun_disk_cos * u_sun_disk_cos, 1e-12));
+    return (1.0 - 0.6 * (1.0 - sqrt(max(1.0 - r * r, 0.0)))) / 0.8;
+}
+
+// The moon's disk with its phase: a point of the disk at offset o (|o| <= 1 in units of the
+// angular radius) has the sphere normal n = o - m sqrt(1 - |o|^2) (facing us); it is lit where
+// n faces the sun (the sun-moon direction ~ the sun's direction from the earth, 0.15 deg off).
+vec3 moon_disk(vec3 dir) {
+    float c = dot(dir, u_moon_dir);
+    if (c < u_moon_disk_cos) return vec3(0.0);
+    float sin_radius = sqrt(max(1.0 - u_moon_disk_cos * u_moon_disk_cos, 1e-12));
+    vec3 o = (dir - u_moon_dir * c) / sin_radius;
+    vec3 n = o - u_moon_dir * sqrt(max(1.0 - dot(o, o), 0.0));
+    return u_moon_disk_luminance * smoothstep(-0.04, 0.04, dot(n, u_sun_dir));
+}
+
 void main() {
     vec3 dir = view_ray(v_uv);
-    vec3 radiance = sky_radiance(dir) + sun_disk(dir);
+    vec3 radiance;
+    vec3 t_view;  // transmittance from the camera to space along dir (0 into the ground)
+    if (use_precomputed()) {
+        radiance = precomputed_sky(dir, t_view);
+        // Natural night sky, brighter toward the horizon (van Rhijn: longer airglow path).
+        float up = max(dir.z, 0.0);
+        radiance += u_night_sky * t_view * (1.0 + 2.0 * pow(1.0 - up, 4.0));
+        float sun_solid_angle = 2.0 * PI * (1.0 - u_sun_disk_cos);
+        radiance += u_solar_illuminance / sun_solid_angle * sun_limb(dir) * t_view;
+    } else {
+        radiance = gradient_sky(dir) + sun_disk(dir);
+        t_view = vec3(dir.z > 0.0 ? 1.0 : 0.0);
+    }
+    radiance += moon_disk(dir) * step(1e-6, t_view.g + t_view.r);
+    radiance = apply_cirrus(radiance, dir);
     out_color = vec4(pre_expose(radiance), 1.0);
     out_distance = 1e30;  // sky: infinitely far
 }

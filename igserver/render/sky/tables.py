@@ -168,22 +168,18 @@ class AtmosphereTables:
         # 1. transmittance (optical depth)
         prog = stage("TRANSMITTANCE")
         self.transmittance.bind_to_image(0, read=False, write=True)
-        prog["u_out"].value = 0
         run(prog, s.transmittance)
         self.transmittance.use(0)
 
         # 2. direct irradiance -> delta E (the irradiance table holds only the indirect part)
         prog = stage("DIRECT_IRRADIANCE")
         delta_irradiance.bind_to_image(0, read=False, write=True)
-        prog["u_out"].value = 0
         run(prog, s.irradiance)
 
         # 3. single scattering
         prog = stage("SINGLE_SCATTERING", True)
         delta_rayleigh.bind_to_image(0, read=False, write=True)
         delta_mie.bind_to_image(1, read=False, write=True)
-        prog["u_out_rayleigh"].value = 0
-        prog["u_out_mie"].value = 1
         run(prog, s.scattering, True)
         self.ctx.finish()
         self.scattering.write(delta_rayleigh.read())
@@ -199,22 +195,17 @@ class AtmosphereTables:
             delta_multiple.use(4)
             # dJ of this order from dS(order-1) and the ground lit by dE(order-2)
             delta_density.bind_to_image(0, read=False, write=True)
-            density["u_out"].value = 0
             density["u_order"].value = order
             run(density, s.scattering, True)
             # dE(order-1) from dS(order-1); E += dE
             delta_irradiance.bind_to_image(0, read=False, write=True)
             self.irradiance.bind_to_image(1, read=True, write=True)
-            indirect["u_out_delta"].value = 0
-            indirect["u_accumulate"].value = 1
             indirect["u_order"].value = order - 1
             run(indirect, s.irradiance)
             # dS(order) = integral of T dJ;  S += dS / P_R(nu)
             delta_density.use(5)
             delta_multiple.bind_to_image(0, read=False, write=True)
             self.scattering.bind_to_image(1, read=True, write=True)
-            multiple["u_out_delta"].value = 0
-            multiple["u_accumulate"].value = 1
             run(multiple, s.scattering, True)
         self.ctx.finish()
         for tex in (delta_irradiance, delta_rayleigh, delta_mie, delta_multiple, delta_density):

@@ -5,7 +5,7 @@ the fire lights and the volume pass all agree on which volumes exist and how big
 
 Sizes: a pool fire of diameter D (m) and heat release Q (kW) has a mean flame height
 (Heskestad) L = 0.235 Q^0.4 - 1.02 D; with Q = intensity * q'' * pi D^2 / 4 and q'' = 1500 kW/m^2
-(a hydrocarbon pool). Flame tips reach above L intermittently, so the container is 1.5 L tall.
+(a hydrocarbon pool). Flame tips reach above L intermittently, so the container is 1.4 L tall.
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ from ...scene.model import Effect, Scene
 from ..camera import CameraView
 
 HEAT_RELEASE_PER_AREA = 1500.0  # kW/m^2, hydrocarbon pool fire
+CONTAINER_OVER_FLAME = 1.4  # container height / mean flame height: room for the intermittent tips
 NOISE_PERIOD = 32.0  # lattice units: the noise is periodic along P.z, the scroll is reduced modulo this
 NOISE_SCALE = 2.2  # lattice units per container radius (the paper's noiseScale, nominal size)
 G = 9.81
@@ -62,7 +63,7 @@ class Volume:
     radius: float  # m, container half-width (max radius of the profile), after fade
     height: float  # m, after fade
     nominal_radius: float  # m, before fade: the noise is attached to the nominal size
-    lean: np.ndarray  # m, horizontal offset of the top (wind), the axis bends as (z/H)^2
+    lean: np.ndarray  # m, horizontal offset of the top (wind): fire axis tilts straight, a plume bends (z/H)^2
     opacity: float  # profile opacity (fade)
     level: float  # fade level 0..1
     intensity: float
@@ -118,12 +119,14 @@ def effect_volumes(effect: Effect, scene: Scene) -> list[Volume]:
             height = effect.height if effect.height is not None else 2.5 * d * math.sqrt(effect.intensity)
             radius = 0.5 * d
         else:
-            height = effect.height if effect.height is not None else 1.5 * heskestad_height(d, effect.intensity)
+            height = effect.height if effect.height is not None else CONTAINER_OVER_FLAME * heskestad_height(d, effect.intensity)
             radius = 0.55 * d  # the base flares a little beyond the pool
         if height <= 0.0:
             return []
-        # Flame tilt in a cross wind: tan(theta) ~ u / sqrt(g D) (Froude scaling), at most ~55 deg.
-        tilt = min(0.7 * float(np.linalg.norm(wind)) / math.sqrt(G * d), 1.4)
+        # Flame tilt in a cross wind: tan(theta) ~ u / sqrt(g D) (Froude scaling), at most 45 deg.
+        tilt = min(0.45 * float(np.linalg.norm(wind)) / math.sqrt(G * d), 1.0)
+        if effect.type == "gas_burner":
+            tilt /= 3.0  # a jet's momentum keeps it nearly upright
         lean = wind / max(np.linalg.norm(wind), 1e-9) * tilt * height * grow
         rise = 0.8 * math.sqrt(G * d)  # buoyant velocity scale of the flame, m/s
         volumes.append(Volume((effect.id, "fire"), effect.type, base, radius * grow, height * grow,
@@ -145,8 +148,8 @@ def effect_volumes(effect: Effect, scene: Scene) -> list[Volume]:
 
 def _smoke(effect, scene, base, radius, height, nominal_radius, level, wind, profile) -> Volume:
     # A plume rises at a few m/s and drifts with the wind: the top moves by height * u / w_rise.
-    rise = 2.5
-    drift = min(float(np.linalg.norm(wind)) / rise, 4.0)
+    rise = 3.0
+    drift = min(float(np.linalg.norm(wind)) / rise, 1.5)
     lean = wind / max(np.linalg.norm(wind), 1e-9) * drift * height
     return Volume((effect.id, "smoke"), "smoke", base, radius, height, nominal_radius, lean, level, level,
                   effect.intensity, rise, effect.seed ^ 0x5BD1E995, profile, effect)

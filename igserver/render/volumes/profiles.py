@@ -12,7 +12,6 @@ could not show both, a trainee expects to see the red tips).
 
 from __future__ import annotations
 
-import math
 import os
 from functools import lru_cache
 
@@ -48,11 +47,12 @@ def _grid() -> tuple[np.ndarray, np.ndarray]:
 def fire_profile() -> np.ndarray:
     u, v = _grid()
     # Envelope: flared at the pool, narrowing to the tip; density soft inside the envelope.
-    r = 0.82 * (1.0 - v) ** 0.55 * (1.0 + 0.18 * np.exp(-v / 0.06))
+    r = 0.95 * (1.0 - v) ** 0.6 * (1.0 + 0.05 * np.exp(-v / 0.05))
     r = np.clip(r, 1e-3, 0.98)
-    density = _smoothstep(r, 0.5 * r, u) * _smoothstep(1.0, 0.8, v)
-    # Temperature: hottest on the axis low in the flame, cooling outward and upward.
-    tn = np.clip((1.0 - (u / r) ** 2) * (1.0 - 0.55 * v), 0.0, 1.0)
+    density = _smoothstep(r, 0.7 * r, u) * _smoothstep(1.0, 0.55, v)
+    # Temperature: nearly flat across the flame (the soot glows right out to the flame sheet),
+    # falling at the envelope and upward to the tips.
+    tn = np.clip((1.0 - (u / r) ** 4) * (1.0 - 0.6 * v), 0.0, 1.0)
     colour = blackbody_rgb(1000.0 + 520.0 * tn) * (0.04 + tn**1.5)[..., None]
     return np.dstack([colour, density]).astype(np.float32)
 

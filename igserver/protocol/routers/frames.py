@@ -1,0 +1,162 @@
+"""Frames over HTTP: one frame of the current state, render-exactly-this-state, and the MJPEG stream."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from typing import Literal
+
+from fastapi import APIRouter, Query, Request, Response
+from fastapi.responses import StreamingResponse
+
+from ..codec import MSGPACK, encode, negotiate
+from ..dependencies import Message, Runtime
+from ..frames import EncodedFrame
+from ..imaging import MEDIA_TYPES
+from ..models import PATCH_SCHEMA, PROBLEM_RESPONSES, body_doc
+from ..problems import ProblemError
+
+router = APIRouter(tags=["frames"])
+
+Format = Literal["jpeg", "png", "raw"]
+FRAME_HEADERS_DOC = {
+    "X-IG-Host-Frame": {"description": "host_frame of the state the frame shows", "schema": {"type": "integer"}},
+    "X-IG-Frame": {"description": "IG frame number", "schema": {"type": "integer"}},
+    "X-IG-Render-Ms": {"description": "render time in the render process (ms)", "schema": {"type": "number"}},
+}
+IMAGE_CONTENT = {media: {} for media in MEDIA_TYPES.values()}
+MJPEG_BOUNDARY = "igframe"
+
+
+def frame_message(encoded: EncodedFrame, fmt: str, data: bytes, encode_ms: float) -> dict:
+    """The frame as a map: the WebSocket message, and POST /v1/render's answer to msgpack callers."""
+    frame = encoded.frame
+    return {
+        "type": "frame",
+        "frame": frame.ig_frame,
+        "host_frame": frame.host_frame,
+        "width": frame.width,
+        "height": frame.height,
+        "format": fmt,
+        "data": data,
+        "render_ms": round(frame.render_ms, 3),
+        "encode_ms": round(encode_ms, 3),
+    }
+
+
+async def image_response(runtime, encoded: EncodedFrame, fmt: str, quality: int, request: Request) -> Response:
+    data, encode_ms = await encoded.encoded_async(fmt, quality, runtime.metrics)
+    runtime.metrics.frames_sent.inc(stream="http")
+    headers = {**encoded.headers(), "X-IG-Encode-Ms": f"{encode_ms:.3f}", "Cache-Control": "no-store"}
+    if negotiate(request.headers.get("accept"), None) == MSGPACK:
+        return Response(encode(frame_message(encoded, fmt, data, encode_ms), MSGPACK), media_type=MSGPACK,
+                        headers=headers)
+    return Response(data, media_type=MEDIA_TYPES[fmt], headers=headers)
+
+
+async def render_or_503(runtime, coroutine):
+    try:
+        return await coroutine
+    except ProblemError:
+        raise
+    except Exception as exc:
+        raise ProblemError("render_unavailable", f"{type(exc).__name__}: {exc}", headers={"Retry-After": "1"}) from None
+
+
+@router.get(
+    "/v1/frame",
+    summary="A frame of the latest accepted state",
+    response_class=Response,
+    responses={200: {"content": IMAGE_CONTENT, "headers": FRAME_HEADERS_DOC}, 503: {"description": "render down"}},
+)
+async def get_frame(
+    request: Request,
+    runtime: Runtime,
+    format: Format = Query("jpeg"),
+    quality: int = Query(85, ge=1, le=100, description="JPEG quality"),
+):
+    encoded = await render_or_503(runtime, runtime.pump.frame_of_current_state())
+    return await image_response(runtime, encoded, format, quality, request)
+
+
+@router.post(
+    "/v1/render",
+    summary="Accept a state (patch, or ?replace=true) and answer with the frame of exactly that state",
+    description="For hosts that step frame by frame. The image is in the body (headers carry the frame "
+    "numbers), or, with `Accept: application/vnd.msgpack`, a frame map like the WebSocket's.",
+    response_class=Response,
+    openapi_extra=body_doc(PATCH_SCHEMA, "a partial Scene (or a complete one with ?replace=true)"),
+    responses={200: {"content": {**IMAGE_CONTENT, MSGPACK: {}}, "headers": FRAME_HEADERS_DOC},
+               **PROBLEM_RESPONSES},
+)
+async def render_state(
+    request: Request,
+    runtime: Runtime,
+    message: Message,
+    replace: bool = Query(False, description="the body is a complete state, not a patch"),
+    format: Format = Query("jpeg"),
+    quality: int = Query(85, ge=1, le=100),
+):
+    store = runtime.store
+    scene = store.replace(message) if replace else store.patch(message)
+    runtime.metrics.state_updates.inc(method="render")
+    revision, accepted_at = store.revision, store.accepted_at
+    encoded = await render_or_503(runtime, runtime.gateway.render(scene, revision, accepted_at))
+    runtime.pump.publish(encoded)  # stream watchers see the stepped frames too
+    response = await image_response(runtime, encoded, format, quality, request)
+    runtime.metrics.latency_ms.observe((time.perf_counter() - accepted_at) * 1e3, stream="http")
+    return response
+
+
+@router.get(
+    "/v1/stream.mjpg",
+    summary="MJPEG stream (multipart/x-mixed-replace) for browsers and video tools",
+    response_class=StreamingResponse,
+    responses={200: {"content": {f"multipart/x-mixed-replace; boundary={MJPEG_BOUNDARY}": {}}}},
+)
+async def mjpeg_stream(
+    runtime: Runtime,
+    fps: float = Query(0, ge=0, le=240, description="cap on frames per second (0: as rendered)"),
+    frames: int = Query(0, ge=0, description="end the stream after this many frames (0: never)"),
+    quality: int = Query(0, ge=0, le=100, description="JPEG quality (0: the server's default)"),
+):
+    quality = quality or runtime.settings.jpeg_quality
+    interval = 1.0 / fps if fps else 0.0
+
+    async def parts():
+        runtime.stream_clients["mjpeg"] += 1
+        sent, last, last_revision = 0, None, -1
+        try:
+            with runtime.pump.subscription():
+                while not frames or sent < frames:
+                    # keepalive: resend the last frame when nothing new came, so players see the stream is live
+                    encoded = await runtime.pump.next_frame(last, timeout=runtime.settings.keepalive_s) or last
+                    if encoded is None:
+                        continue
+                    if last is not None and encoded.ig_frame > last.ig_frame + 1:
+                        runtime.metrics.frames_dropped.inc(encoded.ig_frame - last.ig_frame - 1, stream="mjpeg")
+                    data, _ = await encoded.encoded_async("jpeg", quality, runtime.metrics)
+                    head = (
+                        f"--{MJPEG_BOUNDARY}\r\nContent-Type: image/jpeg\r\nContent-Length: {len(data)}\r\n"
+                        f"X-IG-Frame: {encoded.ig_frame}\r\nX-IG-Host-Frame: {encoded.host_frame}\r\n\r\n"
+                    ).encode()
+                    t_sent = time.perf_counter()
+                    yield head + data + b"\r\n"
+                    runtime.metrics.frames_sent.inc(stream="mjpeg")
+                    if encoded.revision != last_revision:
+                        if last is not None:  # a client's first frame shows an old state: not a latency
+                            runtime.metrics.latency_ms.observe(
+                                (time.perf_counter() - encoded.accepted_at) * 1e3, stream="mjpeg")
+                        last_revision = encoded.revision
+                    last = encoded
+                    sent += 1
+                    if interval:
+                        await asyncio.sleep(max(0.0, interval - (time.perf_counter() - t_sent)))
+        finally:
+            runtime.stream_clients["mjpeg"] -= 1
+
+    return StreamingResponse(
+        parts(),
+        media_type=f"multipart/x-mixed-replace; boundary={MJPEG_BOUNDARY}",
+        headers={"Cache-Control": "no-store", "X-Accel-Buffering": "no"},
+    )

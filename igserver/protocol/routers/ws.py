@@ -1,0 +1,177 @@
+"""WebSocket ``/v1/ws``: msgpack both ways, credit-based flow control.
+
+Client -> server (binary msgpack maps):
+  ``{"type": "hello", "credits": 2, "format": "jpeg", "quality": 85}``  optional, first; sets the window
+  ``{"type": "patch", "state": {...}, "id": 7}``   merge a partial state (``"replace"``: a whole state)
+  ``{"type": "ack", "frame": 123}``                 one frame consumed: one credit back
+  ``{"type": "credit", "n": 4}``                    grant more credits
+Server -> client:
+  ``{"type": "frame", "frame", "host_frame", "width", "height", "format", "data", "render_ms", "encode_ms"}``
+  ``{"type": "error", "id": 7, "problem": {...}}``  a rejected message (RFC 9457 members); nothing changed
+
+Frames flow once the client's first message has arrived (a hello, or the first patch: then the window is
+``ws_initial_credits``, 2 by default). Each frame sent costs one credit. With none left the server sends nothing; when a credit comes back it
+sends the newest frame at that moment, never a queued old one. A slow client therefore sees fewer, fresh
+frames, and the shared render loop never waits for it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import time
+
+from fastapi import APIRouter, WebSocket, WebSocketDisconnect
+
+from ..codec import MSGPACK, decode, encode
+from ..dependencies import get_runtime
+from ..frames import EncodedFrame
+from ..problems import ProblemError
+from .frames import frame_message
+
+router = APIRouter(tags=["stream"])
+
+FORMATS = ("jpeg", "png", "raw")
+
+
+class Session:
+    def __init__(self, websocket: WebSocket, runtime):
+        self.ws = websocket
+        self.runtime = runtime
+        settings = runtime.settings
+        self.credits = settings.ws_initial_credits
+        self.max_credits = settings.ws_max_credits
+        self.format = "jpeg"
+        self.quality = settings.jpeg_quality
+        self.credit_arrived = asyncio.Event()
+        self.greeted = asyncio.Event()  # frames flow after the client's first message (normally hello)
+        self.send_lock = asyncio.Lock()  # frames and error replies come from two tasks
+
+    async def send(self, value: dict) -> None:
+        data = encode(value, MSGPACK)
+        async with self.send_lock:
+            await self.ws.send_bytes(data)
+
+    def add_credits(self, n: int) -> None:
+        self.credits = max(0, min(self.max_credits, self.credits + n))
+        if self.credits:
+            self.credit_arrived.set()
+
+    # -- server -> client
+    async def send_frames(self) -> None:
+        runtime = self.runtime
+        last: EncodedFrame | None = None
+        last_revision = -1
+        await self.greeted.wait()
+        with runtime.pump.subscription():
+            while True:
+                while self.credits <= 0:
+                    self.credit_arrived.clear()
+                    await self.credit_arrived.wait()
+                encoded = await runtime.pump.next_frame(last, timeout=None)
+                if last is not None and encoded.ig_frame > last.ig_frame + 1:
+                    runtime.metrics.frames_dropped.inc(encoded.ig_frame - last.ig_frame - 1, stream="ws")
+                data, encode_ms = await encoded.encoded_async(self.format, self.quality, runtime.metrics)
+                self.credits -= 1
+                await self.send(frame_message(encoded, self.format, data, encode_ms))
+                runtime.metrics.frames_sent.inc(stream="ws")
+                if encoded.revision != last_revision:
+                    if last is not None:
+                        runtime.metrics.latency_ms.observe((time.perf_counter() - encoded.accepted_at) * 1e3,
+                                                           stream="ws")
+                    last_revision = encoded.revision
+                last = encoded
+
+    # -- client -> server
+    async def receive_messages(self) -> None:
+        limits = self.runtime.settings.limits
+        while True:
+            message = await self.ws.receive()
+            if message["type"] == "websocket.disconnect":
+                raise WebSocketDisconnect(message.get("code", 1000))
+            request_id = None
+            try:
+                if message.get("bytes") is None:
+                    raise ProblemError("unsupported_media_type", "send binary msgpack messages, not text")
+                tree = decode(message["bytes"], MSGPACK, limits)
+                if isinstance(tree, dict):
+                    request_id = tree.get("id")
+                self.handle(tree)
+            except ProblemError as problem:
+                self.runtime.metrics.protocol_errors.inc(kind=problem.kind)
+                reply = {"type": "error", "problem": problem.document("/v1/ws")}
+                if isinstance(request_id, (int, str)):
+                    reply["id"] = request_id
+                await self.send(reply)
+            finally:
+                self.greeted.set()
+
+    def handle(self, tree) -> None:
+        if not isinstance(tree, dict) or not isinstance(tree.get("type"), str):
+            raise ProblemError("malformed", 'a message is a map with a "type"',
+                               [{"pointer": "#/type", "detail": "required"}])
+        kind = tree["type"]
+        store = self.runtime.store
+        if kind in ("patch", "replace"):
+            state = tree.get("state")
+            # errors point into the message: #/state/camera/pitch
+            scene = (store.validate_patch if kind == "patch" else store.validate_replace)(state, ("state",))
+            store.set_validated(scene)
+            self.runtime.metrics.state_updates.inc(method=f"ws_{kind}")
+        elif kind == "ack":
+            self.add_credits(1)
+        elif kind == "credit":
+            n = tree.get("n", 1)
+            if not isinstance(n, int) or isinstance(n, bool) or not 0 <= n <= self.max_credits:
+                raise ProblemError("validation", f"n must be an integer 0..{self.max_credits}",
+                                   [{"pointer": "#/n", "detail": "out of range"}])
+            self.add_credits(n)
+        elif kind == "hello":
+            self.configure(tree)
+        else:
+            raise ProblemError("validation", f"unknown message type {kind!r}",
+                               [{"pointer": "#/type", "detail": "expected hello, patch, replace, ack or credit"}])
+
+    def configure(self, tree: dict) -> None:
+        unknown = set(tree) - {"type", "credits", "format", "quality", "id"}
+        if unknown:
+            name = sorted(unknown)[0]
+            raise ProblemError("validation", f"unknown field {name!r}", [{"pointer": f"#/{name}", "detail": "extra field"}])
+        fmt = tree.get("format", self.format)
+        if fmt not in FORMATS:
+            raise ProblemError("validation", "format must be jpeg, png or raw", [{"pointer": "#/format", "detail": "invalid"}])
+        quality = tree.get("quality", self.quality)
+        if not isinstance(quality, int) or isinstance(quality, bool) or not 1 <= quality <= 100:
+            raise ProblemError("validation", "quality must be 1..100", [{"pointer": "#/quality", "detail": "out of range"}])
+        credits = tree.get("credits", self.credits)
+        if not isinstance(credits, int) or isinstance(credits, bool) or not 0 <= credits <= self.max_credits:
+            raise ProblemError("validation", f"credits must be 0..{self.max_credits}",
+                               [{"pointer": "#/credits", "detail": "out of range"}])
+        self.format, self.quality = fmt, quality
+        self.credits = 0
+        self.add_credits(credits)
+
+
+@router.websocket("/v1/ws")
+async def frame_socket(websocket: WebSocket):
+    runtime = get_runtime(websocket)
+    await websocket.accept()
+    session = Session(websocket, runtime)
+    runtime.stream_clients["ws"] += 1
+    sender = asyncio.create_task(session.send_frames())
+    receiver = asyncio.create_task(session.receive_messages())
+    try:
+        done, _ = await asyncio.wait({sender, receiver}, return_when=asyncio.FIRST_COMPLETED)
+        for task in done:
+            if not task.cancelled() and task.exception() and not isinstance(
+                task.exception(), (WebSocketDisconnect, RuntimeError)
+            ):
+                raise task.exception()
+    except WebSocketDisconnect:
+        pass
+    finally:
+        runtime.stream_clients["ws"] -= 1
+        for task in (sender, receiver):
+            task.cancel()
+            with contextlib.suppress(BaseException):
+                await task

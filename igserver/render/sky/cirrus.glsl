@@ -1,0 +1,90 @@
+// Cirrus: a thin textured shell at u_cirrus_altitude_km, lit by the sun through the atmosphere and
+// shadowed by the earth. Needs common/atmosphere.glsl.
+//
+// Earth's shadow: from the cloud point p the sun is hidden when the ray p + t s (t > 0) meets the
+// earth sphere; 16 rays over a cone of 0.5 deg around the sun (its disk, blurred by refraction)
+// give the fraction of the sun still seen, so the shadow's edge sweeps up the layer after sunset
+// instead of switching it off. The layer stays lit while the sun is below the observer's horizon:
+// at 9 km the sun sets ~3 deg later than on the ground, and later still far away toward the sun.
+#include "common/noise.glsl"
+
+uniform float u_cirrus_coverage;     // 0..1
+uniform float u_cirrus_altitude_km;
+uniform vec2 u_cirrus_offset;        // noise units, camera position minus wind drift, mod period
+uniform float u_cirrus_feature_km;   // noise lattice unit
+uniform float u_cirrus_period;       // noise period (units) in x and y
+
+const float CIRRUS_SHADOW_CONE = 0.0087;  // rad, half-angle of the softened sun (0.5 deg)
+
+// Fraction of 16 rays around the sun direction from p (km, earth-centred) not blocked by the earth.
+float earth_shadow(vec3 p) {
+    vec3 s = u_sun_dir;
+    vec3 a = normalize(abs(s.z) < 0.9 ? cross(s, vec3(0.0, 0.0, 1.0)) : cross(s, vec3(1.0, 0.0, 0.0)));
+    vec3 b = cross(s, a);
+    float R = u_bottom_radius_km;
+    float lit = 0.0;
+    for (int i = 0; i < 16; ++i) {
+        // Vogel (golden angle) disk of 16 points: uniform over the cone, no pattern.
+        float rr = sqrt((float(i) + 0.5) / 16.0) * CIRRUS_SHADOW_CONE;
+        float phi = float(i) * 2.39996323;
+        vec3 d = normalize(s + rr * (cos(phi) * a + sin(phi) * b));
+        float pd = dot(p, d);
+        float disc = pd * pd - (dot(p, p) - R * R);
+        bool blocked = pd < 0.0 && disc > 0.0;
+        lit += blocked ? 0.0 : 1.0;
+    }
+    return lit / 16.0;
+}
+
+// Henyey-Greenstein, for the forward peak of ice crystals.
+float hg_phase(float g, float c) {
+    return (1.0 - g * g) / (4.0 * ATMO_PI * pow(max(1.0 + g * g - 2.0 * g * c, 1e-6), 1.5));
+}
+
+vec3 apply_cirrus(vec3 radiance, vec3 dir) {
+    if (u_cirrus_coverage <= 0.0) return radiance;
+    float R = u_bottom_radius_km;
+    float r_cam = R + max(u_camera_altitude * 0.001, 0.001);
+    float rc = R + u_cirrus_altitude_km;
+    // Ray-sphere: |c + t dir| = rc, c = (0, 0, r_cam).
+    float b = r_cam * dir.z;
+    float disc = b * b - (r_cam - rc) * (r_cam + rc);
+    if (disc < 0.0) return radiance;
+    float sq = sqrt(disc);
+    float t = r_cam < rc ? -b + sq : -b - sq;  // below: far root (only one ahead); above: near root
+    if (t <= 0.0) return radiance;
+    if (r_cam < rc && ray_hits_ground(r_cam, dir.z)) return radiance;
+    vec3 p = vec3(0.0, 0.0, r_cam) + dir * t;
+    // Layer coordinates: the horizontal offset from the camera (km) in noise units, plus the
+    // camera's own (wind-drifted, wrapped) position; streaks stretched 3:1 along x.
+    vec2 q = p.xy / u_cirrus_feature_km + u_cirrus_offset;
+    vec3 period = vec3(u_cirrus_period, u_cirrus_period, 0.0);
+    float n = turbulence3(vec3(q, 0.37), period, 4, 7u);
+    float streak = turbulence3(vec3(q.x * 0.35, q.y * 3.0, 1.9), vec3(u_cirrus_period * 0.35, u_cirrus_period * 3.0, 0.0), 3, 11u);
+    float field = 0.5 + 0.35 * n + 0.25 * streak;
+    float threshold = 1.0 - u_cirrus_coverage;
+    float density = smoothstep(threshold - 0.1, threshold + 0.3, field);
+    // Thin at the horizon where the shell is seen edge-on far away: fade beyond ~150 km.
+    density *= exp(-t / 150.0);
+    float alpha = clamp(0.7 * density, 0.0, 0.95);
+    if (alpha <= 0.0) return radiance;
+    float rp = length(p);
+    float mu_s = dot(p, u_sun_dir) / rp;
+    float shadow = earth_shadow(p);
+    vec3 sun_at_cloud;
+    vec3 t_cam;
+    if (use_precomputed()) {
+        float mu_h = -safe_sqrt(1.0 - (R / rp) * (R / rp));
+        vec3 tau = optical_depth_to_top(u_transmittance_lut, rp, max(mu_s, mu_h + 1e-4));
+        sun_at_cloud = u_solar_illuminance * exp(-min(tau, vec3(80.0))) * shadow;
+        float mu_v = dir.z;
+        t_cam = transmittance_segment(u_transmittance_lut, r_cam, mu_v, t, false);
+    } else {
+        sun_at_cloud = u_sun_illuminance * shadow;
+        t_cam = vec3(1.0);
+    }
+    float c = dot(dir, u_sun_dir);
+    float phase = 0.6 * hg_phase(0.75, c) + 0.4 / (4.0 * ATMO_PI);
+    vec3 cloud = sun_at_cloud * phase + u_sky_ambient * 0.8;
+    return mix(radiance, cloud, alpha * t_cam);
+}

@@ -1,0 +1,62 @@
+"""Flicker lights of fires (DESIGN §4.3): one point light per burning fire or gas burner.
+
+Intensity I (cd) ~ mean flame luminance x projected flame area: 0.3 x the core luminance over
+0.5 D L (a tapered flame of diameter D, visible height L). Colour: blackbody at 1350 K
+(normalised to unit luminance), reddening as a fire dies down. Both follow the fade level, and
+a seeded flicker whose spectrum peaks at the puffing frequency f = 1.5 / sqrt(D) Hz
+(lights.flicker_gain: deterministic in seed and sim_time, phases reduced in float64).
+The light sits on the axis at 30 % of the flame height, where the glow's centroid is.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...scene.model import Effect, Scene
+from ..lights import PointLight, flicker_gain
+from .effects import CONTAINER_OVER_FLAME, effect_volumes, puffing_frequency
+from .profiles import blackbody_rgb
+
+LUMINANCE = 2.0e4  # cd/m^2, core luminance at intensity 1 (same as the volume's emission)
+FLICKER_AMPLITUDE = {"fire": 0.35, "gas_burner": 0.06}
+MIN_ILLUMINANCE = 0.02  # lux: the range is where the light falls below this
+MAX_RANGE = 3000.0  # m
+
+_FIRE_COLOUR = blackbody_rgb(1350.0)
+_FIRE_COLOUR = _FIRE_COLOUR / float(_FIRE_COLOUR @ np.array([0.2126, 0.7152, 0.0722]))
+_GAS_COLOUR = np.array([0.55, 0.65, 1.0]) / float(np.array([0.55, 0.65, 1.0]) @ np.array([0.2126, 0.7152, 0.0722]))
+
+
+def fire_light(effect: Effect, scene: Scene) -> PointLight | None:
+    if effect.type not in ("fire", "gas_burner"):
+        return None
+    volumes = [v for v in effect_volumes(effect, scene) if v.key[1] == "fire"]
+    if not volumes:
+        return None
+    vol = volumes[0]
+    flame_height = vol.height / CONTAINER_OVER_FLAME if effect.type == "fire" else vol.height
+    area = 0.5 * 2.0 * vol.radius * flame_height
+    gain = flicker_gain(puffing_frequency(effect.diameter), FLICKER_AMPLITUDE[effect.type], effect.seed,
+                        scene.time.sim_time)
+    intensity = 0.3 * LUMINANCE * math.sqrt(effect.intensity) * area * vol.opacity * float(gain)
+    if effect.type == "fire":
+        cooling = 0.0 if effect.active else 1.0 - vol.level
+        colour = _FIRE_COLOUR * np.power(np.array([1.0, 0.75, 0.5]), 3.0 * cooling) * (1.0 - 0.6 * cooling)
+    else:
+        colour = _GAS_COLOUR
+    if intensity <= 0.0:
+        return None
+    position = vol.base + np.array([0.3 * vol.lean[0], 0.3 * vol.lean[1], 0.3 * flame_height])
+    light_range = min(math.sqrt(intensity / MIN_ILLUMINANCE), MAX_RANGE)
+    return PointLight(position, colour * intensity, light_range)
+
+
+def fire_lights(scene: Scene) -> list[PointLight]:
+    lights = []
+    for effect in scene.effects:
+        light = fire_light(effect, scene)
+        if light is not None:
+            lights.append(light)
+    return lights

@@ -1,0 +1,118 @@
+// Rendering stage (DESIGN §4.3): march the effect's 3D texture along the view ray.
+//
+// Ray t in [t0, t1]: t0 = box entry (0 when the camera is inside), t1 = min(box exit, scene
+// distance) so ships, the pier and the water clip the effect. The start is shifted by a fraction
+// of one step from interleaved-gradient noise (no banding, no white-noise clumping).
+// Front-to-back, energy conserving per segment of optical depth s = sigma * dt:
+//   L += T * S * (1 - exp(-s)),   T *= exp(-s)
+// with S the segment's source radiance: fire = emitted colour * luminance (optically thick fire
+// tends to S, thin fire adds ~ S * s); smoke = albedo * in-scattered light (single scattering:
+// sun and moon through the smoke's own shadow with a Henyey-Greenstein phase, the sky through
+// its shadow toward the zenith, and the fire's glow from below). Output is premultiplied:
+// (radiance, 1 - T), blended ONE, ONE_MINUS_SRC_ALPHA.
+#include "common/frame.glsl"
+#include "common/atmosphere.glsl"
+
+uniform sampler3D u_volume;
+uniform sampler2D u_scene_distance;  // m along the view ray, 1e30 = sky
+uniform vec3 u_box_min;              // m, camera-relative AABB of the (bent) container
+uniform vec3 u_box_max;
+uniform vec3 u_base;                 // m, camera-relative base centre
+uniform vec3 u_extent;               // m: radius, radius, height
+uniform vec2 u_lean;                 // m, horizontal offset of the axis at the top (wind)
+uniform int u_steps;                 // samples along the box diagonal
+uniform float u_sigma;               // 1/m, extinction at density 1
+uniform float u_jitter_offset;       // per-frame shift of the start jitter, in [0,1)
+#ifdef SMOKE
+uniform float u_hg_g;                // Henyey-Greenstein asymmetry
+uniform float u_albedo_scale;        // x the profile's albedo (sooty fire smoke)
+uniform vec3 u_glow_pos;             // camera-relative position of the fire's light
+uniform vec3 u_glow_intensity;       // cd per channel (0 when none)
+#else
+uniform vec3 u_emission;             // cd/m^2 of colour 1 (the effect's luminance)
+#endif
+
+in vec3 v_rel;
+layout(location = 0) out vec4 out_color;
+
+float interleaved_gradient_noise(vec2 p) {
+    return fract(52.9829189 * fract(dot(p, vec2(0.06711056, 0.00583715))));
+}
+
+float henyey_greenstein(float cos_theta, float g) {
+    float d = 1.0 + g * g - 2.0 * g * cos_theta;
+    return (1.0 - g * g) / (4.0 * PI * d * sqrt(d));
+}
+
+// Camera-relative point -> texture coordinates of the bent container.
+vec3 to_volume(vec3 p) {
+    vec3 q = p - u_base;
+    float z = q.z / u_extent.z;
+#ifdef SMOKE
+    q.xy -= u_lean * (z * z);  // a plume bends over as it loses its buoyant momentum
+#else
+    q.xy -= u_lean * z;        // a flame tilts as a whole
+#endif
+    return vec3(q.xy / u_extent.xy * 0.5 + 0.5, z);
+}
+
+void main() {
+    vec3 dir = normalize(v_rel);
+    // Slab test against the AABB.
+    vec3 inv = 1.0 / dir;
+    vec3 ta = u_box_min * inv, tb = u_box_max * inv;
+    vec3 tmin = min(ta, tb), tmax = max(ta, tb);
+    float t0 = max(max(max(tmin.x, tmin.y), tmin.z), 0.0);
+    float t1 = min(min(tmax.x, tmax.y), tmax.z);
+    float scene_t = texelFetch(u_scene_distance, ivec2(gl_FragCoord.xy), 0).r;
+    t1 = min(t1, scene_t);
+    if (!(t1 > t0)) discard;
+
+    float dt = length(u_box_max - u_box_min) / float(u_steps);
+    float jitter = fract(interleaved_gradient_noise(gl_FragCoord.xy) + u_jitter_offset);
+    int n = int(ceil((t1 - t0) / dt - jitter)) + 1;
+#ifdef SMOKE
+    // Scattering angle between the light's propagation (-l) and the ray back to the eye (-dir).
+    float phase_sun = henyey_greenstein(dot(dir, u_sun_dir), u_hg_g);
+    float phase_moon = henyey_greenstein(dot(dir, u_moon_dir), u_hg_g);
+    vec3 direct = u_sun_illuminance * phase_sun + u_moon_illuminance * phase_moon;
+    vec3 sky = u_sky_ambient;  // cd/m^2, isotropic sky light reaching the top of the plume
+#endif
+    vec3 radiance = vec3(0.0);
+    float transmittance = 1.0;
+    float depth_weight = 0.0, depth_sum = 0.0;
+    for (int i = 0; i <= n && i < 4096; ++i) {
+        // Segments end at the jittered points t0 + (i + jitter) dt, clipped to [t0, t1], so they
+        // tile the ray exactly; each is sampled at its midpoint.
+        float sa = max(t0 + (float(i) - 1.0 + jitter) * dt, t0);
+        float sb = min(t0 + (float(i) + jitter) * dt, t1);
+        if (sb <= sa) continue;
+        float tc = 0.5 * (sa + sb);
+        vec3 uvw = to_volume(dir * tc);
+        if (any(lessThan(uvw, vec3(0.0))) || any(greaterThan(uvw, vec3(1.0)))) continue;
+        vec4 voxel = textureLod(u_volume, uvw, 0.0);
+        float s = voxel.a * u_sigma * (sb - sa);
+        if (s <= 1e-6) continue;
+        float absorbed = 1.0 - exp(-s);
+#ifdef SMOKE
+        float albedo = voxel.b * u_albedo_scale;
+        vec3 source = albedo * (direct * voxel.r + sky * voxel.g);
+        vec3 to_glow = u_glow_pos - dir * tc;
+        float d2 = max(dot(to_glow, to_glow), 0.25);
+        source += albedo * u_glow_intensity / d2 * (0.25 / PI) * voxel.g;  // glow, isotropic, ~shadowed
+#else
+        vec3 source = voxel.rgb * u_emission;
+#endif
+        radiance += transmittance * source * absorbed;
+        depth_sum += transmittance * absorbed * tc;
+        depth_weight += transmittance * absorbed;
+        transmittance *= 1.0 - absorbed;
+        if (transmittance < 0.004) { transmittance = 0.0; break; }  // opaque: early exit
+    }
+    float alpha = 1.0 - transmittance;
+    if (alpha <= 0.0) discard;
+    // Aerial perspective at the opacity-weighted depth, applied to the un-premultiplied colour.
+    vec3 rel = dir * (depth_sum / max(depth_weight, 1e-6));
+    vec3 colour = apply_aerial_perspective(radiance / alpha, rel) * alpha;
+    out_color = vec4(pre_expose(colour), alpha);
+}

@@ -1,0 +1,74 @@
+// Modelling stage (DESIGN §4.3): one voxel per invocation of an effect's 3D texture.
+//
+// Normalised container: (x, y) in [-1,1] (units of the container radius), z in [0,1] (height).
+//   P = (q_m / lambda) - (0, 0, tau)          q_m: metres from the base centre at nominal size
+//   u = sqrt(x^2 + y^2)    v = z + Roughness * Turb(P) * sqrt(z)    (colour, density) = Profile(u, v)
+// This is the paper's P = (x, y, z - time) * noiseScale with the noise attached to the nominal
+// (un-faded) container, lambda = nominal radius / noiseScale, so it stays isotropic in metres and
+// does not jump when the fade changes the container's size; tau is reduced modulo the noise period
+// on the CPU in float64.
+//
+// Output (rgba16f): fire: rgb = emitted colour (x the effect's luminance at render time), a = density.
+// smoke: r = transmittance toward the sun, g = toward the zenith (sky light), b = albedo, a = density;
+// the two shadow rays march the profile without turbulence (cheap, smooth, slightly soft).
+#include "common/noise.glsl"
+
+layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
+layout(rgba16f, binding = 0) writeonly uniform image3D u_volume;
+uniform sampler2D u_profile;
+uniform ivec3 u_size;
+uniform vec3 u_extent;       // m: (radius, radius, height) of the container now (after fade)
+uniform float u_wavelength;  // m per noise lattice unit (lambda)
+uniform float u_tau;         // noise scroll along P.z, lattice units, in [0, period)
+uniform float u_period;      // noise period along P.z, lattice units
+uniform float u_roughness;
+uniform int u_octaves;
+uniform uint u_seed;
+uniform float u_opacity;     // fade: profile opacity
+uniform float u_cooling;     // 0 burning .. 1 dying: the colour reddens and dims
+uniform vec3 u_sun_local;    // direction to the sun in normalised container units (unit length in metres)
+uniform float u_sigma;       // 1/m, extinction of density 1 (smoke shadow rays)
+
+const int SHADOW_STEPS = 6;
+
+float profile_density(vec3 n) {
+    float u = length(n.xy);
+    if (u >= 1.0 || n.z <= 0.0 || n.z >= 1.0) return 0.0;
+    return textureLod(u_profile, vec2(u, n.z), 0.0).a;
+}
+
+// Transmittance from normalised point n along direction d (metres per unit step in d_m).
+float shadow(vec3 n, vec3 dir_m) {
+    vec3 dir_n = dir_m / u_extent;                      // normalised units per metre
+    // Distance (m) to leave the container's cylinder-ish bounds: march a fixed budget of its size.
+    float length_m = 2.0 * max(u_extent.x, u_extent.z) / float(SHADOW_STEPS);
+    float tau = 0.0;
+    for (int i = 0; i < SHADOW_STEPS; ++i) {
+        vec3 p = n + dir_n * (length_m * (float(i) + 0.5));
+        tau += profile_density(p) * length_m;
+    }
+    return exp(-min(tau * u_sigma * u_opacity, 60.0));
+}
+
+void main() {
+    ivec3 id = ivec3(gl_GlobalInvocationID);
+    if (any(greaterThanEqual(id, u_size))) return;
+    vec3 n = (vec3(id) + 0.5) / vec3(u_size);
+    n.xy = n.xy * 2.0 - 1.0;                            // normalised container coordinates
+    vec3 q = n * u_extent;                              // metres from the base centre
+    vec3 p = q / u_wavelength - vec3(0.0, 0.0, u_tau);
+    float turb = turbulence3(p, vec3(0.0, 0.0, u_period), u_octaves, u_seed);
+    float u = length(n.xy);
+    float v = n.z + u_roughness * turb * sqrt(n.z);
+    vec4 prof = (u < 1.0 && v < 1.0) ? textureLod(u_profile, vec2(u, clamp(v, 0.0, 1.0)), 0.0) : vec4(0.0);
+    float density = prof.a * u_opacity;
+#ifdef SMOKE
+    float t_sun = shadow(n, u_sun_local);
+    float t_sky = shadow(n, vec3(0.0, 0.0, 1.0));
+    imageStore(u_volume, id, vec4(t_sun, t_sky, prof.r, density));
+#else
+    // Dying fire cools: red survives longest (a blackbody's blue and green fall first).
+    vec3 cool = pow(vec3(1.0, 0.75, 0.5), vec3(3.0 * u_cooling));
+    imageStore(u_volume, id, vec4(prof.rgb * cool * (1.0 - 0.6 * u_cooling), density));
+#endif
+}

@@ -1,0 +1,84 @@
+"""Flicker lights: spectrum peak at the pool-fire puffing frequency, determinism, float64 time."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from igserver.render.lights import flicker_gain, gather_lights
+from igserver.render.camera import make_view
+from igserver.render.volumes.effects import puffing_frequency
+from igserver.render.volumes.fire_lights import fire_light
+from igserver.scene import Scene
+
+RATE = 60.0  # Hz, sampling of the light's intensity (a frame rate)
+
+
+def _fire_scene(diameter: float, sim_time: float, seed: int = 1, **effect) -> Scene:
+    return Scene.model_validate({
+        "time": {"sim_time": sim_time},
+        "effects": [{"id": "f", "type": "fire", "diameter": diameter, "seed": seed, **effect}],
+    })
+
+
+def _intensity_series(diameter: float, seed: int, seconds: float = 60.0, t0: float = 100.0) -> np.ndarray:
+    values = []
+    for t in t0 + np.arange(0.0, seconds, 1.0 / RATE):
+        light = fire_light(_fire_scene(diameter, float(t), seed).effects[0], _fire_scene(diameter, float(t), seed))
+        values.append(float(np.max(light.color)))
+    return np.asarray(values)
+
+
+def _peak_frequency(series: np.ndarray) -> float:
+    spectrum = np.abs(np.fft.rfft((series - series.mean()) * np.hanning(len(series))))
+    freqs = np.fft.rfftfreq(len(series), 1.0 / RATE)
+    return float(freqs[1:][np.argmax(spectrum[1:])])
+
+
+@pytest.mark.parametrize("diameter", [0.3, 1.0, 3.0])
+@pytest.mark.parametrize("seed", [1, 17])
+def test_fire_light_spectrum_peaks_at_puffing_frequency(diameter, seed):
+    expected = 1.5 / math.sqrt(diameter)
+    assert puffing_frequency(diameter) == pytest.approx(expected)
+    peak = _peak_frequency(_intensity_series(diameter, seed))
+    assert abs(peak / expected - 1.0) <= 0.25, (diameter, seed, peak, expected)
+
+
+def test_flicker_gain_spectrum_many_seeds():
+    t = np.arange(0.0, 120.0, 1.0 / RATE)
+    for seed in range(1, 40):
+        peak = _peak_frequency(flicker_gain(2.0, 0.3, seed, t))
+        assert abs(peak / 2.0 - 1.0) <= 0.25, seed
+
+
+def test_flicker_deterministic_and_seeded():
+    t = np.linspace(0.0, 10.0, 200)
+    a, b = flicker_gain(1.5, 0.3, 5, t), flicker_gain(1.5, 0.3, 5, t)
+    assert np.array_equal(a, b)
+    assert not np.allclose(a, flicker_gain(1.5, 0.3, 6, t))
+    assert np.all(a >= 0.0) and abs(a.mean() - 1.0) < 0.05
+
+
+def test_flicker_float64_time_reduction():
+    """The same 10 s window at 1e9 s is as smooth and varied as at 100 s (no float32 stair-steps)."""
+    dt = 1.0 / RATE
+    for t0 in (100.0, 1e6, 1e9):
+        g = flicker_gain(1.5, 0.3, 3, t0 + np.arange(0.0, 10.0, dt))
+        assert np.all(np.isfinite(g))
+        assert 0.15 < g.std() < 0.3
+        # smooth: frame-to-frame steps bounded by the derivative of the partials
+        assert np.max(np.abs(np.diff(g))) < 0.3 * 2 * math.pi * 1.5 * math.exp(0.7) * dt * 3
+
+
+def test_fire_light_follows_fade_and_reaches_the_frame():
+    on = _fire_scene(2.0, 10.0, active=True, changed_at=0.0, fade=4.0)
+    mid = _fire_scene(2.0, 1.0, active=True, changed_at=0.0, fade=4.0)
+    off = _fire_scene(2.0, 10.0, active=False, changed_at=0.0, fade=4.0)
+    i_on = float(np.max(fire_light(on.effects[0], on).color))
+    i_mid = float(np.max(fire_light(mid.effects[0], mid).color))
+    assert i_on > i_mid > 0.0
+    assert fire_light(off.effects[0], off) is None
+    lights = gather_lights(on, make_view(on.camera), 16)
+    assert len(lights) == 1 and lights[0].color[0] > lights[0].color[2]  # warm

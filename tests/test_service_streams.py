@@ -1,0 +1,211 @@
+"""Streams through a real server: WebSocket msgpack + credits, a slow client beside a fast one, and the
+render process killed mid-stream (the stream resumes, no accepted state is lost)."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import httpx
+import msgpack
+import pytest
+from websockets.sync.client import connect
+
+from clients.igclient import IGClient, IGError, iter_multipart_jpegs
+from igserver.protocol.runtime import ServerSettings
+from igserver.protocol.testing import LoopbackServer
+from igserver.scene import Scene
+
+W, H = 64, 36
+
+
+def pack(value) -> bytes:
+    return msgpack.packb(value, use_bin_type=True)
+
+
+@pytest.fixture(scope="module")
+def server():
+    scene = Scene.model_validate({"camera": {"width": W, "height": H}, "atmosphere": {"model": "gradient"}})
+    with LoopbackServer(scene, ServerSettings(keepalive_s=0.25)) as srv:
+        yield srv
+
+
+@pytest.fixture()
+def ig(server):
+    with IGClient(server.url) as client:
+        yield client
+
+
+def ws_url(server) -> str:
+    return server.url.replace("http", "ws") + "/v1/ws"
+
+
+def recv_message(ws, timeout=10.0) -> dict:
+    return msgpack.unpackb(ws.recv(timeout), raw=False)
+
+
+def test_ws_round_trip_and_rejections(server, ig):
+    with connect(ws_url(server), compression=None) as ws:
+        ws.send(pack({"type": "hello", "credits": 1, "format": "raw"}))
+        ws.send(pack({"type": "patch", "id": 1, "state": {"host_frame": 9001, "camera": {"heading": 45.0}}}))
+        while True:
+            message = recv_message(ws)
+            ws.send(pack({"type": "ack", "frame": message["frame"]}))
+            if message["host_frame"] == 9001:
+                break
+        assert message["type"] == "frame" and message["format"] == "raw"
+        assert (message["width"], message["height"]) == (W, H) and len(message["data"]) == W * H * 4
+        assert message["render_ms"] > 0 and message["frame"] > 0
+
+        before = ig.get_state()
+        revision = server.runtime.store.revision
+        rejections = [
+            (b"\xc1\xc1", "malformed", None),
+            (pack({"type": "patch", "id": 2, "state": {"camera": {"pitch": float("nan")}}}), "non_finite",
+             "#/state/camera/pitch"),
+            (pack({"type": "patch", "id": 3, "state": {"camera": {"pitch": 400.0}}}), "validation", "#/state/camera/pitch"),
+            (pack({"type": "patch", "id": 4, "state": {"camera": {"zoom": 1}}}), "validation", "#/state/camera/zoom"),
+            (pack({"type": "teleport", "id": 5}), "validation", "#/type"),
+            (pack({"type": "credit", "n": 10_000}), "validation", "#/n"),
+        ]
+        for data, kind, pointer in rejections:
+            ws.send(data)
+            message = recv_message(ws)
+            assert message["type"] == "error" and message["problem"]["kind"] == kind, message
+            if pointer:
+                assert pointer in [e["pointer"] for e in message["problem"]["errors"]]
+        ws.send("text frames are not the protocol")
+        assert recv_message(ws)["problem"]["kind"] == "unsupported_media_type"
+        # the connection survived every rejection and nothing changed
+        assert ig.get_state() == before and server.runtime.store.revision == revision
+        ws.send(pack({"type": "patch", "id": 6, "state": {"host_frame": 9002}}))
+        while (message := recv_message(ws))["host_frame"] != 9002:
+            ws.send(pack({"type": "ack", "frame": message["frame"]}))
+
+
+def test_credits_bound_what_is_sent_and_the_next_frame_is_fresh(server, ig):
+    with connect(ws_url(server), compression=None) as ws:
+        ws.send(pack({"type": "hello", "credits": 1}))
+        first = recv_message(ws)
+        for n in range(5):  # new states while the client holds no credit
+            ig.patch_state({"host_frame": 9100 + n}, minimal=True)
+            time.sleep(0.05)
+        with pytest.raises(TimeoutError):
+            ws.recv(0.4)  # no credit, no frame: nothing queues up for this client
+        ws.send(pack({"type": "ack", "frame": first["frame"]}))
+        fresh = recv_message(ws)
+        assert fresh["host_frame"] == 9104  # the newest state, not the backlog
+
+
+def _host(url: str, stop: threading.Event, rate_hz: float, counter: list[int], start_frame: int) -> None:
+    with IGClient(url) as ig:
+        n, period, t0 = 0, 1.0 / rate_hz, time.perf_counter()
+        while not stop.is_set():
+            ig.patch_state({"host_frame": start_frame + n, "camera": {"heading": (n * 3) % 360}}, minimal=True)
+            counter[0] = start_frame + n
+            n += 1
+            time.sleep(max(0.0, t0 + n * period - time.perf_counter()))
+
+
+def _watch(url: str, stop: threading.Event, ack_delay: float, frames: list, latest: list[int]) -> None:
+    with connect(url, compression=None) as ws:
+        ws.send(pack({"type": "hello", "credits": 1}))
+        while not stop.is_set():
+            try:
+                message = msgpack.unpackb(ws.recv(0.5), raw=False)
+            except TimeoutError:
+                continue
+            # (when, host_frame shown, newest host_frame sent by the host at that moment)
+            frames.append((time.perf_counter(), message["host_frame"], latest[0]))
+            if ack_delay:
+                time.sleep(ack_delay)  # a client on a slow link or a slow decoder
+            ws.send(pack({"type": "ack", "frame": message["frame"]}))
+
+
+def _rate(frames: list, t0: float, t1: float) -> float:
+    return sum(1 for t, _, _ in frames if t0 <= t < t1) / (t1 - t0)
+
+
+def test_slow_client_does_not_slow_the_fast_one(server):
+    url = ws_url(server)
+    stop_host, stop_fast, stop_slow = threading.Event(), threading.Event(), threading.Event()
+    latest = [0]
+    fast, slow = [], []
+    host = threading.Thread(target=_host, args=(server.url, stop_host, 30.0, latest, 20_000))
+    fast_thread = threading.Thread(target=_watch, args=(url, stop_fast, 0.0, fast, latest))
+    host.start()
+    fast_thread.start()
+    time.sleep(0.5)
+    t0 = time.perf_counter()
+    time.sleep(2.0)
+    t1 = time.perf_counter()  # fast alone: [t0, t1)
+    slow_thread = threading.Thread(target=_watch, args=(url, stop_slow, 0.25, slow, latest))
+    slow_thread.start()
+    time.sleep(0.5)
+    t2 = time.perf_counter()
+    time.sleep(2.5)
+    t3 = time.perf_counter()  # fast beside slow: [t2, t3)
+    for event in (stop_slow, stop_fast, stop_host):
+        event.set()
+    for thread in (slow_thread, fast_thread, host):
+        thread.join(10)
+
+    alone, beside, slow_rate = _rate(fast, t0, t1), _rate(fast, t2, t3), _rate(slow, t2, t3)
+    print(f"fast alone {alone:.1f} fps, fast beside slow {beside:.1f} fps, slow {slow_rate:.1f} fps")
+    assert alone > 15  # the host sends 30 states/s; 64x36 renders take ~1 ms
+    assert beside >= 0.8 * alone
+    assert 1.5 < slow_rate < 5.0  # bounded by its own ack delay (0.25 s), not by the server
+    # the slow client gets fresh frames (a few host frames old at most), never a backlog
+    staleness = [newest - shown for _, shown, newest in slow]
+    print(f"slow client staleness (host frames): max {max(staleness)}, all {staleness}")
+    assert max(staleness) <= 4
+
+
+def test_render_process_killed_during_stream(server, ig):
+    service = server.service
+    restarts = service.restarts
+    received: list[int] = []
+    with connect(ws_url(server), compression=None) as ws:
+        ws.send(pack({"type": "hello", "credits": 2}))
+
+        def drain(until_host_frame: int, timeout: float = 60.0) -> None:
+            deadline = time.monotonic() + timeout
+            while time.monotonic() < deadline:
+                message = msgpack.unpackb(ws.recv(timeout), raw=False)
+                received.append(message["host_frame"])
+                ws.send(pack({"type": "ack", "frame": message["frame"]}))
+                if message["host_frame"] == until_host_frame:
+                    return
+            raise AssertionError(f"no frame of host_frame {until_host_frame}; got {received[-5:]}")
+
+        ig.patch_state({"host_frame": 30_000}, minimal=True)
+        drain(30_000)
+        with httpx.Client(base_url=server.url) as mjpeg_http:
+            with mjpeg_http.stream("GET", "/v1/stream.mjpg", params={"frames": 0}) as mjpeg:
+                parts = iter_multipart_jpegs(mjpeg.iter_bytes())
+                next(parts)
+
+                service.kill_for_test()
+                assert not service.alive
+                # accepted while the render process is dead: must not be lost
+                ig.patch_state({"host_frame": 30_001, "weather": {"wind_speed": 17.5}}, minimal=True)
+                drain(30_001)
+                for _ in range(3):  # the MJPEG viewer keeps getting frames too
+                    assert next(parts)[:2] == b"\xff\xd8"
+    assert service.restarts == restarts + 1 and service.alive
+    assert ig.ready()["ready"] is True
+    state = ig.get_state()
+    assert state.host_frame == 30_001 and state.weather.wind_speed == 17.5
+    assert service.state.host_frame == 30_001  # and the service holds it for the next restart
+    assert received[-1] == 30_001
+
+
+def test_frame_route_reports_render_failure_as_problem(server, ig, monkeypatch):
+    def broken(scene=None, timed=False):
+        raise RuntimeError("GPU on fire")
+
+    monkeypatch.setattr(server.service, "render", broken)
+    ig.patch_state({"host_frame": 40_000}, minimal=True)
+    with pytest.raises(IGError) as info:
+        ig.get_frame()
+    assert info.value.status == 503 and info.value.problem["kind"] == "render_unavailable"

@@ -1,0 +1,170 @@
+"""Precomputed sky: tables, cache, colours, aerial perspective, extreme cases (tiny frames)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from igserver.render.frame import build_frame
+from igserver.render.renderer import Renderer
+from igserver.render.shaders import GLSL_VERSION, expand
+from igserver.render.sky.atmosphere_model import atmosphere_parameters
+from igserver.render.sky.frame_sky import scene_atmosphere
+from igserver.render.sky.tables import AtmosphereTables
+from igserver.scene.model import Scene
+
+W, H = 64, 36
+
+
+@pytest.fixture(scope="module")
+def renderer(tmp_path_factory):
+    mp = pytest.MonkeyPatch()
+    mp.setenv("IGSERVER_CACHE", str(tmp_path_factory.mktemp("igcache")))
+    r = Renderer()
+    yield r
+    r.release()
+    mp.undo()
+
+
+def scene(el=45.0, az=180.0, alt=2.0, pitch=10.0, heading=None, fov=60.0, x=0.0, **sections) -> Scene:
+    d = {"camera": {"width": W, "height": H, "fov_y": fov, "position": [x, 0.0, alt],
+                    "heading": az if heading is None else heading, "pitch": pitch},
+         "time": {"sun_override": {"elevation": el, "azimuth": az}}}
+    for key, value in sections.items():
+        d.setdefault(key, {}).update(value)
+    return Scene.model_validate(d)
+
+
+def radiance(renderer: Renderer, s: Scene) -> np.ndarray:
+    """Rendered linear radiance (cd/m^2), un-exposed."""
+    renderer.render(s)
+    exposure = build_frame(renderer.ctx, s).exposure
+    return renderer.read_hdr()[..., :3] / exposure
+
+
+def test_default_model_is_precomputed():
+    assert Scene().atmosphere.model == "precomputed"
+
+
+def test_tables_finite_and_transmittance_monotone(renderer):
+    s = scene()
+    renderer.render(s)
+    tables = AtmosphereTables.get(renderer.ctx, scene_atmosphere(s))
+    arrays = tables.arrays()
+    for name, a in arrays.items():
+        assert np.all(np.isfinite(a)), name
+        assert np.all(a[..., :3] >= 0.0), name
+    tau = arrays["transmittance"][..., :3]  # rows r, columns x_mu: path length grows along x
+    assert np.all(np.diff(tau, axis=1) >= -1e-5)
+    # And falls with altitude at a fixed path-length coordinate (less air above).
+    assert np.all(np.diff(tau[:, 0, :], axis=0) <= 1e-5)
+    assert tables.irradiance_host[..., :3].max() > 0.05
+
+
+def test_cache_hit_on_second_construction(renderer):
+    params = scene_atmosphere(scene())
+    renderer.render(scene())
+    again = AtmosphereTables(renderer.ctx, params)
+    try:
+        assert again.from_cache and again.precompute_s == 0.0
+    finally:
+        again.release()
+    # Same parameters: the resident tables are reused, not rebuilt.
+    assert AtmosphereTables.get(renderer.ctx, params) is AtmosphereTables.get(renderer.ctx, params)
+
+
+def test_parameters_change_the_key():
+    a, b = atmosphere_parameters(30_000.0), atmosphere_parameters(5_000.0)
+    assert a.key() != b.key() and a.key() == atmosphere_parameters(30_000.0).key()
+
+
+def test_sky_colour_noon_sunset_night(renderer):
+    noon = radiance(renderer, scene(el=60.0, pitch=60.0))
+    assert noon[..., 2].mean() > noon[..., 0].mean() * 1.3  # blue sky
+    assert 2e3 < noon.mean() < 2e4  # cd/m^2
+    sunset = radiance(renderer, scene(el=0.5, pitch=2.0))
+    row = sunset[H // 2 - 2 : H // 2 + 2, W // 2 - 4 : W // 2 + 4]  # just above the horizon toward the sun
+    assert row[..., 0].mean() > row[..., 2].mean()  # reddened
+    night = radiance(renderer, scene(el=-18.0, pitch=30.0))
+    assert night.mean() < 1e-2 * sunset.mean()
+    # Twilight fades without steps as the sun sinks: zenith luminance strictly decreasing.
+    zen = [radiance(renderer, scene(el=e, pitch=89.0))[H // 2, W // 2].mean() for e in (-2, -5, -8, -11, -14, -17)]
+    assert all(a > b for a, b in zip(zen, zen[1:])), zen
+    ratios = [a / b for a, b in zip(zen, zen[1:])]
+    assert max(ratios) < 30.0, ratios
+
+
+def _aerial(renderer: Renderer, s: Scene, points: np.ndarray, surface: float) -> np.ndarray:
+    """apply_aerial_perspective(surface radiance, rel) for camera-relative points, on the GPU."""
+    frame = build_frame(renderer.ctx, s)
+    src = "\n".join([GLSL_VERSION, "#define COMPUTE_SHADER 1", "layout(local_size_x = 1) in;",
+                     expand("common/frame.glsl"),
+                     expand("common/atmosphere.glsl", frozenset({"common/frame.glsl"})),
+                     "layout(std430, binding = 0) buffer Points { vec4 p[]; };",
+                     "layout(std430, binding = 1) buffer Out { vec4 o[]; };",
+                     "uniform float u_surface;",
+                     "void main() { uint i = gl_GlobalInvocationID.x;",
+                     "  o[i] = vec4(apply_aerial_perspective(vec3(u_surface), p[i].xyz), 0.0); }"])
+    prog = renderer.ctx.compute_shader(src)
+    for name, value in {**frame.uniforms, "u_surface": surface}.items():
+        if name in prog and hasattr(prog[name], "value"):
+            prog[name].value = value
+    pts = np.zeros((len(points), 4), "f4")
+    pts[:, :3] = points
+    inp = renderer.ctx.buffer(pts.tobytes())
+    out = renderer.ctx.buffer(reserve=pts.nbytes)
+    inp.bind_to_storage_buffer(0)
+    out.bind_to_storage_buffer(1)
+    prog.run(len(points))
+    result = np.frombuffer(out.read(), "f4").reshape(-1, 4)[:, :3].copy()
+    for obj in (inp, out, prog):
+        obj.release()
+    return result
+
+
+def test_aerial_perspective_distance_and_visibility(renderer):
+    dist = np.array([10.0, 100.0, 1e3, 5e3, 2e4, 6e4])
+    pts = np.stack([np.zeros_like(dist), dist, -1.9 * np.ones_like(dist)], axis=1)  # ground ahead
+    for vis in (30_000.0, 5_000.0):
+        s = scene(el=30.0, atmosphere={"visibility": vis})
+        black = _aerial(renderer, s, pts, 0.0).mean(axis=1)
+        white = _aerial(renderer, s, pts, 1e4).mean(axis=1)
+        assert np.all(np.isfinite(black)) and np.all(np.isfinite(white))
+        assert np.all(np.diff(black) > 0), (vis, black)  # in-scattering grows with distance
+        transmittance = (white - black) / 1e4
+        assert np.all(np.diff(transmittance) < 0), (vis, transmittance)
+    clear = _aerial(renderer, scene(el=30.0, atmosphere={"visibility": 50_000.0}), pts, 1e4).mean(axis=1)
+    hazy = _aerial(renderer, scene(el=30.0, atmosphere={"visibility": 2_000.0}), pts, 1e4).mean(axis=1)
+    # At 5 km a 10 klx-ish white wall keeps less of its own light in haze (~exp(-3.9*5/2)).
+    t_clear = _aerial(renderer, scene(el=30.0, atmosphere={"visibility": 50_000.0}), pts, 0.0).mean(axis=1)
+    t_hazy = _aerial(renderer, scene(el=30.0, atmosphere={"visibility": 2_000.0}), pts, 0.0).mean(axis=1)
+    assert (hazy - t_hazy)[3] < 0.1 * (clear - t_clear)[3]
+
+
+EXTREMES = {
+    "sun_zenith": dict(el=90.0),
+    "sun_horizon": dict(el=0.0, pitch=0.0),
+    "sun_minus18": dict(el=-18.0),
+    "observer_0m": dict(alt=0.0),
+    "observer_10km": dict(alt=10_000.0, pitch=-10.0),
+    "observer_100km": dict(alt=100_000.0, pitch=-20.0),
+    "water_1mm": dict(alt=0.001, pitch=-5.0, ocean={"enabled": True}),
+    "horizon_view": dict(pitch=0.0, fov=1.0),
+    "looking_down": dict(pitch=-90.0, alt=5_000.0),
+    "fog_50m": dict(atmosphere={"visibility": 50.0}),
+    "clear_200km": dict(atmosphere={"visibility": 200_000.0}),
+    "camera_1e6m": dict(x=1e6, weather={"cirrus_coverage": 0.6}),
+    "cirrus_twilight": dict(el=-4.0, pitch=30.0, weather={"cirrus_coverage": 0.8, "wind_speed": 40.0},
+                            time={"sim_time": 1e9}),
+    "gradient_tier": dict(atmosphere={"model": "gradient"}, weather={"cirrus_coverage": 0.5}),
+}
+
+
+@pytest.mark.parametrize("name", list(EXTREMES))
+def test_extreme_cases_render_finite(renderer, name):
+    s = scene(**EXTREMES[name])
+    result = renderer.render(s)
+    hdr = renderer.read_hdr()
+    assert np.all(np.isfinite(hdr)), name
+    assert hdr[..., :3].max() > 1e-3, name  # not a black frame
+    assert result.rgba[..., :3].mean() > 1.0, name

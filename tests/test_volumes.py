@@ -1,0 +1,276 @@
+"""Volumetric fire and smoke: pass planning, fade, depth clipping, camera inside, stability, many
+effects, picture checks. Tiny frames (96x54) on the session's renderer."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from igserver.render import lights as lights_module
+from igserver.render.graph import plan_passes
+from igserver.render.volumes.effects import NOISE_PERIOD, effect_volumes, fade_level
+from igserver.scene import Scene, apply_patch
+
+W, H = 96, 54
+NIGHT = "2026-01-15T22:00:00Z"
+
+
+def fire_scene(effects=None, camera=None, sim_time=100.0, **extra) -> Scene:
+    cam = {"position": [0.0, -14.0, 3.0], "pitch": 5.0, "width": W, "height": H, "exposure_ev": 10.0}
+    cam.update(camera or {})
+    data = {
+        "camera": cam,
+        "time": {"utc": NIGHT, "sim_time": sim_time},
+        "weather": {"wind_speed": 0.0},
+        "effects": effects if effects is not None else [{"id": "f", "type": "fire", "diameter": 2.0}],
+    }
+    data.update(extra)
+    return Scene.model_validate(data)
+
+
+@pytest.fixture
+def no_fire_lights(monkeypatch):
+    """Only the volume's own radiance changes between renders (the fire's light also lights the box)."""
+    monkeypatch.setattr(lights_module, "LIGHT_SOURCES", [lights_module.host_lights])
+
+
+def render_hdr(renderer, scene):
+    result = renderer.render(scene)
+    return result, renderer.read_hdr()[..., :3]
+
+
+# -- planning (no GL) ----------------------------------------------------------------------------
+
+def test_pass_absent_without_visible_effects():
+    assert "volumes" not in plan_passes(fire_scene(effects=[]))
+    assert "depth_copy" not in plan_passes(fire_scene(effects=[]))
+    assert plan_passes(fire_scene())[-3:] == ["depth_copy", "volumes", "post"]
+    # inactive forever, fully faded out, zero size, behind the camera
+    cases = [
+        {"id": "f", "active": False},
+        {"id": "f", "active": False, "changed_at": 10.0, "fade": 3.0},
+        {"id": "f", "diameter": 0.0},
+        {"id": "f", "position": [0.0, -60.0, 0.0]},
+        {"id": "f", "intensity": 0.0},
+    ]
+    for effect in cases:
+        names = plan_passes(fire_scene(effects=[effect]))
+        assert "volumes" not in names and "depth_copy" not in names, effect
+    # still fading out: present
+    assert "volumes" in plan_passes(fire_scene(effects=[{"id": "f", "active": False, "changed_at": 99.0}]))
+
+
+def test_pass_absent_costs_nothing(renderer):
+    off = fire_scene(effects=[{"id": "f", "active": False}])
+    result = renderer.render(off, timed=True)
+    assert "volumes" not in result.passes and "volumes" not in result.pass_ms
+
+
+def test_fade_level_monotone():
+    effect = {"id": "f", "changed_at": 10.0, "fade": 4.0}
+    times = np.linspace(5.0, 20.0, 61)
+    up = [fade_level(fire_scene(effects=[dict(effect, active=True)]).effects[0], t) for t in times]
+    down = [fade_level(fire_scene(effects=[dict(effect, active=False)]).effects[0], t) for t in times]
+    assert np.all(np.diff(up) >= 0.0) and up[0] == 0.0 and up[-1] == 1.0
+    assert np.all(np.diff(down) <= 0.0) and down[0] == 1.0 and down[-1] == 0.0
+    zero = fire_scene(effects=[dict(effect, fade=0.0)]).effects[0]
+    assert fade_level(zero, 9.9) == 0.0 and fade_level(zero, 10.0) == 1.0
+
+
+def test_fade_in_and_out_rendered_monotone(renderer, no_fire_lights):
+    base = fire_scene(effects=[])
+    _, background = render_hdr(renderer, base)
+    for active, sign in ((True, 1.0), (False, -1.0)):
+        energies = []
+        for s in (0.0, 0.25, 0.5, 0.75, 1.0):
+            effect = {"id": "f", "diameter": 2.0, "active": active, "changed_at": 100.0, "fade": 4.0}
+            _, hdr = render_hdr(renderer, fire_scene(effects=[effect], sim_time=100.0 + 4.0 * s + 1e-3))
+            energies.append(float(np.sum(np.abs(hdr - background))))
+        assert np.all(sign * np.diff(energies) > 0.0), (active, energies)
+
+
+# -- pictures ------------------------------------------------------------------------------------
+
+def test_night_fire_bright_and_warm(renderer, no_fire_lights):
+    _, background = render_hdr(renderer, fire_scene(effects=[]))
+    result, hdr = render_hdr(renderer, fire_scene())
+    assert result.passes[-3:] == ["depth_copy", "volumes", "post"]
+    assert np.all(np.isfinite(hdr))
+    covered = np.abs(hdr - background).sum(-1) > 1e-2
+    assert 0.01 < covered.mean() < 0.5
+    rgb = hdr[covered]
+    assert rgb[:, 0].mean() > 1.5 * rgb[:, 2].mean()  # warm: red over blue
+    assert rgb.mean() > 3.0 * background[covered].mean() + 0.01
+    # the 8-bit output is warm too
+    out = result.rgba[covered].astype(float)
+    assert out[:, 0].mean() > out[:, 2].mean() + 30
+
+
+def test_fire_light_lights_the_ground(renderer):
+    _, dark = render_hdr(renderer, fire_scene(effects=[]))
+    _, lit = render_hdr(renderer, fire_scene())
+    ground = slice(H - 8, H)  # bottom rows: ground in front of the fire
+    assert lit[ground].mean() > 5.0 * dark[ground].mean() + 1e-3
+    assert lit[ground][..., 0].mean() > lit[ground][..., 2].mean()
+
+
+def test_smoke_lit_by_day_darker_at_night(renderer):
+    smoke = [{"id": "s", "type": "smoke", "position": [0.0, 10.0, 0.0], "diameter": 3.0}]
+    day_utc, night_utc = "2026-06-21T10:00:00Z", NIGHT
+    cam = {"exposure_ev": 12.0}
+    means, covered = {}, None
+    for name, utc in (("day", day_utc), ("night", night_utc)):
+        _, bg = render_hdr(renderer, apply_patch(fire_scene(effects=[], camera=cam), {"time": {"utc": utc}}))
+        _, hdr = render_hdr(renderer, apply_patch(fire_scene(effects=smoke, camera=cam), {"time": {"utc": utc}}))
+        assert np.all(np.isfinite(hdr))
+        if covered is None:  # where the smoke changes the day picture
+            covered = np.abs(hdr - bg).sum(-1) > 1e-3
+            assert covered.mean() > 0.01
+            # lit smoke is greyer than the blue sky behind it
+            def saturation(x):
+                return float(np.mean((x.max(-1) - x.min(-1)) / (x.max(-1) + 1e-6)))
+            assert saturation(hdr[covered]) < saturation(bg[covered])
+        means[name] = float(hdr[covered].mean())
+    assert means["day"] > 20.0 * means["night"]
+
+
+def test_depth_clipping_against_an_entity(renderer, no_fire_lights):
+    """A box in front of the fire hides it; a box inside it hides the part behind its face."""
+    box = {"id": "b", "model": "box", "scale": [1.0, 1.0, 1.0], "color": [0.5, 0.5, 0.5]}
+    centre = (slice(H // 2 - 2, H // 2 + 2), slice(W // 2 - 1, W // 2 + 2))
+    cam = {"position": [0.0, -14.0, 1.5], "pitch": 0.0}
+
+    def fire_part(box_y):
+        entities = [dict(box, position=[0.0, box_y, 1.0])] if box_y is not None else []
+        _, without = render_hdr(renderer, fire_scene(effects=[], camera=cam, entities=entities))
+        _, with_fire = render_hdr(renderer, fire_scene(camera=cam, entities=entities))
+        return float((with_fire - without)[centre].sum())
+
+    free = fire_part(None)
+    inside = fire_part(0.0)   # box face at y = -0.5, inside the container (radius 1.1 m)
+    in_front = fire_part(-6.0)  # box between the camera and the fire
+    assert free > 0.0
+    assert 0.02 * free < inside < 0.8 * free
+    assert abs(in_front) < 1e-3 * free
+
+
+def test_camera_inside_the_container(renderer):
+    for position in ([0.2, 0.1, 1.0], [0.0, 0.0, 0.0]):
+        result, hdr = render_hdr(renderer, fire_scene(camera={"position": position, "pitch": 30.0, "exposure_ev": 12.0}))
+        assert "volumes" in result.passes
+        assert np.all(np.isfinite(hdr))
+        assert result.rgba[..., :3].mean() > 30  # not black
+        assert hdr.max() < 6.0e4
+
+
+def test_long_sim_time_stable(renderer, no_fire_lights):
+    """sim_time 1e6 and 1e9 s look statistically like 100 s: the noise scroll is reduced in float64."""
+    stats = {}
+    for t in (100.0, 100.5, 1e6, 1e9):
+        scene = fire_scene(sim_time=t)
+        vol = effect_volumes(scene.effects[0], scene)[0]
+        assert 0.0 <= vol.noise_offset(t) < NOISE_PERIOD
+        _, hdr = render_hdr(renderer, scene)
+        assert np.all(np.isfinite(hdr))
+        lum = hdr @ np.array([0.2126, 0.7152, 0.0722])
+        stats[t] = (lum.mean(), lum.std(), (lum > 0.05).mean())
+    ref = stats[100.0]
+    for t in (100.5, 1e6, 1e9):
+        for a, b in zip(stats[t], ref):
+            assert abs(a - b) < 0.25 * abs(b), (t, stats[t], ref)
+    # it animates: different times give different pictures
+    _, a = render_hdr(renderer, fire_scene(sim_time=1e6))
+    _, b = render_hdr(renderer, fire_scene(sim_time=1e6 + 0.2))
+    assert np.abs(a - b).mean() > 1e-4
+
+
+def test_sixteen_effects(renderer):
+    effects = []
+    for i in range(16):
+        kind = ("fire", "fire", "gas_burner", "smoke")[i % 4]
+        effects.append({"id": f"e{i}", "type": kind, "diameter": 1.0 + 0.2 * (i % 3), "seed": i,
+                        "emits_smoke": i % 8 == 0, "position": [(i % 4 - 1.5) * 6.0, 10.0 + (i // 4) * 6.0, 0.0]})
+    scene = fire_scene(effects=effects, camera={"position": [0.0, -20.0, 8.0], "pitch": -5.0})
+    result, hdr = render_hdr(renderer, scene)
+    stats = renderer.graph.passes["volumes"].stats
+    assert "volumes" in result.passes
+    assert stats["drawn"] == 18  # 16 containers + the smoke of the two smoking fires
+    assert np.all(np.isfinite(hdr))
+    # modelled once; the same state again only marches
+    renderer.render(scene)
+    assert renderer.graph.passes["volumes"].stats["modelled"] == 0
+    renderer.render(apply_patch(scene, {"time": {"sim_time": 100.1}}))
+    assert renderer.graph.passes["volumes"].stats["modelled"] == 18
+
+
+def test_profile_image_accepted(renderer, tmp_path, no_fire_lights):
+    from PIL import Image
+
+    img = np.zeros((64, 32, 4), np.uint8)
+    img[16:, 8:24] = (255, 80, 10, 255)  # a block of orange from the bottom to 3/4 height
+    path = tmp_path / "profile.png"
+    Image.fromarray(img).save(path)
+    _, bg = render_hdr(renderer, fire_scene(effects=[]))
+    _, hdr = render_hdr(renderer, fire_scene(effects=[{"id": "p", "diameter": 2.0, "profile": str(path)}]))
+    covered = np.abs(hdr - bg).sum(-1) > 1e-2
+    assert covered.mean() > 0.01 and np.all(np.isfinite(hdr))
+    assert hdr[covered][:, 0].mean() > 2.0 * hdr[covered][:, 2].mean()
+
+
+# -- noise ---------------------------------------------------------------------------------------
+
+NOISE_PROBE = """
+#include "common/noise.glsl"
+layout(local_size_x = 64) in;
+layout(std430, binding = 0) readonly buffer Points { vec4 points[]; };
+layout(std430, binding = 1) writeonly buffer Values { float values[]; };
+uniform vec3 u_period;
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    values[i] = simplex3(points[i].xyz, u_period, 11u);
+}
+"""
+
+
+def _noise(renderer, points: np.ndarray, period=(0.0, 0.0, 0.0)) -> np.ndarray:
+    from igserver.render import shaders
+
+    if not hasattr(renderer, "_noise_probe"):
+        src = shaders._INCLUDE.sub(lambda m: shaders.expand(m.group(1)), NOISE_PROBE)
+        renderer._noise_probe = renderer.ctx.compute_shader(shaders.GLSL_VERSION + "\n" + src)
+    n = len(points)
+    data = np.zeros((n, 4), np.float32)
+    data[:, :3] = points
+    src_buf, dst_buf = renderer.ctx.buffer(data.tobytes()), renderer.ctx.buffer(reserve=n * 4)
+    src_buf.bind_to_storage_buffer(0)
+    dst_buf.bind_to_storage_buffer(1)
+    renderer._noise_probe["u_period"].value = period
+    renderer._noise_probe.run((n + 63) // 64)
+    out = np.frombuffer(dst_buf.read(), np.float32).copy()
+    src_buf.release()
+    dst_buf.release()
+    return out
+
+
+def test_noise_range_continuity_and_period(renderer):
+    rng = np.random.default_rng(0)
+    values = _noise(renderer, rng.uniform(-40.0, 40.0, (50_000, 3)))
+    assert 0.85 < np.abs(values).max() <= 1.2 and abs(values.mean()) < 0.01
+    # no seams: along random lines the steps stay at the size the smooth slope allows
+    d = rng.normal(size=(200, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    s = np.linspace(0.0, 2.0, 1001)
+    pts = (rng.uniform(-20, 20, (200, 1, 3)) + s[None, :, None] * d[:, None, :]).reshape(-1, 3)
+    steps = np.abs(np.diff(_noise(renderer, pts).reshape(200, 1001), axis=1))
+    assert steps.max() < 8.0 * np.median(steps) + 1e-3
+    # periodic along z: the scroll can wrap without a jump
+    p = rng.uniform(-10.0, 10.0, (5000, 3))
+    a = _noise(renderer, p, (0.0, 0.0, NOISE_PERIOD))
+    b = _noise(renderer, p + [0.0, 0.0, NOISE_PERIOD], (0.0, 0.0, NOISE_PERIOD))
+    assert np.abs(a - b).max() < 1e-4
+    # no streaks: the correlation along the diagonal equals that along an axis
+    base = rng.uniform(-30.0, 30.0, (20_000, 3))
+    v0 = _noise(renderer, base)
+    axis = np.corrcoef(v0, _noise(renderer, base + [0.3, 0.0, 0.0]))[0, 1]
+    diag = np.corrcoef(v0, _noise(renderer, base + np.array([0.3, 0.3, 0.3]) / np.sqrt(3.0)))[0, 1]
+    assert abs(axis - diag) < 0.03
