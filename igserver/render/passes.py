@@ -41,5 +41,5 @@ class DepthCopyPass(RenderPass):
     name = "depth_copy"
 
     def execute(self, frame, targets: Targets) -> None:
-        self.ctx.copy_framebuffer(targets.distance_copy_fbo, targets.scene_fbo)
+        self.ctx.copy_framebuffer(targets.distance_copy_fbo, targets.distance_fbo)
         frame.resources["scene_distance"] = targets.distance_copy

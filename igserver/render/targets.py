@@ -14,6 +14,7 @@ class Targets:
         self.scene_fbo = ctx.framebuffer([self.hdr, self.distance], self.depth)
         # Passes that blend into the colour while sampling scene distance draw here (no distance target).
         self.color_fbo = ctx.framebuffer([self.hdr], self.depth)
+        self.distance_fbo = ctx.framebuffer([self.distance])  # read side of the depth copy (one attachment)
         self.distance_copy = ctx.texture(self.size, 1, dtype="f4")
         self.distance_copy_fbo = ctx.framebuffer([self.distance_copy])
         self.ldr = ctx.texture(self.size, 4)
@@ -23,6 +24,6 @@ class Targets:
             tex.repeat_x = tex.repeat_y = False
 
     def release(self) -> None:
-        for obj in (self.scene_fbo, self.color_fbo, self.distance_copy_fbo, self.ldr_fbo,
+        for obj in (self.scene_fbo, self.color_fbo, self.distance_fbo, self.distance_copy_fbo, self.ldr_fbo,
                     self.hdr, self.distance, self.depth, self.distance_copy, self.ldr):
             obj.release()

@@ -62,7 +62,7 @@ class TableSizes:
 PRESETS: dict[str, TableSizes] = {
     "low": TableSizes((64, 16), (32, 8), 8, 32, 8, 8, 2, 6),
     "medium": TableSizes(),
-    "high": TableSizes((256, 64), (64, 16), 32, 128, 32, 8, 6, 12),
+    "high": TableSizes((256, 64), (64, 16), 32, 128, 32, 8, 6, 8),
 }
 
 

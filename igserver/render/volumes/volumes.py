@@ -26,7 +26,6 @@ from ...scene.model import Scene
 from ..camera import CameraView
 from ..passes import RenderPass
 from ..shaders import set_uniforms
-from . import depth_copy  # noqa: F401  (fallback for DepthCopyPass, see the module)
 from .effects import NOISE_PERIOD, NOISE_SCALE, Volume, visible_volumes
 from .fire_lights import fire_light
 from .profiles import FIRE_SMOKE_ALBEDO, SMOKE_ALBEDO, load_profile
