@@ -63,6 +63,22 @@ class FrameContext:
         return self.scene.location.altitude + float(self.view.position[2])
 
 
+# Local lights meter brighter on the surfaces they light than at the camera: the lit ground near a
+# fire is a few times closer to it than the camera usually is.
+LIGHT_METER_GAIN = 4.0
+
+
+def auto_ev100(daylight_ev100: float, lights: list[PointLight], view) -> float:
+    """Automatic exposure: the daylight's EV100 raised by the illuminance local lights (fires,
+    lamps) cast near the camera, so a night fire is exposed like a camera operator would."""
+    e_lights = 0.0
+    for light in lights:
+        d2 = float(np.sum(view.relative(light.position) ** 2))
+        e_lights += float(np.dot([0.2126, 0.7152, 0.0722], light.color)) / max(d2, 1.0)
+    # EV100 = log2(E * S / C) with S = 100, C = 250 (incident-light meter)
+    return math.log2(2.0**daylight_ev100 + LIGHT_METER_GAIN * e_lights * 100.0 / 250.0)
+
+
 def build_frame(ctx: moderngl.Context, scene: Scene) -> FrameContext:
     view = make_view(scene.camera)
     celestial = sun_and_moon(scene)
@@ -70,8 +86,9 @@ def build_frame(ctx: moderngl.Context, scene: Scene) -> FrameContext:
     # Sky: resident atmosphere tables (bound on units 12..15), the light they imply, sky uniforms.
     sky = sky_frame(ctx, scene, celestial, altitude, view.position[:2])
     light = sky.light
-    exposure = light.exposure(scene.camera.exposure_ev)
     lights = gather_lights(scene, view, MAX_LIGHTS)
+    exposure = light.exposure(scene.camera.exposure_ev if scene.camera.exposure_ev is not None
+                              else auto_ev100(light.ev100, lights, view))
     frame = FrameContext(ctx, scene, view, celestial, light, exposure, lights)
     frame.resources["atmosphere_tables"] = sky.tables
     frame.uniforms = common_uniforms(frame)
