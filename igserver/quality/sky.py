@@ -17,6 +17,7 @@ import argparse
 import json
 import math
 import os
+import shutil
 import tempfile
 import time
 from dataclasses import replace
@@ -28,7 +29,7 @@ from ..render.frame import build_frame
 from ..render.renderer import Renderer
 from ..render.shaders import GLSL_VERSION, expand
 from ..render.sky import atmosphere_model as am
-from ..render.sky.tables import AtmosphereTables
+from ..render.sky.tables import AtmosphereTables, cache_dir
 from ..scene.model import Scene
 from .reference_sky import single_scattering
 
@@ -160,6 +161,7 @@ def run(argv: list[str]) -> int:
             sizes = replace(am.PRESETS[quality], orders=orders)
             params = am.atmosphere_parameters(sizes=sizes)
             AtmosphereTables._resident.pop(renderer.ctx, None)
+            shutil.rmtree(cache_dir(), ignore_errors=True)  # time a real computation, not a load
             tables = AtmosphereTables.get(renderer.ctx, params)
             row["precompute_s"] = round(tables.precompute_s, 2)
             row["sizes"] = f"T{sizes.transmittance[0]}x{sizes.transmittance[1]} S{sizes.r}x{sizes.mu}x{sizes.mu_s}x{sizes.nu}"

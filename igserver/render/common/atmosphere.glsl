@@ -15,7 +15,8 @@
 // on texture units 12..15 by the frame (sky/tables.py). The camera sits at radius
 // r = R_g + h above the centre of a spherical earth directly below it (x east, y north, z up):
 //   L_sky(v)      = E_sun [ S_R(r, mu, mu_s, nu) P_R(nu) + S_M(...) P_M(nu) ]
-//   L(x -> p)     = L_surface T(x, p) + E_sun [ S(x, v) - T(x, p) S(p, v) ]     (aerial perspective)
+//   L(x -> p)     = L_surface T(x, p) + L_sky(v) (1 - T(x, p)) / (1 - T(x, end))   (aerial perspective,
+//                   see precomputed_aerial for why not Bruneton's S(x,v) - T(x,p) S(p,v))
 #include "sky/atmosphere_functions.glsl"
 
 uniform vec3 u_sky_zenith;      // cd/m^2
@@ -138,7 +139,36 @@ vec3 precomputed_sky(vec3 dir, out vec3 transmittance) {
     return radiance * u_solar_illuminance;
 }
 
+// Optical depth of the segment [0, d] from (r, mu): Simpson's rule on the extinction profile
+// for segments up to 200 km (the difference of two table lookups is all interpolation error for
+// the tens of metres to a surface in haze), the tables beyond.
+vec3 segment_optical_depth(float r, float mu, float d, bool hits_ground) {
+    if (d > 200.0) return optical_depth_segment(u_transmittance_lut, r, mu, d, hits_ground);
+    const int N = 16;  // even
+    vec3 sum = vec3(0.0);
+    for (int i = 0; i <= N; ++i) {
+        float di = d * float(i) / float(N);
+        float ri = sqrt(di * di + 2.0 * r * mu * di + r * r);
+        float w = (i == 0 || i == N) ? 1.0 : ((i % 2 == 1) ? 4.0 : 2.0);
+        sum += w * extinction_km(ri - u_bottom_radius_km);
+    }
+    return sum * d / (3.0 * float(N));
+}
+
+// 1 - exp(-tau), without cancellation for small tau.
+vec3 one_minus_exp(vec3 tau) {
+    return mix(1.0 - exp(-min(tau, vec3(80.0))), tau * (1.0 - 0.5 * tau), lessThan(tau, vec3(1e-3)));
+}
+
 // Transmittance from the camera to a camera-relative point (m) and the in-scattered radiance.
+//
+// Bruneton's S(x,v) - T(x,p) S(p,v) subtracts two table lookups; with visibility of a few km the
+// two are nearly equal for points tens of metres away and the table error (not the physics)
+// decides the result. Instead, the in-scattering of the whole ray, S(x,v) (to space or to the
+// ground), is shared out along the ray in proportion to its optical depth:
+//   I(x -> p) = S(x, v) (1 - T(x,p)) / (1 - T(x,end)),
+// exact for a medium of uniform illumination and albedo along the ray, monotone in distance
+// and in extinction by construction, and it costs one lookup pair instead of two.
 vec3 precomputed_aerial(vec3 radiance, vec3 rel) {
     float d = length(rel) * 0.001;  // km
     if (!(d > 1e-7)) return radiance;
@@ -154,22 +184,38 @@ vec3 precomputed_aerial(vec3 radiance, vec3 rel) {
     float mu_s = clamp_cosine(dot(x, u_sun_dir) / r);
     float nu = clamp_cosine(dot(dir, u_sun_dir));
     bool hits_ground = ray_hits_ground(r, mu);
+    float d_end = distance_to_nearest_boundary(r, mu, hits_ground);
     // The flat world may put a point past the spherical ground: stop the segment on the ground.
-    if (hits_ground) d = min(d, distance_to_bottom(r, mu));
-    vec3 t = transmittance_segment(u_transmittance_lut, r, mu, d, hits_ground);
+    d = min(d, d_end);
+    vec3 tau_p = segment_optical_depth(r, mu, d, hits_ground);
+    vec3 tau_end = hits_ground ? optical_depth_segment(u_transmittance_lut, r, mu, d_end, true)
+                               : optical_depth_to_top(u_transmittance_lut, r, mu);
+    tau_end = max(tau_end, tau_p);
+    vec3 share = one_minus_exp(tau_p) / max(one_minus_exp(tau_end), vec3(1e-12));
+    share = clamp(share, 0.0, 1.0);
     vec3 s = scattering_lookup(u_scattering_lut, r, mu, mu_s, nu, hits_ground).rgb;
     vec3 m = scattering_lookup(u_single_mie_lut, r, mu, mu_s, nu, hits_ground).rgb;
-    float r_p = clamp_radius(sqrt(d * d + 2.0 * r * mu * d + r * r));
-    float mu_p = clamp_cosine((r * mu + d) / r_p);
-    float mu_s_p = clamp_cosine((r * mu_s + d * nu) / r_p);
-    vec3 s_p = scattering_lookup(u_scattering_lut, r_p, mu_p, mu_s_p, nu, hits_ground).rgb;
-    vec3 m_p = scattering_lookup(u_single_mie_lut, r_p, mu_p, mu_s_p, nu, hits_ground).rgb;
-    s = max(s - t * s_p, vec3(0.0));
-    // Mie single scattering near the terminator comes from a small difference of large terms;
-    // Bruneton fades it out as the sun sets below the point's horizon.
-    m = max(m - t * m_p, vec3(0.0)) * smoothstep(-0.02, 0.02, mu_s);
-    vec3 inscatter = (s * rayleigh_phase(nu) + m * mie_phase(u_mie_g, nu)) * u_solar_illuminance;
-    return radiance * t + inscatter;
+    vec3 inscatter = (s * rayleigh_phase(nu) + m * mie_phase(u_mie_g, nu)) * u_solar_illuminance * share;
+    if (hits_ground) {
+        // Below the first altitude row of the table (h_1 = (H / (N_r - 1))^2 / 2 R_g, ~0.5 km)
+        // a ground-bound ray's S interpolates between h = 0 (zero path) and h_1 (a long one).
+        // Near the ground take the source from the ray just above the horizon instead, whose
+        // in-scattering is resolved, and share it out by the optical depth along that ray.
+        float n_r = float(textureSize(u_scattering_lut, 0).z);
+        float h1 = pow(atmosphere_H() / (n_r - 1.0), 2.0) / (2.0 * u_bottom_radius_km);
+        float w = smoothstep(0.0, h1, r - u_bottom_radius_km);
+        if (w < 1.0) {
+            float mu_h = -safe_sqrt(1.0 - (u_bottom_radius_km / r) * (u_bottom_radius_km / r));
+            float mu_up = min(mu_h + 0.002, 1.0);
+            vec3 tau_up = optical_depth_to_top(u_transmittance_lut, r, mu_up);
+            vec3 s_up = scattering_lookup(u_scattering_lut, r, mu_up, mu_s, nu, false).rgb;
+            vec3 m_up = scattering_lookup(u_single_mie_lut, r, mu_up, mu_s, nu, false).rgb;
+            vec3 share_up = clamp(one_minus_exp(tau_p) / max(one_minus_exp(max(tau_up, tau_p)), vec3(1e-12)), 0.0, 1.0);
+            vec3 near = (s_up * rayleigh_phase(nu) + m_up * mie_phase(u_mie_g, nu)) * u_solar_illuminance * share_up;
+            inscatter = mix(near, inscatter, w);
+        }
+    }
+    return radiance * exp(-min(tau_p, vec3(80.0))) + inscatter;
 }
 
 // Whether a direction from the camera reaches space rather than the ground.

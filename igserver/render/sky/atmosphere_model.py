@@ -48,7 +48,7 @@ class TableSizes:
     irradiance: tuple[int, int] = (32, 8)  # (mu_s, r)
     r: int = 16
     mu: int = 64
-    mu_s: int = 16
+    mu_s: int = 32  # twilight: 16 leaves steps of up to 10x per degree in zenith luminance
     nu: int = 8
     orders: int = 4
     density_samples: int = 8  # theta samples of the scattering density sphere (phi: 2x)

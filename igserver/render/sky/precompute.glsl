@@ -24,6 +24,7 @@ layout(binding = 3) uniform sampler3D u_delta_mie_in;        // unit 3
 layout(binding = 4) uniform sampler3D u_delta_multiple_in;   // unit 4
 layout(binding = 5) uniform sampler3D u_delta_density_in;    // unit 5
 uniform int u_order;
+uniform int u_tail;  // 1 on the last order (>= 3): add the geometric tail of the missing orders
 
 #ifndef DENSITY_SAMPLES
 #define DENSITY_SAMPLES 8
@@ -138,23 +139,29 @@ void main() {
     float r, mu, mu_s, nu;
     bool hits_ground;
     scattering_params(texel, size, r, mu, mu_s, nu, hits_ground);
-    // J_1 = beta(y) T(x,y) T(y,sun); integrate over the segment to the nearest boundary.
+    // J_1 = beta(y) T(x,y) T(y,sun); integrate over the segment to the nearest boundary with the
+    // trapezoid rule on d_i = D (i/N)^2: uniform steps over-estimate (convexity) when a 1 km
+    // aerosol layer is crossed by 4 km steps; squeezed steps resolve it near the observer.
     const int N = 48;
     float D = distance_to_nearest_boundary(r, mu, hits_ground);
-    float dx = D / float(N);
     vec3 rayleigh = vec3(0.0), mie = vec3(0.0);
+    float d_prev = 0.0;
     for (int i = 0; i <= N; ++i) {
-        float d = float(i) * dx;
+        float x = float(i) / float(N);
+        float d = D * x * x;
         float r_d = clamp_radius(sqrt(d * d + 2.0 * r * mu * d + r * r));
         float mu_s_d = clamp_cosine((r * mu_s + d * nu) / r_d);
         vec3 t = transmittance_segment(u_transmittance_in, r, mu, d, hits_ground)
                * transmittance_to_sun(u_transmittance_in, r_d, mu_s_d);
-        float w = (i == 0 || i == N) ? 0.5 : 1.0;
+        // trapezoid weight of node i on a non-uniform grid: (d_{i+1} - d_{i-1}) / 2
+        float x_next = float(min(i + 1, N)) / float(N);
+        float w = 0.5 * (D * x_next * x_next - d_prev);
         rayleigh += w * t * rayleigh_density(r_d - u_bottom_radius_km);
         mie += w * t * mie_density(r_d - u_bottom_radius_km);
+        d_prev = d;
     }
-    imageStore(u_out_rayleigh, texel, vec4(rayleigh * dx * u_rayleigh_scattering_km, 0.0));
-    imageStore(u_out_mie, texel, vec4(mie * dx * u_mie_scattering_km, 0.0));
+    imageStore(u_out_rayleigh, texel, vec4(rayleigh * u_rayleigh_scattering_km, 0.0));
+    imageStore(u_out_mie, texel, vec4(mie * u_mie_scattering_km, 0.0));
 }
 
 #elif defined(STAGE_SCATTERING_DENSITY)
@@ -236,7 +243,7 @@ void main() {
 }
 
 #elif defined(STAGE_MULTIPLE_SCATTERING)
-layout(binding = 0, rgba32f) uniform writeonly image3D u_out_delta;
+layout(binding = 0, rgba32f) uniform image3D u_out_delta;  // read: dS(n-1), then write dS(n)
 layout(binding = 1, rgba32f) uniform image3D u_accumulate;
 void main() {
     ivec3 texel = ivec3(gl_GlobalInvocationID);
@@ -246,18 +253,31 @@ void main() {
     bool hits_ground;
     scattering_params(texel, size, r, mu, mu_s, nu, hits_ground);
     const int N = 32;
-    float dx = distance_to_nearest_boundary(r, mu, hits_ground) / float(N);
+    float D = distance_to_nearest_boundary(r, mu, hits_ground);
     vec3 result = vec3(0.0);
+    float d_prev = 0.0;
     for (int i = 0; i <= N; ++i) {
-        float d = float(i) * dx;
+        float x = float(i) / float(N);
+        float d = D * x * x;  // squeezed toward the observer, as in single scattering
         float r_i = clamp_radius(sqrt(d * d + 2.0 * r * mu * d + r * r));
         float mu_i = clamp_cosine((r * mu + d) / r_i);
         float mu_s_i = clamp_cosine((r * mu_s + d * nu) / r_i);
         vec3 j = scattering_lookup(u_delta_density_in, r_i, mu_i, mu_s_i, nu, hits_ground).rgb;
-        float w = (i == 0 || i == N) ? 0.5 : 1.0;
-        result += w * j * transmittance_segment(u_transmittance_in, r, mu, d, hits_ground) * dx;
+        float x_next = float(min(i + 1, N)) / float(N);
+        float w = 0.5 * (D * x_next * x_next - d_prev);
+        result += w * j * transmittance_segment(u_transmittance_in, r, mu, d, hits_ground);
+        d_prev = d;
+    }
+    vec3 total = result;
+    if (u_tail != 0) {
+        // Last order computed: add the geometric tail of the orders not computed,
+        // sum_{k>n} dS_k ~ dS_n q / (1 - q) with q = dS_n / dS_{n-1} per channel (clamped), so
+        // that thick haze converges without ~20 orders (the series' ratio settles after 3-4).
+        vec3 prev = imageLoad(u_out_delta, texel).rgb;
+        vec3 q = clamp(result / max(prev, vec3(1e-30)), 0.0, 0.8);
+        total = result / (1.0 - q);
     }
     imageStore(u_out_delta, texel, vec4(result, 0.0));
-    imageStore(u_accumulate, texel, imageLoad(u_accumulate, texel) + vec4(result / rayleigh_phase(nu), 0.0));
+    imageStore(u_accumulate, texel, imageLoad(u_accumulate, texel) + vec4(total / rayleigh_phase(nu), 0.0));
 }
 #endif

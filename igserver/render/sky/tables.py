@@ -204,8 +204,10 @@ class AtmosphereTables:
             run(indirect, s.irradiance)
             # dS(order) = integral of T dJ;  S += dS / P_R(nu)
             delta_density.use(5)
-            delta_multiple.bind_to_image(0, read=False, write=True)
+            delta_multiple.bind_to_image(0, read=True, write=True)
             self.scattering.bind_to_image(1, read=True, write=True)
+            if "u_tail" in multiple:
+                multiple["u_tail"].value = int(order == s.orders and order >= 3)
             run(multiple, s.scattering, True)
         self.ctx.finish()
         for tex in (delta_irradiance, delta_rayleigh, delta_mie, delta_multiple, delta_density):
