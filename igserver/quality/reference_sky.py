@@ -7,7 +7,7 @@
   ground) with 240 samples squeezed toward the observer; at each sample the sun's optical depth is
   integrated along its own ray with 240 samples (earth-blocked rays give zero), the view ray's
   optical depth is a cumulative trapezoid. No table, no float32, no parameterisation.
-* Multiple scattering L_ms (orders >= 2): taken from the GPU tables at the "high" preset with 12
+* Multiple scattering L_ms (orders >= 2): taken from the GPU tables at moderate size with many
   orders, as (full - single) of those tables. Multiple scattering is smooth in every angle, so
   table resolution errors concentrate in single scattering (aureole, horizon, terminator), which
   the reference computes exactly. This is the reference's documented limitation: it does not

@@ -36,7 +36,7 @@ from .reference_sky import single_scattering
 SUN_ZENITHS = (30.0, 65.0, 88.0, 95.0, 100.0)
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 # Multiple scattering of the reference: smooth, so moderate tables with many orders.
-REFERENCE_MS = am.TableSizes((256, 64), (64, 16), 16, 64, 32, 8, 10, 10)
+REFERENCE_MS = am.TableSizes((256, 64), (64, 16), 16, 64, 32, 8, 6, 10)
 CONFIGS = [("gradient", None, None), ("precomputed", "low", 2), ("precomputed", "low", 4),
            ("precomputed", "medium", 1), ("precomputed", "medium", 2), ("precomputed", "medium", 4),
            ("precomputed", "medium", 8), ("precomputed", "high", 4)]
