@@ -28,6 +28,18 @@ def fire_scene(effects=None, camera=None, sim_time=100.0, **extra) -> Scene:
     return Scene.model_validate(data)
 
 
+@pytest.fixture(scope="module")
+def renderer():
+    """A fresh context for this module. Known issue (see the closing note of the volumes issue):
+    after the sky tests' many atmosphere-table rebuilds on the shared session context, the fade
+    test sees an empty first fade step and llvmpipe can crash; isolated, the results are exact."""
+    from igserver.render.renderer import Renderer
+
+    r = Renderer()
+    yield r
+    r.release()
+
+
 @pytest.fixture
 def no_fire_lights(monkeypatch):
     """Only the volume's own radiance changes between renders (the fire's light also lights the box)."""
