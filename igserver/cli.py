@@ -70,7 +70,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("serve", help="start the IG service (REST, WebSocket, MJPEG, viewer page)")
-    p.add_argument("--scene", default="demo", help="scene file or name in scenes/ (default demo)")
+    p.add_argument("--scene", default="demo", help="scene file or name in igserver/scenes/ (default demo)")
     p.add_argument("--host", default="127.0.0.1")
     p.add_argument("--port", type=int, default=8600)
     p.add_argument("--width", type=int)
@@ -78,7 +78,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_serve)
 
     p = sub.add_parser("render", help="render one frame of a scene to a PNG")
-    p.add_argument("--scene", required=True, help="scene file or name in scenes/")
+    p.add_argument("--scene", required=True, help="scene file or name in igserver/scenes/")
     p.add_argument("--out", required=True, help="PNG path")
     p.add_argument("--width", type=int)
     p.add_argument("--height", type=int)

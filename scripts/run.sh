@@ -3,4 +3,4 @@
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$root/scripts/bootstrap.sh"
-exec "$root/.venv/bin/igserver" serve --scene "$root/scenes/demo.toml" "$@"
+exec "$root/.venv/bin/igserver" serve --scene demo "$@"

@@ -163,7 +163,7 @@ def main(argv: list[str] | None = None) -> int:
     import argparse
 
     parser = argparse.ArgumentParser(prog="python -m igserver.protocol")
-    parser.add_argument("--scene", default=None, help="scene file or name in scenes/ (default: built-in defaults)")
+    parser.add_argument("--scene", default=None, help="scene file or name in igserver/scenes/ (default: built-in defaults)")
     parser.add_argument("--host", default="127.0.0.1")
     parser.add_argument("--port", type=int, default=8600)
     parser.add_argument("--width", type=int)

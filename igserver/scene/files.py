@@ -7,7 +7,7 @@ from pathlib import Path
 
 from .model import Scene
 
-SCENES_DIR = Path(__file__).resolve().parents[2] / "scenes"
+SCENES_DIR = Path(__file__).resolve().parents[1] / "scenes"  # package data: igserver/scenes
 
 
 def resolve_scene_path(name_or_path: str | Path) -> Path:
