@@ -12,8 +12,10 @@ from ..astro import celestial_state, direction_enu
 from ..scene.model import Scene
 from .camera import CameraView, gl_matrix, make_view
 from .lights import PointLight, gather_lights, light_uniforms
+from .post.exposure import GROUND_REFLECTANCE, EyeAdaptation, exposure_of_ev100, frustum_directions, steady_ev100
 from .sky.daylight import SUN_ANGULAR_RADIUS, Daylight
-from .sky.frame_sky import sky_frame
+from .sky.frame_sky import SkyFrame, sky_frame
+from .sky.haze import HazeTransition
 
 MAX_LIGHTS = 16
 
@@ -45,6 +47,15 @@ def sun_and_moon(scene: Scene) -> SunMoon:
     return SunMoon(sun_el, sun_az % 360.0, state.moon_elevation, state.moon_azimuth, state.moon_phase)
 
 
+class FrameState:
+    """What the renderer keeps between frames for the atmosphere and the eye: the eased fog/haze
+    density and the exposure adaptation (both driven by sim_time deltas)."""
+
+    def __init__(self):
+        self.haze = HazeTransition()
+        self.eye = EyeAdaptation()
+
+
 @dataclass
 class FrameContext:
     ctx: moderngl.Context
@@ -55,6 +66,9 @@ class FrameContext:
     exposure: float
     lights: list[PointLight]
     uniforms: dict = field(default_factory=dict)
+    ev100: float = 0.0  # exposure used (EV100)
+    illuminance_lux: float = 0.0  # natural horizontal illuminance at the camera
+    meter_luminance: float = 0.0  # cd/m^2, mean luminance of the view the exposure adapts to
     # Shared resources the passes hand each other (e.g. "scene_distance": the copied distance texture).
     resources: dict = field(default_factory=dict)
 
@@ -66,31 +80,66 @@ class FrameContext:
 # Local lights meter brighter on the surfaces they light than at the camera: the lit ground near a
 # fire is a few times closer to it than the camera usually is.
 LIGHT_METER_GAIN = 4.0
+LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 
-def auto_ev100(daylight_ev100: float, lights: list[PointLight], view) -> float:
-    """Automatic exposure: the daylight's EV100 raised by the illuminance local lights (fires,
-    lamps) cast near the camera, so a night fire is exposed like a camera operator would."""
-    e_lights = 0.0
+def local_light_illuminance(lights: list[PointLight], view) -> float:
+    e = 0.0
     for light in lights:
         d2 = float(np.sum(view.relative(light.position) ** 2))
-        e_lights += float(np.dot([0.2126, 0.7152, 0.0722], light.color)) / max(d2, 1.0)
-    # EV100 = log2(E * S / C) with S = 100, C = 250 (incident-light meter)
-    return math.log2(2.0**daylight_ev100 + LIGHT_METER_GAIN * e_lights * 100.0 / 250.0)
+        e += float(LUMA @ np.asarray(light.color)) / max(d2, 1.0)
+    return e
 
 
-def build_frame(ctx: moderngl.Context, scene: Scene) -> FrameContext:
+def meter_luminance(sky: SkyFrame, view, celestial, haze_height_m: float, lights: list[PointLight]) -> float:
+    """Mean luminance (cd/m^2) of the view for the exposure (post/exposure.py): sky directions from
+    the sky-view table seen through the fog layer, ground/sea as a 0.15 reflectance under the
+    horizontal illuminance, plus local lights' illuminance near the camera."""
+    dirs = frustum_directions(view)
+    ground = GROUND_REFLECTANCE * (sky.horizontal_illuminance + LIGHT_METER_GAIN * local_light_illuminance(
+        lights, view)) / np.pi
+    if sky.sky_view is None or sky.sky_view.radiance_host is None:
+        return ground
+    u = sky.uniforms
+    is_sky = dirs[:, 2] > u["u_horizon_elevation"]
+    lum = np.full(len(dirs), ground)
+    if np.any(is_sky):
+        d = dirs[is_sky]
+        clear = sky.sky_view.luminance(d, u["u_sky_view_sun_h"], u["u_horizon_elevation"])
+        haze = sky.haze
+        if haze is not None and haze.beta[1] > 0.0:
+            tau = haze.tau_view(haze_height_m, d)
+            sun_n = np.asarray(u["u_haze_sun"]); moon_n = np.asarray(u["u_haze_moon"])
+            flux = haze.fluxes(haze_height_m, sun_n, float(celestial.sun_dir[2]), np.asarray(u["u_haze_sky"]),
+                               moon_n, float(celestial.moon_dir[2]))
+            src = haze.source(haze_height_m, d, flux, celestial.sun_dir, sun_n, celestial.moon_dir, moon_n)
+            t = np.exp(-np.minimum(tau, 80.0))
+            clear = clear * (t @ LUMA) + (src * (1.0 - t)) @ LUMA
+        lum[is_sky] = clear
+    return float(np.mean(lum))
+
+
+def build_frame(ctx: moderngl.Context, scene: Scene, state: FrameState | None = None) -> FrameContext:
+    """Per-frame data. ``state`` (the renderer's) eases fog changes and adapts the exposure over
+    sim_time; without it the frame shows the steady state of its scene."""
     view = make_view(scene.camera)
     celestial = sun_and_moon(scene)
     altitude = scene.location.altitude + float(view.position[2])
-    # Sky: resident atmosphere tables (bound on units 12..15), the light they imply, sky uniforms.
-    sky = sky_frame(ctx, scene, celestial, altitude, view.position[:2])
+    # Sky: resident atmosphere tables (units 12..15), fog layer, sky-view table (9..11), light.
+    sky = sky_frame(ctx, scene, celestial, altitude, view.position[:2], state.haze if state else None)
     light = sky.light
     lights = gather_lights(scene, view, MAX_LIGHTS)
-    exposure = light.exposure(scene.camera.exposure_ev if scene.camera.exposure_ev is not None
-                              else auto_ev100(light.ev100, lights, view))
-    frame = FrameContext(ctx, scene, view, celestial, light, exposure, lights)
+    meter = meter_luminance(sky, view, celestial, altitude - scene.location.altitude, lights)
+    if scene.camera.exposure_ev is not None:
+        ev100 = float(scene.camera.exposure_ev)
+    else:
+        target = steady_ev100(meter)
+        ev100 = state.eye.update(target, scene.time.sim_time, scene.camera.adaptation) if state else target
+    frame = FrameContext(ctx, scene, view, celestial, light, exposure_of_ev100(ev100), lights,
+                         ev100=ev100, illuminance_lux=sky.horizontal_illuminance, meter_luminance=meter)
     frame.resources["atmosphere_tables"] = sky.tables
+    frame.resources["sky_view"] = sky.sky_view
+    frame.resources["haze"] = sky.haze
     frame.uniforms = common_uniforms(frame)
     frame.uniforms.update(sky.uniforms)
     return frame
@@ -102,7 +151,6 @@ def _vec3(v) -> tuple[float, float, float]:
 
 def common_uniforms(frame: FrameContext) -> dict:
     view, light, scene = frame.view, frame.light, frame.scene
-    visibility = scene.atmosphere.visibility
     return {
         "u_view_proj": gl_matrix(view.view_proj),
         "u_inv_view_proj": gl_matrix(np.linalg.inv(view.view_proj)),
@@ -122,8 +170,9 @@ def common_uniforms(frame: FrameContext) -> dict:
         "u_halo_exponent": light.halo_exponent,
         "u_sun_disk_cos": math.cos(SUN_ANGULAR_RADIUS),
         "u_sun_disk_luminance": _vec3(light.sun_disk_luminance),
+        "u_adaptation_luminance": float(frame.meter_luminance),
+        "u_mesopic": 1 if scene.camera.mesopic_vision else 0,
         "u_fog_color": _vec3(light.horizon),
-        "u_fog_beta": 3.912 / visibility,  # Koschmieder: contrast 2 % at the visibility distance
         "u_fog_scale_height": 1200.0,
         **light_uniforms(frame.lights, view, MAX_LIGHTS),
     }

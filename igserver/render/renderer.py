@@ -13,7 +13,7 @@ import numpy as np
 
 from ..scene.model import Scene
 from .context import capabilities, create_context
-from .frame import build_frame
+from .frame import FrameState, build_frame
 from .graph import FrameGraph
 from .shaders import ProgramCache
 from .targets import Targets
@@ -25,6 +25,8 @@ class RenderResult:
     passes: list[str]
     pass_ms: dict[str, float] = field(default_factory=dict)  # only when timed
     total_ms: float = 0.0
+    ev100: float = 0.0  # exposure used (EV100)
+    illuminance_lux: float = 0.0  # natural horizontal illuminance at the camera (lux)
 
 
 class Renderer:
@@ -35,6 +37,7 @@ class Renderer:
         self.graph = FrameGraph(self.ctx, self.programs)
         self._targets: Targets | None = None
         self.frames_rendered = 0
+        self.frame_state = FrameState()  # eased fog, eye adaptation: carried between frames
 
     def targets_for(self, width: int, height: int) -> Targets:
         if self._targets is None or self._targets.size != (width, height):
@@ -46,7 +49,7 @@ class Renderer:
     def render(self, scene: Scene, timed: bool = False) -> RenderResult:
         """Render ``scene``; with ``timed`` each pass is bracketed by ctx.finish() and a wall clock."""
         start = time.perf_counter()
-        frame = build_frame(self.ctx, scene)
+        frame = build_frame(self.ctx, scene, self.frame_state)
         targets = self.targets_for(scene.camera.width, scene.camera.height)
         names = self.graph.plan(scene, frame.view)
         targets.scene_fbo.use()
@@ -67,7 +70,8 @@ class Renderer:
         if timed:
             pass_ms["readback"] = (time.perf_counter() - t0) * 1e3
         self.frames_rendered += 1
-        return RenderResult(np.ascontiguousarray(rgba), names, pass_ms, (time.perf_counter() - start) * 1e3)
+        return RenderResult(np.ascontiguousarray(rgba), names, pass_ms, (time.perf_counter() - start) * 1e3,
+                            ev100=frame.ev100, illuminance_lux=frame.illuminance_lux)
 
     def read_hdr(self) -> np.ndarray:
         """The last frame's pre-exposed linear HDR colour (float32, top row first), for quality tools."""

@@ -71,7 +71,14 @@ class Camera(Strict):
     width: int = Field(640, ge=16, le=7680, description="px")
     height: int = Field(360, ge=16, le=4320, description="px")
     exposure_ev: float | None = Field(
-        None, ge=-20.0, le=20.0, description="EV100 exposure (absolute); None = automatic from the daylight"
+        None, ge=-20.0, le=20.0, description="EV100 exposure (absolute); None = automatic (an adapting eye)"
+    )
+    # --- atmosphere engineer: exposure like an eye (render/post/exposure.py) ---
+    adaptation: bool = Field(
+        True, description="automatic exposure adapts over sim_time (0.4 s to light, 4 s to dark); false = steady state"
+    )
+    mesopic_vision: bool = Field(
+        False, description="render night as the eye sees it: colour fades and shifts blue below ~3 cd/m^2 (Purkinje)"
     )
 
     @model_validator(mode="after")
@@ -118,7 +125,17 @@ class Atmosphere(Strict):
         "precomputed", description="sky tier: the paper's gradient model or precomputed scattering"
     )
     visibility: float = Field(30_000.0, ge=50.0, le=200_000.0, description="m, meteorological visibility")
-    turbidity: float = Field(2.0, ge=1.0, le=10.0, description="Linke-style turbidity of the surface layer")
+    turbidity: float = Field(
+        2.0, ge=1.0, le=10.0, description="Linke-style turbidity of the surface layer (tables per class of 0.5)"
+    )
+    # --- atmosphere engineer: the fog/haze layer (render/sky/haze.py) ---
+    fog_top: float | None = Field(
+        None, ge=1.0, le=5_000.0,
+        description="m above the ground, top of a fog layer of the given visibility; None = haze thinning with height",
+    )
+    visibility_transition: float = Field(
+        1.0, ge=0.0, le=10.0, description="s, a visibility change eases in over this much sim_time (0 = at once)"
+    )
     ozone: bool = Field(True, description="include ozone absorption")
     scattering_orders: int = Field(4, ge=1, le=32, description="multiple-scattering orders of the tables")
     quality: Literal["low", "medium", "high"] = Field(

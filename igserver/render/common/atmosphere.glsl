@@ -2,6 +2,12 @@
 // for a surface point. Every opaque and water pixel goes through apply_aerial_perspective().
 // Needs common/frame.glsl (u_camera_altitude, u_sun_dir, PI) included before it.
 //
+// Public API (names and meanings stable for every pass):
+//   sky_radiance(dir)                 cd/m^2 of the sky (or the far ground) along dir, fog included
+//   sky_transmittance(dir)            camera -> space along dir (0 into the ground), fog included
+//   sun_disk(dir)                     the sun's limb-darkened disk after the atmosphere and the fog
+//   apply_aerial_perspective(L, rel)  radiance leaving a surface at camera-relative rel (m), as seen
+//
 // Two tiers, chosen per frame by u_sky_model (0 gradient, 1 precomputed) or at compile time by
 // SKY_GRADIENT / SKY_PRECOMPUTED (the sky pass):
 //
@@ -11,12 +17,14 @@
 // plus a halo around the sun whose colour and size follow the sun's elevation; aerial perspective
 // is an exponential haze with Koschmieder's extinction.
 //
-// Precomputed tier (Bruneton & Neyret 2008): the tables of sky/atmosphere_functions.glsl, bound
-// on texture units 12..15 by the frame (sky/tables.py). The camera sits at radius
-// r = R_g + h above the centre of a spherical earth directly below it (x east, y north, z up):
-//   L_sky(v)      = E_sun [ S_R(r, mu, mu_s, nu) P_R(nu) + S_M(...) P_M(nu) ]
-//   L(x -> p)     = L_surface T(x, p) + L_sky(v) (1 - T(x, p)) / (1 - T(x, end))   (aerial perspective,
-//                   see precomputed_aerial for why not Bruneton's S(x,v) - T(x,p) S(p,v))
+// Precomputed tier: clear air from the Bruneton & Neyret (2008) tables, fixed per turbidity class,
+// evaluated ONCE PER FRAME into the sky-view table (sky/sky_view.glsl: sky radiance, the whole ray's
+// in-scattering and its optical depth, per view direction relative to the sun), so a pixel pays one
+// or two 2D lookups instead of the 4D walk; plus the near-ground fog/haze layer (sky/haze.py),
+// analytic per pixel, so the visibility changes instantly:
+//   L(x -> p) = [L_p T_c(x,p) + S_c(x,v) (1 - T_c(x,p)) / (1 - T_c(x,end))] T_h(x,p) + S_h (1 - T_h(x,p))
+// (c clear air, h haze). Define ATMOSPHERE_DIRECT_TABLES to evaluate the clear air per pixel from
+// the 4D tables instead (the reference of `igserver quality light` for the sky-view table's error).
 #include "sky/atmosphere_functions.glsl"
 
 uniform vec3 u_sky_zenith;      // cd/m^2
@@ -82,7 +90,7 @@ vec3 gradient_aerial_perspective(vec3 radiance, vec3 rel) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Precomputed tier
+// Precomputed tier: clear air
 
 // Camera radius (km). Altitudes below 1 m are taken as 1 m: float32 radii resolve ~0.5 m, and
 // the sky 1 mm above the sea is the sky 1 m above it.
@@ -99,60 +107,9 @@ bool enter_atmosphere(inout float r, inout float rmu, out float skipped_km) {
     float d = -rmu - safe_sqrt(disc);
     if (disc < 0.0 || d < 0.0) return false;
     skipped_km = d;
-    // New radius is the top; r mu grows by d along the ray.
     rmu += d;
     r = u_top_radius_km;
     return true;
-}
-
-// Sky radiance (cd/m^2) along dir, and the transmittance to space (zero when the ray hits the
-// ground). Rays below the horizon end on the ground sphere, which is added as a Lambertian
-// surface of the ground albedo lit by the sun and the sky, so the lower dome is never black.
-vec3 precomputed_sky(vec3 dir, out vec3 transmittance) {
-    transmittance = vec3(1.0);
-    float r = camera_radius_km();
-    float rmu = r * dir.z;
-    float skipped;
-    if (!enter_atmosphere(r, rmu, skipped)) return vec3(0.0);
-    float mu = clamp_cosine(rmu / r);
-    // The sun's direction is the same everywhere; mu_s at the entry point follows from geometry.
-    vec3 x = vec3(0.0, 0.0, camera_radius_km()) + dir * skipped;
-    float mu_s = clamp_cosine(dot(x, u_sun_dir) / r);
-    float nu = clamp_cosine(dot(dir, u_sun_dir));
-    bool hits_ground = ray_hits_ground(r, mu);
-    vec3 s = scattering_lookup(u_scattering_lut, r, mu, mu_s, nu, hits_ground).rgb;
-    vec3 m = scattering_lookup(u_single_mie_lut, r, mu, mu_s, nu, hits_ground).rgb;
-    vec3 radiance = s * rayleigh_phase(nu) + m * mie_phase(u_mie_g, nu);
-    if (hits_ground) {
-        float d = distance_to_bottom(r, mu);
-        vec3 t = transmittance_segment(u_transmittance_lut, r, mu, d, true);
-        vec3 p = x + dir * d;
-        vec3 n = normalize(p);
-        float mu_s_p = clamp_cosine(dot(n, u_sun_dir));
-        vec3 e = transmittance_to_sun(u_transmittance_lut, u_bottom_radius_km, mu_s_p) * max(mu_s_p, 0.0)
-               + irradiance_lookup(u_irradiance_lut, u_bottom_radius_km, mu_s_p);
-        radiance += t * u_ground_albedo / ATMO_PI * e;
-        transmittance = vec3(0.0);
-    } else {
-        transmittance = exp(-min(optical_depth_to_top(u_transmittance_lut, r, mu), vec3(80.0)));
-    }
-    return radiance * u_solar_illuminance;
-}
-
-// Optical depth of the segment [0, d] from (r, mu): Simpson's rule on the extinction profile
-// for segments up to 200 km (the difference of two table lookups is all interpolation error for
-// the tens of metres to a surface in haze), the tables beyond.
-vec3 segment_optical_depth(float r, float mu, float d, bool hits_ground) {
-    if (d > 200.0) return optical_depth_segment(u_transmittance_lut, r, mu, d, hits_ground);
-    const int N = 16;  // even
-    vec3 sum = vec3(0.0);
-    for (int i = 0; i <= N; ++i) {
-        float di = d * float(i) / float(N);
-        float ri = sqrt(di * di + 2.0 * r * mu * di + r * r);
-        float w = (i == 0 || i == N) ? 1.0 : ((i % 2 == 1) ? 4.0 : 2.0);
-        sum += w * extinction_km(ri - u_bottom_radius_km);
-    }
-    return sum * d / (3.0 * float(N));
 }
 
 // 1 - exp(-tau), without cancellation for small tau.
@@ -160,47 +117,57 @@ vec3 one_minus_exp(vec3 tau) {
     return mix(1.0 - exp(-min(tau, vec3(80.0))), tau * (1.0 - 0.5 * tau), lessThan(tau, vec3(1e-3)));
 }
 
-// Transmittance from the camera to a camera-relative point (m) and the in-scattered radiance.
-//
-// Bruneton's S(x,v) - T(x,p) S(p,v) subtracts two table lookups; with visibility of a few km the
-// two are nearly equal for points tens of metres away and the table error (not the physics)
-// decides the result. Instead, the in-scattering of the whole ray, S(x,v) (to space or to the
-// ground), is shared out along the ray in proportion to its optical depth:
-//   I(x -> p) = S(x, v) (1 - T(x,p)) / (1 - T(x,end)),
-// exact for a medium of uniform illumination and albedo along the ray, monotone in distance
-// and in extinction by construction, and it costs one lookup pair instead of two.
-vec3 precomputed_aerial(vec3 radiance, vec3 rel) {
-    float d = length(rel) * 0.001;  // km
-    if (!(d > 1e-7)) return radiance;
-    vec3 dir = rel * (0.001 / d);
+#if defined(ATMOSPHERE_DIRECT_TABLES) && !defined(ATMOSPHERE_TABLE_WALK)
+#define ATMOSPHERE_TABLE_WALK 1
+#endif
+#ifdef ATMOSPHERE_TABLE_WALK
+uniform vec3 u_night_sky;   // cd/m^2 at the zenith: airglow, zodiacal light, faint stars
+uniform vec3 u_moon_scale;  // moon / sun illuminance above the atmosphere, per channel (0: no moon)
+
+// Scattered light of one source (sun or moon) along a ray, per unit source illuminance.
+vec3 clear_scattering(float r, float mu, float mu_s, float nu, bool hits_ground) {
+    vec3 s = scattering_lookup_geometric(u_scattering_lut, r, mu, mu_s, nu, hits_ground).rgb;
+    vec3 m = scattering_lookup_geometric(u_single_mie_lut, r, mu, mu_s, nu, hits_ground).rgb;
+    return s * rayleigh_phase(nu) + m * mie_phase(u_mie_g, nu);
+}
+
+// The clear-air view ray from the camera along dir, from the 4D tables (per frame for the
+// sky-view table, or per pixel with ATMOSPHERE_DIRECT_TABLES):
+//   sky       radiance (cd/m^2) to space, or to the Lambertian ground sphere it hits;
+//   inscatter the in-scattered radiance of the whole ray (what aerial perspective shares out);
+//   tau_end   the ray's optical depth (1e4 into the ground, so T = 0 there).
+void clear_sky_ray(vec3 dir, out vec3 sky, out vec3 inscatter, out vec3 tau_end) {
+    sky = vec3(0.0);
+    inscatter = vec3(0.0);
+    tau_end = vec3(0.0);
     float r = camera_radius_km();
     float rmu = r * dir.z;
     float skipped;
-    if (!enter_atmosphere(r, rmu, skipped)) return radiance;
-    d -= skipped;
-    if (d <= 0.0) return radiance;
-    vec3 x = vec3(0.0, 0.0, camera_radius_km()) + dir * skipped;
+    if (!enter_atmosphere(r, rmu, skipped)) return;
     float mu = clamp_cosine(rmu / r);
+    vec3 x = vec3(0.0, 0.0, camera_radius_km()) + dir * skipped;
     float mu_s = clamp_cosine(dot(x, u_sun_dir) / r);
     float nu = clamp_cosine(dot(dir, u_sun_dir));
     bool hits_ground = ray_hits_ground(r, mu);
-    float d_end = distance_to_nearest_boundary(r, mu, hits_ground);
-    // The flat world may put a point past the spherical ground: stop the segment on the ground.
-    d = min(d, d_end);
-    vec3 tau_p = segment_optical_depth(r, mu, d, hits_ground);
-    vec3 tau_end = hits_ground ? optical_depth_segment(u_transmittance_lut, r, mu, d_end, true)
-                               : optical_depth_to_top(u_transmittance_lut, r, mu);
-    tau_end = max(tau_end, tau_p);
-    vec3 share = one_minus_exp(tau_p) / max(one_minus_exp(tau_end), vec3(1e-12));
-    share = clamp(share, 0.0, 1.0);
-    vec3 s = scattering_lookup(u_scattering_lut, r, mu, mu_s, nu, hits_ground).rgb;
-    vec3 m = scattering_lookup(u_single_mie_lut, r, mu, mu_s, nu, hits_ground).rgb;
-    vec3 inscatter = (s * rayleigh_phase(nu) + m * mie_phase(u_mie_g, nu)) * u_solar_illuminance * share;
+    vec3 s = clear_scattering(r, mu, mu_s, nu, hits_ground);
+    if (u_moon_scale.g > 0.0) {
+        float mu_m = clamp_cosine(dot(x, u_moon_dir) / r);
+        s += u_moon_scale * clear_scattering(r, mu, mu_m, clamp_cosine(dot(dir, u_moon_dir)), hits_ground);
+    }
+    inscatter = s * u_solar_illuminance;
+    sky = inscatter;
     if (hits_ground) {
-        // Below the first altitude row of the table (h_1 = (H / (N_r - 1))^2 / 2 R_g, ~0.5 km)
-        // a ground-bound ray's S interpolates between h = 0 (zero path) and h_1 (a long one).
-        // Near the ground take the source from the ray just above the horizon instead, whose
-        // in-scattering is resolved, and share it out by the optical depth along that ray.
+        float d = distance_to_bottom(r, mu);
+        tau_end = optical_depth_segment(u_transmittance_lut, r, mu, d, true);
+        vec3 p = x + dir * d;
+        vec3 n = normalize(p);
+        float mu_s_p = clamp_cosine(dot(n, u_sun_dir));
+        vec3 e = transmittance_to_sun(u_transmittance_lut, u_bottom_radius_km, mu_s_p) * max(mu_s_p, 0.0)
+               + irradiance_lookup(u_irradiance_lut, u_bottom_radius_km, mu_s_p);
+        sky += exp(-min(tau_end, vec3(80.0))) * u_ground_albedo / ATMO_PI * e * u_solar_illuminance;
+        // Near the ground a ground-bound ray's S interpolates between h = 0 (zero path) and the
+        // first altitude row h_1 (a long one); take the source from the ray just above the horizon
+        // instead (resolved), shared out by optical depth (aerial perspective only).
         float n_r = float(textureSize(u_scattering_lut, 0).z);
         float h1 = pow(atmosphere_H() / (n_r - 1.0), 2.0) / (2.0 * u_bottom_radius_km);
         float w = smoothstep(0.0, h1, r - u_bottom_radius_km);
@@ -208,14 +175,211 @@ vec3 precomputed_aerial(vec3 radiance, vec3 rel) {
             float mu_h = -safe_sqrt(1.0 - (u_bottom_radius_km / r) * (u_bottom_radius_km / r));
             float mu_up = min(mu_h + 0.002, 1.0);
             vec3 tau_up = optical_depth_to_top(u_transmittance_lut, r, mu_up);
-            vec3 s_up = scattering_lookup(u_scattering_lut, r, mu_up, mu_s, nu, false).rgb;
-            vec3 m_up = scattering_lookup(u_single_mie_lut, r, mu_up, mu_s, nu, false).rgb;
-            vec3 share_up = clamp(one_minus_exp(tau_p) / max(one_minus_exp(max(tau_up, tau_p)), vec3(1e-12)), 0.0, 1.0);
-            vec3 near = (s_up * rayleigh_phase(nu) + m_up * mie_phase(u_mie_g, nu)) * u_solar_illuminance * share_up;
+            vec3 s_up = clear_scattering(r, mu_up, mu_s, nu, false) * u_solar_illuminance;
+            vec3 near = s_up * clamp(one_minus_exp(tau_end) / max(one_minus_exp(max(tau_up, tau_end)), vec3(1e-12)), 0.0, 1.0);
             inscatter = mix(near, inscatter, w);
         }
+        tau_end = max(tau_end, vec3(1e-6));
+        // Marks "hits the ground" for sky_transmittance without a fourth channel.
+        tau_end += vec3(1e4);
+    } else {
+        tau_end = optical_depth_to_top(u_transmittance_lut, r, mu);
+        // Natural night sky (airglow, zodiacal light, integrated starlight), van Rhijn brightening
+        // toward the horizon (a longer airglow path), attenuated by the air in front of it.
+        float up = max(dir.z, 0.0);
+        sky += u_night_sky * exp(-min(tau_end, vec3(80.0))) * (1.0 + 2.0 * pow(1.0 - up, 4.0));
     }
-    return radiance * exp(-min(tau_p, vec3(80.0))) + inscatter;
+}
+#endif
+
+// Optical depth (clear air) of the segment from the camera to camera-relative rel (m): 4-point
+// Gauss-Legendre on the extinction profile with heights on the sphere, h(s) = h0 + s mu + s^2 (1 -
+// mu^2) / 2r (the 4 exponentials of two exponential profiles: smooth, so 4 nodes are exact to
+// ~1e-4 over the <= 200 km of a visible surface). Past 200 km, the table difference.
+vec3 clear_segment_optical_depth(vec3 rel) {
+    float d = length(rel) * 0.001;
+    vec3 dir = rel / max(length(rel), 1e-9);
+    float r = camera_radius_km();
+    float h0 = r - u_bottom_radius_km;
+    float mu = dir.z;
+    if (d > 200.0 || r > u_top_radius_km) {
+        bool hits_ground = ray_hits_ground(r, mu);
+        d = min(d, distance_to_nearest_boundary(r, mu, hits_ground));
+        return optical_depth_segment(u_transmittance_lut, r, mu, d, hits_ground);
+    }
+    const vec4 X = vec4(-0.8611363116, -0.3399810436, 0.3399810436, 0.8611363116);
+    const vec4 W = vec4(0.3478548451, 0.6521451549, 0.6521451549, 0.3478548451);
+    vec3 sum = vec3(0.0);
+    for (int i = 0; i < 4; ++i) {
+        float s = 0.5 * d * (X[i] + 1.0);
+        float h = max(h0 + s * mu + s * s * (1.0 - mu * mu) / (2.0 * r), 0.0);
+        sum += W[i] * extinction_km(h);
+    }
+    return sum * 0.5 * d;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sky-view table (per frame): see sky/sky_view_map.glsl for the direction <-> texel map.
+#include "sky/sky_view_map.glsl"
+layout(binding = 9) uniform sampler2D u_sky_view_radiance;   // rgb sky radiance (cd/m^2)
+layout(binding = 10) uniform sampler2D u_sky_view_inscatter; // rgb in-scattering of the whole ray
+layout(binding = 11) uniform sampler2D u_sky_view_tau;       // rgb optical depth (+1e4 into ground)
+
+void clear_sky_lookup(vec3 dir, out vec3 sky, out vec3 inscatter, out vec3 tau_end, bool need_sky) {
+#ifdef ATMOSPHERE_DIRECT_TABLES
+    clear_sky_ray(dir, sky, inscatter, tau_end);
+#else
+    vec2 uv = sky_view_uv_sized(dir, vec2(textureSize(u_sky_view_radiance, 0)));
+    sky = need_sky ? texture(u_sky_view_radiance, uv).rgb : vec3(0.0);
+    inscatter = need_sky ? vec3(0.0) : texture(u_sky_view_inscatter, uv).rgb;
+    tau_end = texture(u_sky_view_tau, uv).rgb;
+#endif
+}
+
+// ---------------------------------------------------------------------------------------------
+// The near-ground fog/haze layer (sky/haze.py has the formulas and their float64 mirror).
+uniform vec3 u_haze_beta;        // 1/m, extinction in the dense part (R, G, B)
+uniform float u_haze_top;        // m above the ground
+uniform float u_haze_edge;       // m, scale height above the top
+uniform float u_haze_base;       // m above sea level of the ground
+uniform float u_haze_g;          // Henyey-Greenstein asymmetry
+uniform float u_haze_omega;      // single-scattering albedo
+uniform float u_haze_ground_albedo;
+uniform vec3 u_haze_sun;         // lux normal to the sun arriving at the layer (clear air)
+uniform vec3 u_haze_moon;        // lux normal to the moon arriving at the layer
+uniform vec3 u_haze_sky;         // lux, horizontal sky irradiance arriving at the layer
+const float HAZE_EARTH_RADIUS_M = 6360000.0;
+
+bool haze_present() { return u_haze_beta.g > 0.0; }
+float haze_height() { return u_camera_altitude - u_haze_base; }
+float haze_density(float h) { return h <= u_haze_top ? 1.0 : exp(-min((h - u_haze_top) / u_haze_edge, 80.0)); }
+float haze_column(float h) {
+    return h <= u_haze_top ? u_haze_top - h + u_haze_edge : u_haze_edge * exp(-min((h - u_haze_top) / u_haze_edge, 80.0));
+}
+// Optical depth of the straight segment from height h0 over rel (m).
+vec3 haze_segment_tau(float h0, vec3 rel) {
+    float d = length(rel);
+    float dz = rel.z;
+    float mean = abs(dz) < 1e-3 * u_haze_edge ? haze_density(h0 + 0.5 * dz)
+                                               : (haze_column(h0) - haze_column(h0 + dz)) / dz;
+    return u_haze_beta * (d * max(mean, 0.0));
+}
+// Optical depth to infinity upward (z > 0, or grazing): flat layer with a Chapman-like grazing
+// floor, z_eff = sqrt(z^2 + 2 H / R), H the local column height (the earth's curve lets a
+// horizontal ray out of the layer after sqrt(2 R H)).
+vec3 haze_tau_up(float h0, float z) {
+    float c = haze_column(h0);
+    float hc = c / max(haze_density(h0), 1e-6);
+    return u_haze_beta * (c / sqrt(z * z + 2.0 * hc / HAZE_EARTH_RADIUS_M));
+}
+vec3 haze_transmission(vec3 tau, float mu0) {
+    float g = u_haze_g;
+    mu0 = max(mu0, 1e-3);
+    vec3 t_d = exp(-min((1.0 - g * g) * tau / mu0, vec3(80.0)));
+    float b0 = 0.5 + 0.75 * g / (1.0 + g) * mu0;
+    float c = 0.75 * (1.0 - g) * b0 / (0.5 + 0.75 * mu0);
+    return t_d + (1.0 - t_d) * b0 / (1.0 + c * tau);
+}
+float hg(float g, float nu) {
+    return (1.0 - g * g) / (4.0 * ATMO_PI * pow(max(1.0 + g * g - 2.0 * g * nu, 1e-6), 1.5));
+}
+// In-scattered radiance source S(h, dir) of the layer (cd/m^2).
+vec3 haze_source(float h, vec3 dir) {
+    vec3 ta = u_haze_beta * haze_column(h);
+    vec3 tb = u_haze_beta * max(haze_column(0.0) - haze_column(h), 0.0);
+    float mu_s = u_sun_dir.z, mu_m = u_moon_dir.z;
+    vec3 incoming = u_haze_sky * haze_transmission(ta, 0.5);
+    vec3 beams = vec3(0.0);
+    if (mu_s > 0.0) {
+        incoming += u_haze_sun * mu_s * haze_transmission(ta, mu_s);
+        beams += u_haze_sun * exp(-min(ta / mu_s, vec3(80.0))) * hg(u_haze_g, dot(dir, u_sun_dir));
+    }
+    if (mu_m > 0.0) {
+        incoming += u_haze_moon * mu_m * haze_transmission(ta, mu_m);
+        beams += u_haze_moon * exp(-min(ta / mu_m, vec3(80.0))) * hg(u_haze_g, dot(dir, u_moon_dir));
+    }
+    vec3 t_below = haze_transmission(tb, 0.5);
+    vec3 r_below = (1.0 - t_below) + t_below * t_below * u_haze_ground_albedo / (1.0 - u_haze_ground_albedo * (1.0 - t_below));
+    vec3 r_above = 1.0 - haze_transmission(ta, 0.5);
+    vec3 down = incoming / (1.0 - r_below * r_above);
+    vec3 up = r_below * down;
+    vec3 beam_h = vec3(0.0);
+    if (mu_s > 0.0) beam_h += u_haze_sun * mu_s * exp(-min(ta / mu_s, vec3(80.0)));
+    if (mu_m > 0.0) beam_h += u_haze_moon * mu_m * exp(-min(ta / mu_m, vec3(80.0)));
+    vec3 down_diffuse = max(down - beam_h, vec3(0.0));
+    float w_down = 0.5 + 0.5 * dir.z;  // looking up: light travelling down
+    return u_haze_omega * (beams + (up * (1.0 - w_down) + down_diffuse * w_down) / ATMO_PI);
+}
+// Height where the ray's in-scattering is gathered: half of the first optical depth's run along it
+// (inside the fog: next to the camera; above it: half way down), within [0, d].
+float haze_effective_height(float h0, vec3 dir, float d) {
+    float d1 = 1.0 / max(u_haze_beta.g * haze_density(h0), 1e-12);
+    return h0 + dir.z * 0.5 * min(d, d1);
+}
+// The layer between the camera and camera-relative rel (m).
+vec3 haze_aerial(vec3 radiance, vec3 rel) {
+    if (!haze_present()) return radiance;
+    float h0 = haze_height();
+    vec3 tau = haze_segment_tau(h0, rel);
+    float d = length(rel);
+    vec3 dir = rel / max(d, 1e-9);
+    vec3 s = haze_source(haze_effective_height(h0, dir, d), dir);
+    return radiance * exp(-min(tau, vec3(80.0))) + s * one_minus_exp(tau);
+}
+// The layer along a whole view ray: into the ground (flat, at the layer's base) or to space.
+vec3 haze_sky(vec3 radiance, vec3 dir, out vec3 transmittance) {
+    transmittance = vec3(1.0);
+    if (!haze_present()) return radiance;
+    float h0 = haze_height();
+    vec3 tau;
+    float d;
+    if (dir.z < 0.0 && h0 > 0.0) {
+        d = h0 / -dir.z;
+        tau = haze_segment_tau(h0, dir * d);
+    } else if (dir.z < 0.0) {
+        d = 1e30;
+        tau = vec3(1e4);
+    } else {
+        tau = haze_tau_up(h0, dir.z);
+        d = 1e30;
+    }
+    transmittance = exp(-min(tau, vec3(80.0)));
+    vec3 s = haze_source(haze_effective_height(h0, dir, min(d, 1e7)), dir);
+    return radiance * transmittance + s * one_minus_exp(tau);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Public API
+
+// Sky radiance (cd/m^2) along dir, and its transmittance to space (zero into the ground).
+vec3 sky_radiance_and_transmittance(vec3 dir, out vec3 transmittance) {
+    if (!use_precomputed()) {
+        transmittance = vec3(dir.z > 0.0 ? 1.0 : 0.0);
+        return gradient_sky(dir);
+    }
+    vec3 sky, inscatter, tau_end;
+    clear_sky_lookup(dir, sky, inscatter, tau_end, true);
+    vec3 t_clear = tau_end.g >= 1e4 ? vec3(0.0) : exp(-min(tau_end, vec3(80.0)));
+    vec3 t_haze;
+    vec3 radiance = haze_sky(sky, dir, t_haze);
+    transmittance = t_clear * t_haze;
+    return radiance;
+}
+
+vec3 sky_radiance(vec3 dir) {
+    vec3 t;
+    return sky_radiance_and_transmittance(dir, t);
+}
+
+// Transmittance along a view direction from the camera to space (zero into the ground).
+vec3 sky_transmittance(vec3 dir) {
+    if (!use_precomputed()) return vec3(1.0);
+    vec3 sky, inscatter, tau_end;
+    clear_sky_lookup(dir, sky, inscatter, tau_end, false);
+    if (tau_end.g >= 1e4) return vec3(0.0);
+    vec3 t = exp(-min(tau_end, vec3(80.0)));
+    if (haze_present()) t *= exp(-min(dir.z > 0.0 ? haze_tau_up(haze_height(), dir.z) : vec3(80.0), vec3(80.0)));
+    return t;
 }
 
 // Whether a direction from the camera reaches space rather than the ground.
@@ -224,27 +388,8 @@ bool dir_visible(vec3 dir) {
     return !ray_hits_ground(r, dir.z) && dir.z > -0.5;
 }
 
-// Transmittance along a view direction from the camera to space (zero into the ground).
-vec3 sky_transmittance(vec3 dir) {
-    if (!use_precomputed()) return vec3(1.0);
-    vec3 t;
-    precomputed_sky(dir, t);
-    return t;
-}
-
-// ---------------------------------------------------------------------------------------------
-// Public API
-
-vec3 sky_radiance(vec3 dir) {
-    if (use_precomputed()) {
-        vec3 t;
-        return precomputed_sky(dir, t);
-    }
-    return gradient_sky(dir);
-}
-
 // Luminance of the sun's disk with limb darkening, zero outside the disk; u_sun_disk_luminance is
-// the disk's mean luminance after the atmosphere at the camera.
+// the disk's mean luminance after the clear air AND the fog at the camera.
 vec3 sun_disk(vec3 dir) {
     float c = dot(dir, u_sun_dir);
     if (c < u_sun_disk_cos) return vec3(0.0);
@@ -255,8 +400,17 @@ vec3 sun_disk(vec3 dir) {
     return u_sun_disk_luminance * (1.0 - 0.6 * (1.0 - mu)) / 0.8;
 }
 
-// radiance leaving a surface at camera-relative point rel (m), as seen by the camera.
+// Radiance leaving a surface at camera-relative point rel (m), as seen by the camera.
 vec3 apply_aerial_perspective(vec3 radiance, vec3 rel) {
-    if (use_precomputed()) return precomputed_aerial(radiance, rel);
-    return gradient_aerial_perspective(radiance, rel);
+    if (!use_precomputed()) return gradient_aerial_perspective(radiance, rel);
+    float d = length(rel);
+    if (!(d > 1e-4)) return radiance;
+    vec3 dir = rel / d;
+    vec3 sky, inscatter, tau_end;
+    clear_sky_lookup(dir, sky, inscatter, tau_end, false);
+    if (tau_end.g >= 1e4) tau_end -= vec3(1e4);
+    vec3 tau_p = min(clear_segment_optical_depth(rel), tau_end);
+    vec3 share = clamp(one_minus_exp(tau_p) / max(one_minus_exp(tau_end), vec3(1e-12)), 0.0, 1.0);
+    vec3 clear = radiance * exp(-min(tau_p, vec3(80.0))) + inscatter * share;
+    return haze_aerial(clear, rel);
 }

@@ -3,6 +3,18 @@
 #include "common/frame.glsl"
 
 uniform sampler2D u_hdr;
+uniform float u_adaptation_luminance;  // cd/m^2, what the exposure adapted to (post/exposure.py)
+uniform int u_mesopic;                 // 1: mesopic/scotopic vision (camera.mesopic_vision)
+
+// Mesopic vision: below ~3 cd/m^2 rods take over from cones; at 0.003 cd/m^2 vision is scotopic
+// (no colour). Rod fraction s from the adaptation luminance (log-linear between the two), rod
+// luminance from linear sRGB with weights near the scotopic curve V'(lambda) (peak 507 nm: mostly
+// G and B), shown with a slight blue tint (the "Purkinje" night look, Jensen et al. 2000).
+vec3 mesopic(vec3 c) {
+    float s = clamp((log(3.0) - log(max(u_adaptation_luminance, 1e-9))) / (log(3.0) - log(0.003)), 0.0, 1.0);
+    float rod = dot(c, vec3(0.02, 0.55, 0.43));
+    return mix(c, rod * vec3(0.80, 0.95, 1.25), s);
+}
 in vec2 v_uv;
 out vec4 out_color;
 
@@ -21,6 +33,7 @@ float interleaved_gradient_noise(vec2 p) {
 void main() {
     vec3 hdr = texture(u_hdr, v_uv).rgb;
     hdr = max(hdr, vec3(0.0));  // no negative radiance; NaN-free inputs are the passes' duty
+    if (u_mesopic == 1) hdr = mesopic(hdr);
     vec3 srgb = linear_to_srgb(aces_fit(hdr));
     srgb += (interleaved_gradient_noise(gl_FragCoord.xy) - 0.5) / 255.0;
     out_color = vec4(clamp(srgb, 0.0, 1.0), 1.0);

@@ -126,10 +126,20 @@ vec3 transmittance_to_sun(sampler2D lut, float r, float mu_s) {
     return exp(-min(optical_depth_to_top(lut, r, mu_s), vec3(80.0))) * visible;
 }
 
-// Irradiance table: linear in altitude and in mu_s.
+// Irradiance table: linear in altitude; uniform in the sun's ELEVATION from asin(mu_s_min) to 90 deg
+// (uniform in mu_s put 3.7 deg between columns in twilight, where the irradiance falls by 10x per
+// 2 deg, and linear interpolation there made visible steps in the exposure).
+float irradiance_x_of_mu_s(float mu_s) {
+    float e_min = asin(u_mu_s_min);
+    return clamp((asin(clamp(mu_s, -1.0, 1.0)) - e_min) / (0.5 * ATMO_PI - e_min), 0.0, 1.0);
+}
+float irradiance_mu_s_of_x(float x) {
+    float e_min = asin(u_mu_s_min);
+    return sin(e_min + x * (0.5 * ATMO_PI - e_min));
+}
 vec2 irradiance_uv(float r, float mu_s, vec2 size) {
     float x_r = (r - u_bottom_radius_km) / (u_top_radius_km - u_bottom_radius_km);
-    return vec2(tex_coord(clamp(mu_s * 0.5 + 0.5, 0.0, 1.0), size.x), tex_coord(clamp(x_r, 0.0, 1.0), size.y));
+    return vec2(tex_coord(irradiance_x_of_mu_s(mu_s), size.x), tex_coord(clamp(x_r, 0.0, 1.0), size.y));
 }
 vec3 irradiance_lookup(sampler2D lut, float r, float mu_s) {
     return texture(lut, irradiance_uv(r, mu_s, vec2(textureSize(lut, 0)))).rgb;
@@ -139,13 +149,23 @@ vec3 irradiance_lookup(sampler2D lut, float r, float mu_s) {
 // the ground (u_mu < 0.5) and rays that do not, each uniform in the distance to its boundary, so
 // that the horizon falls exactly on the seam between the halves; u_mu_s a non-linear map of the
 // distance to the top from the ground that puts resolution near the horizon and stops at mu_s_min.
+// Sun axis of the scattering table, in the sun's elevation e: the lower half of the rows is
+// uniform over twilight, e in [asin(mu_s_min), 0] (1.25 deg per row at 32 rows, where the sky falls
+// by 10x per 2-3 deg), the upper half is quadratic from the horizon to the zenith (dense at sunrise,
+// sparse at noon where nothing changes). Bruneton's distance-based map left 2-3.5 deg between the
+// rows below -9 deg, and the zenith luminance kinked on every row.
+const float MU_S_SPLIT = 0.5;
 float mu_s_unit(float mu_s) {
-    float H = atmosphere_H();
-    float d_min = u_top_radius_km - u_bottom_radius_km;
-    float d_max = H;
-    float a = (distance_to_top(u_bottom_radius_km, mu_s) - d_min) / (d_max - d_min);
-    float A = (distance_to_top(u_bottom_radius_km, u_mu_s_min) - d_min) / (d_max - d_min);
-    return max(1.0 - a / A, 0.0) / (1.0 + a);
+    float e = asin(clamp(mu_s, -1.0, 1.0));
+    float e_min = asin(u_mu_s_min);
+    if (e < 0.0) return MU_S_SPLIT * clamp((e - e_min) / -e_min, 0.0, 1.0);
+    return MU_S_SPLIT + (1.0 - MU_S_SPLIT) * sqrt(clamp(e / (0.5 * ATMO_PI), 0.0, 1.0));
+}
+float mu_s_of_unit(float x) {
+    float e_min = asin(u_mu_s_min);
+    if (x < MU_S_SPLIT) return sin(e_min * (1.0 - x / MU_S_SPLIT));
+    float t = (x - MU_S_SPLIT) / (1.0 - MU_S_SPLIT);
+    return sin(0.5 * ATMO_PI * t * t);
 }
 vec4 scattering_uvwz(float r, float mu, float mu_s, float nu, bool hits_ground, vec3 size) {
     float R_SIZE = size.z, MU_SIZE = size.y, MU_S_SIZE = float(u_scattering_mu_s_size);
@@ -173,9 +193,7 @@ vec4 scattering_uvwz(float r, float mu, float mu_s, float nu, bool hits_ground, 
 }
 
 // The 4D table lives in a 3D texture with nu slices side by side along x; interpolate nu by hand.
-vec4 scattering_lookup(sampler3D lut, float r, float mu, float mu_s, float nu, bool hits_ground) {
-    vec3 size = vec3(textureSize(lut, 0));
-    vec4 uvwz = scattering_uvwz(r, mu, mu_s, nu, hits_ground, size);
+vec4 scattering_fetch(sampler3D lut, vec4 uvwz) {
     float NU_SIZE = float(u_scattering_nu_size);
     float tex_coord_x = uvwz.x * (NU_SIZE - 1.0);
     float tex_x = floor(tex_coord_x);
@@ -183,4 +201,25 @@ vec4 scattering_lookup(sampler3D lut, float r, float mu, float mu_s, float nu, b
     vec3 uvw0 = vec3((tex_x + uvwz.y) / NU_SIZE, uvwz.z, uvwz.w);
     vec3 uvw1 = vec3((min(tex_x + 1.0, NU_SIZE - 1.0) + uvwz.y) / NU_SIZE, uvwz.z, uvwz.w);
     return mix(texture(lut, uvw0), texture(lut, uvw1), lerp);
+}
+vec4 scattering_lookup(sampler3D lut, float r, float mu, float mu_s, float nu, bool hits_ground) {
+    vec3 size = vec3(textureSize(lut, 0));
+    return scattering_fetch(lut, scattering_uvwz(r, mu, mu_s, nu, hits_ground, size));
+}
+
+// The same lookup with GEOMETRIC interpolation between the two nearest sun rows: in twilight the
+// scattered light falls exponentially with the sun's depression, and a straight line between rows
+// 1.25 deg apart overshoots it by up to 2x and kinks at every row. Costs twice the fetches: used
+// once per frame per sky-view texel, not per pixel.
+vec4 scattering_lookup_geometric(sampler3D lut, float r, float mu, float mu_s, float nu, bool hits_ground) {
+    vec3 size = vec3(textureSize(lut, 0));
+    vec4 uvwz = scattering_uvwz(r, mu, mu_s, nu, hits_ground, size);
+    float n = float(u_scattering_mu_s_size);
+    float f = uvwz.y * n - 0.5;
+    float i0 = clamp(floor(f), 0.0, n - 2.0);
+    float t = clamp(f - i0, 0.0, 1.0);
+    vec4 a = scattering_fetch(lut, vec4(uvwz.x, (i0 + 0.5) / n, uvwz.zw));
+    vec4 b = scattering_fetch(lut, vec4(uvwz.x, (i0 + 1.5) / n, uvwz.zw));
+    const float TINY = 1e-30;
+    return exp(mix(log(max(a, vec4(TINY))), log(max(b, vec4(TINY))), t));
 }

@@ -9,15 +9,15 @@ Composition (a spherically symmetric shell between the bottom radius R_g and the
   beta_M(h)  = beta_M0 * exp(-h / H_M)                      aerosol (Mie), albedo 0.9, g = 0.8
   beta_O3(h) = beta_O0 * max(0, 1 - |h - 25 km| / 15 km)     ozone absorption (Chappuis band)
 
-Host inputs map to the aerosol: the meteorological visibility V (m) gives the total extinction at
-550 nm at the ground by Koschmieder, sigma(0) = 3.912 / V (the distance at which a black object's
-contrast falls to 2 %); the aerosol takes what the Rayleigh part leaves,
+The tables hold the CLEAR air only, fixed per turbidity class (so a new visibility never rebuilds
+them): Rayleigh, ozone and a thin background aerosol whose ground extinction and layer depth follow
+the surface-layer turbidity, quantised to classes of TURBIDITY_STEP so nearby values share tables:
 
-  beta_M0(550 nm) = max(3.912 / V - beta_R0(550 nm), 1e-4 /km),
+  beta_M0(550 nm) = BACKGROUND_AEROSOL_550 * turbidity / 2,    H_M = 1.2 km * turbidity / 2,
 
-with an Angstrom law beta_M0(lambda) = beta_M0(550) (lambda / 550 nm)^-1.3. The "turbidity of the
-surface layer" scales the aerosol layer's depth: H_M = 1.2 km * turbidity / 2, so the default
-turbidity 2 is the standard 1.2 km boundary layer and turbidity 10 a 6 km deep polluted layer.
+with an Angstrom law (lambda / 550 nm)^-1.3. Whatever the host's visibility V asks beyond that
+(Koschmieder, sigma(0) = 3.912 / V) is carried by the analytic near-ground fog/haze layer of
+sky/haze.py, evaluated per frame and per pixel, never baked into a table.
 
 Radiance in the tables is per unit solar irradiance at the top of the atmosphere (sr^-1); the
 renderer multiplies by SOLAR_ILLUMINANCE (lux per RGB channel) to get cd/m^2 per channel.
@@ -38,6 +38,12 @@ _SUN_TINT = np.array([1.0, 0.985, 0.96])
 SOLAR_ILLUMINANCE = 128_000.0 * _SUN_TINT / float(np.dot([0.2126, 0.7152, 0.0722], _SUN_TINT))
 SUN_ANGULAR_RADIUS = 0.004675  # rad (0.2679 deg)
 KOSCHMIEDER = 3.912  # -ln(0.02)
+# Ground extinction of the tables' background aerosol at turbidity 2 (1/km at 550 nm): with the
+# Rayleigh 0.0136 /km the clear tables alone see ~200 km, the longest visibility the model accepts.
+BACKGROUND_AEROSOL_550 = 0.005
+TURBIDITY_STEP = 0.5
+# Bumped whenever the layout or meaning of a cached table changes (part of the cache key).
+TABLE_FORMAT_VERSION = 3
 
 
 @dataclass(frozen=True)
@@ -45,7 +51,7 @@ class TableSizes:
     """Quality knobs: table resolutions, scattering orders and integration sample counts."""
 
     transmittance: tuple[int, int] = (128, 32)  # (mu, r)
-    irradiance: tuple[int, int] = (32, 8)  # (mu_s, r)
+    irradiance: tuple[int, int] = (128, 8)  # (sun elevation, r): 0.9 deg per column
     r: int = 16
     mu: int = 64
     mu_s: int = 32  # twilight: 16 leaves steps of up to 10x per degree in zenith luminance
@@ -60,9 +66,9 @@ class TableSizes:
 
 
 PRESETS: dict[str, TableSizes] = {
-    "low": TableSizes((64, 16), (32, 8), 8, 32, 8, 8, 2, 6),
+    "low": TableSizes((64, 16), (64, 8), 8, 32, 16, 8, 2, 6),
     "medium": TableSizes(),
-    "high": TableSizes((256, 64), (64, 16), 32, 128, 32, 8, 6, 8),
+    "high": TableSizes((256, 64), (256, 16), 32, 128, 64, 8, 6, 8),
 }
 
 
@@ -102,7 +108,7 @@ class AtmosphereParameters:
 
     def key(self, shader_source: str = "") -> str:
         """Cache key: the parameters, table sizes, orders and the precompute shader source."""
-        blob = json.dumps(asdict(self), sort_keys=True) + shader_source
+        blob = json.dumps({**asdict(self), "format": TABLE_FORMAT_VERSION}, sort_keys=True) + shader_source
         return hashlib.sha256(blob.encode()).hexdigest()[:24]
 
     # --- float64 profiles (the GLSL mirrors these) ---------------------------------------------
@@ -115,27 +121,35 @@ class AtmosphereParameters:
         return rayleigh + mie + ozone
 
 
-def atmosphere_parameters(visibility_m: float = 30_000.0, turbidity: float = 2.0, ozone: bool = True,
-                          sizes: TableSizes | None = None, orders: int | None = None) -> AtmosphereParameters:
-    """Map the host's visibility (Koschmieder) and surface-layer turbidity to the aerosol."""
+def turbidity_class(turbidity: float) -> float:
+    """Quantise the turbidity to its table class (steps of TURBIDITY_STEP within 1..10)."""
+    return float(min(max(round(turbidity / TURBIDITY_STEP) * TURBIDITY_STEP, 1.0), 10.0))
+
+
+def atmosphere_parameters(turbidity: float = 2.0, ozone: bool = True, sizes: TableSizes | None = None,
+                          orders: int | None = None) -> AtmosphereParameters:
+    """Clear-air table parameters for a turbidity class (visibility is the haze layer's business)."""
     sizes = sizes or TableSizes()
     if orders is not None:
         sizes = TableSizes(**{**asdict(sizes), "orders": int(orders)})
-    rayleigh = np.array(AtmosphereParameters.rayleigh_scattering_km)
-    beta_total_550 = KOSCHMIEDER / (visibility_m / 1000.0)  # 1/km
-    beta_mie_550 = max(beta_total_550 - rayleigh[1], 1e-4)
+    t = turbidity_class(turbidity)
     angstrom = (WAVELENGTHS_NM / 550.0) ** -1.3
-    mie_extinction = beta_mie_550 * angstrom
-    # Round to 4 significant digits so that float noise in the host's inputs does not miss the cache.
+    mie_extinction = BACKGROUND_AEROSOL_550 * t / 2.0 * angstrom
+
     def r4(v):
         return tuple(float(f"{x:.4g}") for x in v)
     return AtmosphereParameters(
         mie_scattering_km=r4(0.9 * mie_extinction),
         mie_extinction_km=r4(mie_extinction),
-        mie_scale_height_km=float(f"{1.2 * turbidity / 2.0:.4g}"),
+        mie_scale_height_km=float(f"{1.2 * t / 2.0:.4g}"),
         ozone_absorption_km=AtmosphereParameters.ozone_absorption_km if ozone else (0.0, 0.0, 0.0),
         sizes=sizes,
     )
+
+
+def ground_extinction_550_per_m(params: AtmosphereParameters) -> float:
+    """Extinction of the clear-air tables at the ground, 550 nm (1/m)."""
+    return float(params.extinction_km(np.array(0.0))[1]) / 1000.0
 
 
 def optical_depth_to_top(params: AtmosphereParameters, r_km: np.ndarray, mu: np.ndarray,

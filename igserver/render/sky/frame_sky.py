@@ -1,18 +1,23 @@
-"""Per-frame sky state: the tables for the scene's atmosphere (resident, bound on units 12..15),
-the daylight they imply, and the sky's own uniforms (moon disk, cirrus layer)."""
+"""Per-frame sky state: the clear-air tables for the scene's turbidity class (resident, units
+12..15), the fog/haze layer for its visibility (eased, analytic), the per-frame sky-view table
+(units 9..11), the light they imply, and the sky's own uniforms (moon disk, cirrus layer)."""
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import moderngl
 import numpy as np
 
 from ...scene.model import Scene
-from .atmosphere_model import PRESETS, SOLAR_ILLUMINANCE, AtmosphereParameters, atmosphere_parameters
+from .atmosphere_model import (KOSCHMIEDER, PRESETS, SOLAR_ILLUMINANCE, AtmosphereParameters, atmosphere_parameters,
+                               ground_extinction_550_per_m)
 from .daylight import Daylight, daylight
-from .lighting import MOON_ANGULAR_RADIUS, MOON_SOLID_ANGLE, NIGHT_SKY_LUMINANCE, precomputed_daylight
+from .haze import HazeLayer, HazeTransition, haze_layer
+from .lighting import (MOON_ANGULAR_RADIUS, MOON_SOLID_ANGLE, NIGHT_SKY_ILLUMINANCE, NIGHT_SKY_LUMINANCE,
+                       clear_light, moon_illuminance_toa, precomputed_daylight)
+from .sky_view import SkyView, horizon_elevation, sun_horizontal
 from .tables import TABLE_UNITS, AtmosphereTables
 
 CIRRUS_FEATURE_KM = 6.0     # noise lattice unit on the cirrus layer
@@ -21,7 +26,18 @@ CIRRUS_PERIOD_UNITS = 64.0  # noise period (lattice units) per horizontal axis: 
 
 def scene_atmosphere(scene: Scene) -> AtmosphereParameters:
     a = scene.atmosphere
-    return atmosphere_parameters(a.visibility, a.turbidity, a.ozone, PRESETS[a.quality], a.scattering_orders)
+    return atmosphere_parameters(a.turbidity, a.ozone, PRESETS[a.quality], a.scattering_orders)
+
+
+def scene_visibility(scene: Scene) -> float:
+    """The one place the renderer reads the host's visibility (m): weather may lower it (rain,
+    snow) at merge, through igserver.weather.effective_visibility(scene)."""
+    return float(scene.atmosphere.visibility)
+
+
+def scene_haze(scene: Scene, params: AtmosphereParameters) -> HazeLayer:
+    a = scene.atmosphere
+    return haze_layer(scene_visibility(scene), a.turbidity, a.fog_top, ground_extinction_550_per_m(params))
 
 
 @dataclass
@@ -29,6 +45,9 @@ class SkyFrame:
     light: Daylight
     uniforms: dict
     tables: AtmosphereTables | None
+    sky_view: SkyView | None = None
+    haze: HazeLayer | None = None
+    horizontal_illuminance: float = 0.0  # lux, natural light at the camera
 
 
 def cirrus_offset_units(scene: Scene, camera_xy_m: np.ndarray) -> tuple[float, float]:
@@ -46,37 +65,79 @@ def cirrus_offset_units(scene: Scene, camera_xy_m: np.ndarray) -> tuple[float, f
 
 
 def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
-              camera_xy_m: np.ndarray) -> SkyFrame:
+              camera_xy_m: np.ndarray, transition: HazeTransition | None = None) -> SkyFrame:
     atm = scene.atmosphere
     tables = None
+    sky_view = None
     uniforms: dict = {}
+    ground_m = scene.location.altitude
+    moon_toa_lux = moon_illuminance_toa(celestial.moon_phase)
+    moon_toa = moon_toa_lux * SOLAR_ILLUMINANCE / float(np.dot([0.2126, 0.7152, 0.0722], SOLAR_ILLUMINANCE))
     if atm.model == "precomputed":
         params = scene_atmosphere(scene)
         tables = AtmosphereTables.get(ctx, params)
         tables.bind()
-        light = precomputed_daylight(params, tables.irradiance_host, celestial.sun_elevation, altitude_m,
-                                     atm.turbidity, celestial.moon_elevation, celestial.moon_phase)
+        haze = scene_haze(scene, params)
+        if transition is not None:
+            beta = transition.apply(haze.beta, atm.visibility_transition, scene.time.sim_time)
+            haze = replace(haze, beta=beta)
+        light, horizontal = precomputed_daylight(params, tables.irradiance_host, celestial.sun_elevation, altitude_m,
+                                                 atm.turbidity, celestial.moon_elevation, celestial.moon_phase,
+                                                 haze, altitude_m - ground_m)
+        # Light arriving at the layer: the clear air's at the layer's top.
+        top = clear_light(params, tables.irradiance_host, ground_m + haze.top + 0.5 * haze.edge,
+                          celestial.sun_elevation, celestial.moon_elevation, celestial.moon_phase)
         uniforms.update(tables.uniforms())
+        uniforms.update(haze.uniforms(ground_m))
+        uniforms.update({
+            "u_haze_sun": _t(top.sun_normal), "u_haze_moon": _t(top.moon_normal),
+            "u_haze_sky": _t(top.sky_horizontal + NIGHT_SKY_ILLUMINANCE),
+        })
         uniforms["u_sky_model"] = 1
+        uniforms["u_fog_beta"] = float(haze.beta[1])
     else:
         light = daylight(celestial.sun_elevation, altitude_m, atm.turbidity,
                          celestial.moon_elevation, celestial.moon_phase)
+        haze = None
+        horizontal = float(np.dot([0.2126, 0.7152, 0.0722], light.sun_illuminance)) * max(
+            math.sin(math.radians(celestial.sun_elevation)), 0.0) + float(
+            np.dot([0.2126, 0.7152, 0.0722], light.sky_ambient)) * math.pi
         uniforms.update(AtmosphereParameters().uniforms())  # earth radius etc. for cirrus
         uniforms.update(TABLE_UNITS)
+        uniforms.update(HazeLayer(np.zeros(3), 0.0, 1.0, 0.8, 1.0).uniforms(ground_m))
         uniforms["u_sky_model"] = 0
-    # Moon disk: the full moon's transmitted illuminance spread over its disk; the phase is drawn
-    # from the geometry (terminator from the sun direction), so divide the phase back out.
-    moon_lux = np.asarray(light.moon_illuminance) / max(celestial.moon_phase, 1e-3)
+        uniforms["u_fog_beta"] = KOSCHMIEDER / scene_visibility(scene)  # gradient tier's exponential haze
+    # Moon disk: the moon's illuminance above the atmosphere spread over its disk; the phase is drawn
+    # from the geometry (terminator from the sun direction), so divide the phase back out. The sky
+    # pass multiplies by the view transmittance.
+    moon_lux = moon_toa / max(celestial.moon_phase, 1e-3)
     off_x, off_y = cirrus_offset_units(scene, camera_xy_m)
+    sun_h = sun_horizontal(celestial.sun_dir)
+    bottom = uniforms.get("u_bottom_radius_km", AtmosphereParameters.bottom_radius_km)
+    moon_up = celestial.moon_elevation > -10.0 and celestial.moon_phase > 0.0
     uniforms.update({
-        "u_solar_illuminance": tuple(float(x) for x in SOLAR_ILLUMINANCE),
-        "u_night_sky": tuple(float(x) for x in NIGHT_SKY_LUMINANCE),
+        "u_solar_illuminance": _t(SOLAR_ILLUMINANCE),
+        "u_night_sky": _t(NIGHT_SKY_LUMINANCE),
+        "u_moon_scale": _t(moon_toa / SOLAR_ILLUMINANCE if moon_up else np.zeros(3)),
         "u_moon_disk_cos": math.cos(MOON_ANGULAR_RADIUS),
-        "u_moon_disk_luminance": tuple(float(x) for x in moon_lux / MOON_SOLID_ANGLE),
+        "u_moon_disk_luminance": _t(moon_lux / MOON_SOLID_ANGLE),
         "u_cirrus_coverage": float(scene.weather.cirrus_coverage),
         "u_cirrus_altitude_km": scene.weather.cirrus_altitude / 1000.0,
         "u_cirrus_offset": (off_x, off_y),
         "u_cirrus_feature_km": CIRRUS_FEATURE_KM,
         "u_cirrus_period": CIRRUS_PERIOD_UNITS,
+        "u_sky_view_sun_h": sun_h,
+        "u_horizon_elevation": horizon_elevation(altitude_m, bottom),
     })
-    return SkyFrame(light, uniforms, tables)
+    if tables is not None:
+        sky_view = SkyView.get(ctx)
+        sky_view.update(tables, {**uniforms, "u_camera_altitude": altitude_m,
+                                 "u_sun_dir": _t(celestial.sun_dir), "u_moon_dir": _t(celestial.moon_dir)},
+                        altitude_m, celestial.sun_dir, celestial.moon_dir, uniforms["u_moon_scale"])
+        sky_view.bind()
+        uniforms.update(sky_view.uniforms())
+    return SkyFrame(light, uniforms, tables, sky_view, haze, horizontal)
+
+
+def _t(v) -> tuple[float, float, float]:
+    return tuple(float(x) for x in v)

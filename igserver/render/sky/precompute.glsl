@@ -63,13 +63,7 @@ void scattering_params(ivec3 texel, ivec3 size, out float r, out float mu, out f
         mu = d == 0.0 ? 1.0 : clamp_cosine((H * H - rho * rho - d * d) / (2.0 * r * d));
         hits_ground = false;
     }
-    float x_mu_s = unit_range(uvwz.y, MU_S_SIZE);
-    float d_min = u_top_radius_km - u_bottom_radius_km;
-    float d_max = H;
-    float A = (distance_to_top(u_bottom_radius_km, u_mu_s_min) - d_min) / (d_max - d_min);
-    float a = (A - x_mu_s * A) / (1.0 + x_mu_s * A);
-    float d = d_min + min(a, A) * (d_max - d_min);
-    mu_s = d == 0.0 ? 1.0 : clamp_cosine((H * H - d * d) / (2.0 * u_bottom_radius_km * d));
+    mu_s = clamp_cosine(mu_s_of_unit(unit_range(uvwz.y, MU_S_SIZE)));
     nu = clamp_cosine(uvwz.x * 2.0 - 1.0);
     // nu is only free within the range the other two angles allow.
     float s = safe_sqrt((1.0 - mu * mu) * (1.0 - mu_s * mu_s));
@@ -121,7 +115,7 @@ void main() {
     if (any(greaterThanEqual(texel, size))) return;
     vec2 x = unit_range_vec(texel, size);
     float r = u_bottom_radius_km + x.y * (u_top_radius_km - u_bottom_radius_km);
-    float mu_s = clamp_cosine(2.0 * x.x - 1.0);
+    float mu_s = irradiance_mu_s_of_x(x.x);
     // Mean cosine over the sun's disk as it crosses the horizon: (mu_s + a)^2 / 4a in between.
     float a = SUN_ANGULAR_RADIUS;
     float cos_factor = mu_s < -a ? 0.0 : (mu_s > a ? mu_s : (mu_s + a) * (mu_s + a) / (4.0 * a));
@@ -222,7 +216,7 @@ void main() {
     if (any(greaterThanEqual(texel, size))) return;
     vec2 x = unit_range_vec(texel, size);
     float r = u_bottom_radius_km + x.y * (u_top_radius_km - u_bottom_radius_km);
-    float mu_s = clamp_cosine(2.0 * x.x - 1.0);
+    float mu_s = irradiance_mu_s_of_x(x.x);
     // E = integral over the upper hemisphere of L(omega) cos(theta) d omega.
     const int NT = 16;
     float dphi = ATMO_PI / float(NT);

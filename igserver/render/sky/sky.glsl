@@ -9,7 +9,6 @@ in vec2 v_uv;
 layout(location = 0) out vec4 out_color;
 layout(location = 1) out float out_distance;
 
-uniform vec3 u_night_sky;            // cd/m^2 at the zenith: airglow, zodiacal light, faint stars
 uniform float u_moon_disk_cos;       // cos of the moon's angular radius
 uniform vec3 u_moon_disk_luminance;  // cd/m^2 of the lit part, after the atmosphere
 
@@ -35,20 +34,15 @@ vec3 moon_disk(vec3 dir) {
 
 void main() {
     vec3 dir = view_ray(v_uv);
-    vec3 radiance;
-    vec3 t_view;  // transmittance from the camera to space along dir (0 into the ground)
+    vec3 t_view;  // transmittance from the camera to space along dir (0 into the ground), fog included
+    vec3 radiance = sky_radiance_and_transmittance(dir, t_view);
     if (use_precomputed()) {
-        radiance = precomputed_sky(dir, t_view);
-        // Natural night sky, brighter toward the horizon (van Rhijn: longer airglow path).
-        float up = max(dir.z, 0.0);
-        radiance += u_night_sky * t_view * (1.0 + 2.0 * pow(1.0 - up, 4.0));
         float sun_solid_angle = 2.0 * PI * (1.0 - u_sun_disk_cos);
         radiance += u_solar_illuminance / sun_solid_angle * sun_limb(dir) * t_view;
     } else {
-        radiance = gradient_sky(dir) + sun_disk(dir);
-        t_view = vec3(dir.z > 0.0 ? 1.0 : 0.0);
+        radiance += sun_disk(dir);
     }
-    radiance += moon_disk(dir) * step(1e-6, t_view.g + t_view.r);
+    radiance += moon_disk(dir) * t_view;
     radiance = apply_cirrus(radiance, dir);
     out_color = vec4(pre_expose(radiance), 1.0);
     out_distance = 1e30;  // sky: infinitely far

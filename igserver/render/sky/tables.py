@@ -3,7 +3,10 @@
 ``AtmosphereTables.get(ctx, params)`` returns the tables for ``params``, resident per GL context:
 the same parameters on the next frame cost a dictionary lookup; new parameters load the tables
 from the disk cache (``$IGSERVER_CACHE`` or ``~/.cache/igserver``/atmosphere/<key>.npz, the key a
-hash of the parameters, table sizes, orders and the precompute shader source) or compute them.
+hash of the parameters, table sizes, orders, TABLE_FORMAT_VERSION and the precompute shader source)
+or compute them. The tables depend only on the turbidity class, ozone, quality and orders (never on
+the visibility), so a host can make only a few dozen distinct keys; the cache is still bounded:
+``$IGSERVER_CACHE_MAX_MB`` (default 300) with least-recently-used eviction (a load touches the file).
 
 At render time the tables sit on fixed texture units (``TABLE_UNITS``) that every pass's
 ``apply_aerial_perspective`` samples; passes must not use those units for anything else.
@@ -30,6 +33,40 @@ PRECOMPUTE_SHADER = "sky/precompute.glsl"
 def cache_dir() -> Path:
     root = os.environ.get("IGSERVER_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "igserver")
     return Path(root) / "atmosphere"
+
+
+DEFAULT_CACHE_MAX_MB = 300.0
+
+
+def cache_max_bytes() -> int:
+    try:
+        mb = float(os.environ.get("IGSERVER_CACHE_MAX_MB", DEFAULT_CACHE_MAX_MB))
+    except ValueError:
+        mb = DEFAULT_CACHE_MAX_MB
+    return int(max(mb, 0.0) * 1024 * 1024)
+
+
+def evict_least_recently_used(directory: Path, max_bytes: int, keep: Path | None = None) -> list[Path]:
+    """Delete the least recently used table files until the directory holds at most max_bytes
+    (the file just written, ``keep``, always stays). Returns the deleted paths."""
+    try:
+        files = [(p.stat().st_mtime, p.stat().st_size, p) for p in directory.glob("*.npz")]
+    except OSError:
+        return []
+    total = sum(size for _, size, _ in files)
+    removed = []
+    for _, size, path in sorted(files):
+        if total <= max_bytes:
+            break
+        if keep is not None and path == keep:
+            continue
+        try:
+            path.unlink()
+            total -= size
+            removed.append(path)
+        except OSError:
+            pass
+    return removed
 
 
 def _groups(size, local) -> tuple[int, int, int]:
@@ -125,6 +162,10 @@ class AtmosphereTables:
         for name, array in arrays.items():
             getattr(self, name).write(np.ascontiguousarray(array, dtype=np.float32).tobytes())
         self.from_cache = True
+        try:
+            os.utime(path)  # most recently used: the LRU eviction keys on the modification time
+        except OSError:
+            pass
         return True
 
     def _save(self, path: Path) -> None:
@@ -133,6 +174,7 @@ class AtmosphereTables:
             tmp = path.with_name(path.stem + f".{os.getpid()}.tmp.npz")
             np.savez(tmp, **self.arrays())
             os.replace(tmp, path)  # atomic: a concurrent reader sees the old file or the new one
+            evict_least_recently_used(path.parent, cache_max_bytes(), keep=path)
         except OSError:
             pass  # a read-only cache only costs a recompute next time
 

@@ -1,0 +1,226 @@
+"""Near-ground fog and haze: an analytic, height-dependent layer over the clear-air tables.
+
+The clear-air tables (atmosphere_model.py) are fixed per turbidity class; the host's visibility V
+lives here, so a new V costs a few uniforms, never a table rebuild. Heights h are metres above the
+scene's ground (``location.altitude``); the mirror in common/atmosphere.glsl (haze_*) computes the
+same quantities per pixel.
+
+Extinction (Koschmieder): the layer adds what the clear air lacks at the ground,
+    beta(550 nm) = max(3.912 / V - beta_clear(0), 0)          1/m,
+    beta(lambda) = beta(550) (lambda / 550 nm)^-alpha,
+with alpha, the asymmetry g and the single-scattering albedo omega going from droplet fog
+(V <= 1 km: alpha = 0, g = 0.85, omega = 1: neutral) to haze (V >= 10 km: alpha = 1.3, g = 0.7,
+omega = 0.9), log-linearly in V between.
+
+Density profile: rho(h) = 1 up to the top t, exp(-(h - t) / H_e) above. ``atmosphere.fog_top`` set:
+a fog layer with its top at t and an edge H_e = max(0.1 t, 5 m); unset: haze, t = 0 and H_e the
+turbidity's aerosol scale height (1.2 km * turbidity / 2). The column above h is closed-form:
+    C(h) = integral_h^inf rho = (t - h) + H_e  (h <= t),   H_e exp(-(h - t) / H_e)  (h > t),
+so the optical depth of any straight segment is beta d (C(h0) - C(h1)) / (h1 - h0).
+
+Light inside the layer (multiple scattering, two-stream/diffusion with delta-scaling, checked
+against a float64 Monte Carlo slab in ``igserver quality fog``): for optical depth tau above h,
+a beam at cosine mu0 arrives as
+    T(tau, mu0) = t_d + (1 - t_d) b0 / (1 + c tau),   t_d = exp(-(1 - g^2) tau / mu0),
+    b0 = 1/2 + 3/4 g' mu0 (g' = g / (1 + g)),   c = 3/4 (1 - g) b0 / (1/2 + 3/4 mu0),
+the single-scattering limit for thin layers (the forward part b0 of what is scattered goes on
+down) and the diffusion limit (1/2 + 3/4 mu0) / (3/4 (1 - g) tau) for thick ones. Sky light uses
+mu0 = 1/2. The part below h reflects r_d = 1 - T(tau_below, 1/2) plus the ground (albedo A) seen
+through it; up and down fluxes at h follow by adding the two parts (one geometric series).
+The in-scattered radiance toward the eye is the source
+    S(h, v) = omega [ E_beam(h) p_HG(nu) + (F_up (1 - v_z) / 2 + F_down_diffuse (1 + v_z) / 2) / pi ]
+(a viewer looking down sees light going up), taken at an effective height along the ray, and
+L_in = S (1 - exp(-tau_ray)).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .atmosphere_model import KOSCHMIEDER, WAVELENGTHS_NM
+
+FOG_VISIBILITY_M = 1_000.0
+HAZE_VISIBILITY_M = 10_000.0
+EARTH_RADIUS_M = 6_360_000.0
+GROUND_ALBEDO = 0.1
+SKY_MU0 = 0.5  # diffuse incidence acts like a beam at 60 deg (diffusivity factor 2)
+
+
+def _fog_fraction(visibility_m: float) -> float:
+    """1 for droplet fog (V <= 1 km), 0 for haze (V >= 10 km), log-linear between."""
+    x = (math.log10(visibility_m) - math.log10(FOG_VISIBILITY_M)) / (
+        math.log10(HAZE_VISIBILITY_M) - math.log10(FOG_VISIBILITY_M))
+    return 1.0 - min(max(x, 0.0), 1.0)
+
+
+@dataclass(frozen=True)
+class HazeLayer:
+    beta: np.ndarray  # (3,) 1/m, extinction in the dense part (R, G, B)
+    top: float  # m above the ground
+    edge: float  # m, scale height above the top
+    g: float
+    omega: float
+
+    # --- profile ------------------------------------------------------------------------------
+    def density(self, h):
+        h = np.asarray(h, dtype=np.float64)
+        return np.where(h <= self.top, 1.0, np.exp(-np.maximum(h - self.top, 0.0) / self.edge))
+
+    def column(self, h):
+        """Integral of the density from h to infinity (m)."""
+        h = np.asarray(h, dtype=np.float64)
+        return np.where(h <= self.top, self.top - h + self.edge,
+                        self.edge * np.exp(-np.maximum(h - self.top, 0.0) / self.edge))
+
+    def optical_depth(self, h0: float, rel) -> np.ndarray:
+        """(..., 3) optical depth of the straight segment from height h0 to h0 + rel (flat earth)."""
+        rel = np.asarray(rel, dtype=np.float64)
+        d = np.linalg.norm(rel, axis=-1)
+        dz = rel[..., 2]
+        small = np.abs(dz) < 1e-3 * self.edge
+        mean = np.where(small, self.density(h0 + 0.5 * dz),
+                        (self.column(h0) - self.column(h0 + dz)) / np.where(small, 1.0, dz))
+        return (d * mean)[..., None] * self.beta
+
+    def tau_above(self, h) -> np.ndarray:
+        return np.asarray(self.column(h))[..., None] * self.beta
+
+    def tau_below(self, h) -> np.ndarray:
+        return (self.column(0.0) - np.asarray(self.column(h)))[..., None] * self.beta
+
+    # --- two-stream light --------------------------------------------------------------------------
+    def transmission(self, tau, mu0):
+        """Total (direct + diffuse) downward flux fraction of a beam at cosine mu0 through tau."""
+        g = self.g
+        mu0 = np.maximum(mu0, 1e-3)
+        t_d = np.exp(-np.minimum((1.0 - g * g) * tau / mu0, 80.0))
+        b0 = 0.5 + 0.75 * g / (1.0 + g) * mu0
+        c = 0.75 * (1.0 - g) * b0 / (0.5 + 0.75 * mu0)
+        return t_d + (1.0 - t_d) * b0 / (1.0 + c * tau)
+
+    def reflectance_below(self, tau_below):
+        """Diffuse reflectance of the layer below a height plus the ground seen through it."""
+        t = self.transmission(tau_below, SKY_MU0)
+        r = 1.0 - t
+        return r + t * t * GROUND_ALBEDO / (1.0 - GROUND_ALBEDO * r)
+
+    def fluxes(self, h: float, sun_normal, mu_s: float, sky_horizontal, moon_normal=(0.0, 0.0, 0.0),
+               mu_m: float = -1.0) -> dict:
+        """Fluxes (lux, RGB) at height h under clear-air light arriving at the layer's top:
+        down (total), up, beam_true (the visible sun/moon direct, horizontal), beam_delta (direct
+        plus forward peak, the light that casts sharp shadows, horizontal)."""
+        ta, tb = self.tau_above(h), self.tau_below(h)
+        sun, moon, sky = np.asarray(sun_normal, float), np.asarray(moon_normal, float), np.asarray(sky_horizontal, float)
+        ms, mm = max(mu_s, 0.0), max(mu_m, 0.0)
+        incoming = sun * ms * self.transmission(ta, max(mu_s, 1e-3)) + sky * self.transmission(ta, SKY_MU0)
+        incoming = incoming + moon * mm * self.transmission(ta, max(mu_m, 1e-3))
+        r_below = self.reflectance_below(tb)
+        r_above = 1.0 - self.transmission(ta, SKY_MU0)
+        down = incoming / (1.0 - r_below * r_above)
+
+        def beam(e, mu, scale):
+            return e * mu * np.exp(-np.minimum(scale * ta / max(mu, 1e-3), 80.0)) if mu > 0 else np.zeros(3)
+        beam_true = beam(sun, ms, 1.0) + beam(moon, mm, 1.0)
+        beam_delta = beam(sun, ms, 1.0 - self.g ** 2) + beam(moon, mm, 1.0 - self.g ** 2)
+        return {"down": down, "up": r_below * down, "beam_true": beam_true, "beam_delta": beam_delta}
+
+    def tau_view(self, h0: float, dirs: np.ndarray) -> np.ndarray:
+        """(N, 3) optical depth of whole view rays (mirror of haze_sky(): to the flat ground below,
+        to space above with the grazing floor)."""
+        z = np.asarray(dirs, float)[:, 2]
+        c = float(self.column(h0))
+        hc = c / max(float(self.density(h0)), 1e-6)
+        up = c / np.sqrt(z * z + 2.0 * hc / EARTH_RADIUS_M)
+        below = float(self.column(0.0)) - c  # column between the ground and the camera
+        down = below / np.maximum(-z, 1e-9) if h0 > 0.0 else np.full_like(z, np.inf)
+        col = np.where(z >= 0.0, up, down)
+        return np.minimum(col[:, None] * self.beta, 1e4)
+
+    def source(self, h: float, dirs: np.ndarray, flux: dict, sun_dir, sun_normal, moon_dir, moon_normal) -> np.ndarray:
+        """(N, 3) in-scattered radiance source S(h, dir) (cd/m^2), the mirror of haze_source()."""
+        dirs = np.asarray(dirs, float)
+        ta = self.tau_above(h)
+        w_down = 0.5 + 0.5 * dirs[:, 2:3]
+        out = (flux["up"] * (1.0 - w_down) + np.maximum(flux["down"] - flux["beam_true"], 0.0) * w_down) / math.pi
+        for d, e in ((sun_dir, sun_normal), (moon_dir, moon_normal)):
+            mu = float(d[2])
+            if mu > 0.0:
+                out = out + np.asarray(e) * np.exp(-np.minimum(ta / mu, 80.0)) * hg_phase(self.g, dirs @ np.asarray(d))[:, None]
+        return self.omega * out
+
+    def uniforms(self, base_altitude_m: float) -> dict:
+        return {
+            "u_haze_beta": tuple(float(b) for b in self.beta),
+            "u_haze_top": float(self.top),
+            "u_haze_edge": float(self.edge),
+            "u_haze_base": float(base_altitude_m),
+            "u_haze_g": float(self.g),
+            "u_haze_omega": float(self.omega),
+            "u_haze_ground_albedo": GROUND_ALBEDO,
+        }
+
+
+def haze_layer(visibility_m: float, turbidity: float, fog_top: float | None,
+               clear_ground_extinction_per_m: float) -> HazeLayer:
+    fog = _fog_fraction(visibility_m)
+    alpha = 1.3 * (1.0 - fog)
+    beta_550 = max(KOSCHMIEDER / visibility_m - clear_ground_extinction_per_m, 0.0)
+    beta = beta_550 * (WAVELENGTHS_NM / 550.0) ** -alpha
+    if fog_top is not None:
+        top, edge = float(fog_top), max(0.1 * float(fog_top), 5.0)
+    else:
+        top, edge = 0.0, 1200.0 * turbidity / 2.0
+    return HazeLayer(beta=beta, top=top, edge=edge, g=0.7 + 0.15 * fog, omega=0.9 + 0.1 * fog)
+
+
+def hg_phase(g: float, nu) -> np.ndarray:
+    """Henyey-Greenstein phase function (1/sr)."""
+    nu = np.asarray(nu, dtype=np.float64)
+    return (1.0 - g * g) / (4.0 * math.pi * np.maximum(1.0 + g * g - 2.0 * g * nu, 1e-6) ** 1.5)
+
+
+class HazeTransition:
+    """Eases the applied haze extinction toward the host's value so a visibility change never pops:
+    log(beta) moves along a smoothstep over ``duration`` seconds of sim_time. The state lives in the
+    renderer (one per render process). Why ease at all: the host may step V in large jumps, and a
+    stream must not pop. Why sim_time: a frame is a function of the state the host sent and of the
+    time it stands at (the IG clock runs sim_time in real time by itself); a frame at the same
+    sim_time as the last (a paused clock, a re-render) shows the new state at once, so renders
+    stay deterministic."""
+
+    def __init__(self):
+        self._from: np.ndarray | None = None
+        self._to: np.ndarray | None = None
+        self._progress = 1.0
+        self._last_sim: float | None = None
+
+    def apply(self, target_beta: np.ndarray, duration: float, sim_time: float) -> np.ndarray:
+        target = np.log(np.maximum(np.asarray(target_beta, float), 1e-12))
+        if self._to is None or duration <= 0.0:
+            self._from = self._to = target
+            self._progress = 1.0
+        else:
+            dt = 0.0 if self._last_sim is None else sim_time - self._last_sim
+            if dt <= 0.0:  # same instant (paused clock, re-render) or time went back: the new state
+                self._progress = 1.0
+                self._from = self._to = target
+            else:
+                self._progress = min(self._progress + dt / duration, 1.0)
+            current = self._current()
+            if not np.allclose(target, self._to, rtol=0.0, atol=1e-9):
+                self._from, self._to, self._progress = current, target, 0.0
+        self._last_sim = sim_time
+        beta = np.exp(self._current())
+        return np.where(beta < 1e-10, 0.0, beta)  # no layer left: the shaders skip it
+
+    def _current(self) -> np.ndarray:
+        p = self._progress
+        s = p * p * (3.0 - 2.0 * p)
+        return self._from + (self._to - self._from) * s
+
+    @property
+    def settled(self) -> bool:
+        return self._progress >= 1.0
