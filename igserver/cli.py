@@ -36,8 +36,15 @@ def cmd_render(args) -> int:
         frame = service.render(timed=True)
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Image.fromarray(frame.rgba[:, :, :3]).save(args.out)
+    if getattr(args, "json", False):
+        import json
+
+        print(json.dumps({"out": str(args.out), "width": frame.width, "height": frame.height, "passes": frame.passes,
+                          "render_ms": round(frame.render_ms, 3), "ev100": round(frame.ev100, 3),
+                          "illuminance_lux": float(f"{frame.illuminance_lux:.6g}")}))
+        return 0
     print(f"wrote {args.out} ({frame.width}x{frame.height}, passes {' '.join(frame.passes)}, "
-          f"{frame.render_ms:.1f} ms)")
+          f"{frame.render_ms:.1f} ms, EV100 {frame.ev100:.2f}, {frame.illuminance_lux:.4g} lx)")
     return 0
 
 
@@ -83,6 +90,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--width", type=int)
     p.add_argument("--height", type=int)
     p.add_argument("--set", action="append", metavar="PATH=VALUE", help="override a field, e.g. camera.pitch=10")
+    p.add_argument("--json", action="store_true", help="print the frame's read-out (EV100, illuminance) as JSON")
     p.set_defaults(func=cmd_render)
 
     p = sub.add_parser("bench", help="frame time per pass and in total")

@@ -74,8 +74,13 @@ def test_cache_hit_on_second_construction(renderer):
 
 
 def test_parameters_change_the_key():
-    a, b = atmosphere_parameters(30_000.0), atmosphere_parameters(5_000.0)
-    assert a.key() != b.key() and a.key() == atmosphere_parameters(30_000.0).key()
+    # Tables depend on the turbidity CLASS (steps of 0.5), never on the visibility.
+    a, b = atmosphere_parameters(2.0), atmosphere_parameters(5.0)
+    assert a.key() != b.key() and a.key() == atmosphere_parameters(2.0).key()
+    assert atmosphere_parameters(2.1).key() == a.key()  # quantised: nearby values share tables
+    s1 = scene(atmosphere={"visibility": 12345.0})
+    s2 = scene(atmosphere={"visibility": 12346.0})
+    assert scene_atmosphere(s1).key() == scene_atmosphere(s2).key() == scene_atmosphere(scene()).key()
 
 
 def test_sky_colour_noon_sunset_night(renderer):

@@ -74,6 +74,8 @@ class EncodedFrame:
             "X-IG-Render-Ms": f"{self.frame.render_ms:.3f}",
             "X-IG-Width": str(self.frame.width),
             "X-IG-Height": str(self.frame.height),
+            "X-IG-EV100": f"{self.frame.ev100:.3f}",
+            "X-IG-Illuminance-Lux": f"{self.frame.illuminance_lux:.6g}",
         }
 
 

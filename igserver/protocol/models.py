@@ -77,3 +77,5 @@ class FrameMessage(BaseModel):
     data: bytes = Field(..., description="encoded image (raw: RGBA rows, top row first)")
     render_ms: float = Field(..., description="render time in the render process")
     encode_ms: float = Field(..., description="encoding time in the server")
+    ev100: float = Field(0.0, description="exposure the frame was rendered with (EV100)")
+    illuminance_lux: float = Field(0.0, description="natural horizontal illuminance at the camera (lux)")

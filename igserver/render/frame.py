@@ -12,7 +12,8 @@ from ..astro import celestial_state, direction_enu
 from ..scene.model import Scene
 from .camera import CameraView, gl_matrix, make_view
 from .lights import PointLight, gather_lights, light_uniforms
-from .post.exposure import GROUND_REFLECTANCE, EyeAdaptation, exposure_of_ev100, frustum_directions, steady_ev100
+from .post.exposure import (GROUND_REFLECTANCE, EyeAdaptation, display_metered_ev100, exposure_of_ev100,
+                            frustum_directions)
 from .sky.daylight import SUN_ANGULAR_RADIUS, Daylight
 from .sky.frame_sky import SkyFrame, sky_frame
 from .sky.haze import HazeTransition
@@ -91,15 +92,18 @@ def local_light_illuminance(lights: list[PointLight], view) -> float:
     return e
 
 
-def meter_luminance(sky: SkyFrame, view, celestial, haze_height_m: float, lights: list[PointLight]) -> float:
-    """Mean luminance (cd/m^2) of the view for the exposure (post/exposure.py): sky directions from
-    the sky-view table seen through the fog layer, ground/sea as a 0.15 reflectance under the
-    horizontal illuminance, plus local lights' illuminance near the camera."""
+def meter_samples(sky: SkyFrame, scene: Scene, view, celestial, haze_height_m: float,
+                  lights: list[PointLight]) -> np.ndarray:
+    """Luminance samples (cd/m^2) of the view on a 16 x 9 grid for the exposure (post/exposure.py):
+    sky directions from the sky-view table seen through the fog layer; ground as its base colour
+    under the horizontal illuminance; sea as the Fresnel-weighted reflected sky (~5 %); plus local
+    lights' illuminance near the camera on the ground."""
     dirs = frustum_directions(view)
-    ground = GROUND_REFLECTANCE * (sky.horizontal_illuminance + LIGHT_METER_GAIN * local_light_illuminance(
-        lights, view)) / np.pi
+    albedo = float(LUMA @ np.asarray(scene.ground.color)) if scene.ground.enabled else GROUND_REFLECTANCE
+    e_local = LIGHT_METER_GAIN * local_light_illuminance(lights, view)
+    ground = albedo * (sky.horizontal_illuminance + e_local) / np.pi
     if sky.sky_view is None or sky.sky_view.radiance_host is None:
-        return ground
+        return np.full(len(dirs), ground)
     u = sky.uniforms
     is_sky = dirs[:, 2] > u["u_horizon_elevation"]
     lum = np.full(len(dirs), ground)
@@ -116,7 +120,11 @@ def meter_luminance(sky: SkyFrame, view, celestial, haze_height_m: float, lights
             t = np.exp(-np.minimum(tau, 80.0))
             clear = clear * (t @ LUMA) + (src * (1.0 - t)) @ LUMA
         lum[is_sky] = clear
-    return float(np.mean(lum))
+    if scene.ocean.enabled and np.any(~is_sky) and sky.sky_view is not None and sky.sky_view.radiance_host is not None:
+        mirrored = dirs[~is_sky] * np.array([1.0, 1.0, -1.0])
+        refl = sky.sky_view.luminance(mirrored, u["u_sky_view_sun_h"], u["u_horizon_elevation"])
+        lum[~is_sky] = 0.05 * refl + 0.02 * (sky.horizontal_illuminance + e_local) / np.pi
+    return lum
 
 
 def build_frame(ctx: moderngl.Context, scene: Scene, state: FrameState | None = None) -> FrameContext:
@@ -129,17 +137,22 @@ def build_frame(ctx: moderngl.Context, scene: Scene, state: FrameState | None = 
     sky = sky_frame(ctx, scene, celestial, altitude, view.position[:2], state.haze if state else None)
     light = sky.light
     lights = gather_lights(scene, view, MAX_LIGHTS)
-    meter = meter_luminance(sky, view, celestial, altitude - scene.location.altitude, lights)
+    # Provisional exposure for the passes (pre-exposure keeps half floats in range): the view
+    # estimated from the sky-view table; the post pass meters the rendered frame and corrects it.
+    samples = meter_samples(sky, scene, view, celestial, altitude - scene.location.altitude, lights)
+    target, meter = display_metered_ev100(samples)
     if scene.camera.exposure_ev is not None:
         ev100 = float(scene.camera.exposure_ev)
+    elif state is not None and state.eye.ev100 is not None and 0.0 < scene.time.sim_time - state.eye.sim_time <= 1.0:
+        ev100 = 0.5 * (target + state.eye.ev100)  # mid-adaptation: between the last and the target
     else:
-        target = steady_ev100(meter)
-        ev100 = state.eye.update(target, scene.time.sim_time, scene.camera.adaptation) if state else target
+        ev100 = target
     frame = FrameContext(ctx, scene, view, celestial, light, exposure_of_ev100(ev100), lights,
                          ev100=ev100, illuminance_lux=sky.horizontal_illuminance, meter_luminance=meter)
     frame.resources["atmosphere_tables"] = sky.tables
     frame.resources["sky_view"] = sky.sky_view
     frame.resources["haze"] = sky.haze
+    frame.resources["frame_state"] = state
     frame.uniforms = common_uniforms(frame)
     frame.uniforms.update(sky.uniforms)
     return frame

@@ -39,6 +39,8 @@ class Frame:
     render_ms: float
     pass_ms: dict[str, float] = field(default_factory=dict)
     passes: list[str] = field(default_factory=list)
+    ev100: float = 0.0  # exposure used (photometric read-out)
+    illuminance_lux: float = 0.0  # natural horizontal illuminance at the camera
 
     @property
     def width(self) -> int:
@@ -88,7 +90,8 @@ def _render_process_main(conn, device_index: int | None) -> None:
             buf = attached[shm_name].buf
             flat = result.rgba.reshape(-1)
             buf[: flat.size] = flat.data
-            conn.send(("frame", result.rgba.shape, result.total_ms, result.pass_ms, result.passes))
+            conn.send(("frame", result.rgba.shape, result.total_ms, result.pass_ms, result.passes,
+                       result.ev100, result.illuminance_lux))
         except Exception:
             conn.send(("error", traceback.format_exc(limit=8)))
     for shm in attached.values():
@@ -236,10 +239,10 @@ class RenderService:
         reply = self._conn.recv()
         if reply[0] == "error":
             raise RenderError(reply[1])
-        _, shape, total_ms, pass_ms, passes = reply
+        _, shape, total_ms, pass_ms, passes, ev100, illuminance = reply
         rgba = np.ndarray(shape, dtype=np.uint8, buffer=slot.buf).copy()
         self.ig_frame += 1
-        return Frame(rgba, self.ig_frame, scene.host_frame, total_ms, pass_ms, passes)
+        return Frame(rgba, self.ig_frame, scene.host_frame, total_ms, pass_ms, passes, ev100, illuminance)
 
 
 class _Dead(Exception):

@@ -41,6 +41,8 @@ def frame_message(encoded: EncodedFrame, fmt: str, data: bytes, encode_ms: float
         "data": data,
         "render_ms": round(frame.render_ms, 3),
         "encode_ms": round(encode_ms, 3),
+        "ev100": round(frame.ev100, 3),
+        "illuminance_lux": float(f"{frame.illuminance_lux:.6g}"),
     }
 
 

@@ -6,7 +6,7 @@ Client -> server (binary msgpack maps):
   ``{"type": "ack", "frame": 123}``                 one frame consumed: one credit back
   ``{"type": "credit", "n": 4}``                    grant more credits
 Server -> client:
-  ``{"type": "frame", "frame", "host_frame", "width", "height", "format", "data", "render_ms", "encode_ms"}``
+  ``{"type": "frame", "frame", "host_frame", "width", "height", "format", "data", "render_ms", "encode_ms", "ev100", "illuminance_lux"}``
   ``{"type": "error", "id": 7, "problem": {...}}``  a rejected message (RFC 9457 members); nothing changed
 
 Frames flow once the client's first message has arrived (a hello, or the first patch: then the window is

@@ -283,30 +283,43 @@ vec3 haze_transmission(vec3 tau, float mu0) {
 float hg(float g, float nu) {
     return (1.0 - g * g) / (4.0 * ATMO_PI * pow(max(1.0 + g * g - 2.0 * g * nu, 1e-6), 1.5));
 }
+// Reflectance of the layer below plus the ground seen through it, for light at cosine mu0.
+vec3 haze_reflectance_below(vec3 tb, vec3 t_diffuse, float mu0) {
+    vec3 t_beam = haze_transmission(tb, mu0);
+    return (1.0 - t_beam) + t_beam * t_diffuse * u_haze_ground_albedo / (1.0 - u_haze_ground_albedo * (1.0 - t_diffuse));
+}
 // In-scattered radiance source S(h, dir) of the layer (cd/m^2).
 vec3 haze_source(float h, vec3 dir) {
     vec3 ta = u_haze_beta * haze_column(h);
     vec3 tb = u_haze_beta * max(haze_column(0.0) - haze_column(h), 0.0);
     float mu_s = u_sun_dir.z, mu_m = u_moon_dir.z;
+    float g2 = 1.0 - u_haze_g * u_haze_g;
+    vec3 t_below = haze_transmission(tb, 0.5);
     vec3 incoming = u_haze_sky * haze_transmission(ta, 0.5);
-    vec3 beams = vec3(0.0);
+    vec3 beams = vec3(0.0), beam_true = vec3(0.0), delta = vec3(0.0), up_beams = vec3(0.0);
     if (mu_s > 0.0) {
         incoming += u_haze_sun * mu_s * haze_transmission(ta, mu_s);
-        beams += u_haze_sun * exp(-min(ta / mu_s, vec3(80.0))) * hg(u_haze_g, dot(dir, u_sun_dir));
+        vec3 t = exp(-min(ta / mu_s, vec3(80.0)));
+        beams += u_haze_sun * t * hg(u_haze_g, dot(dir, u_sun_dir));
+        beam_true += u_haze_sun * mu_s * t;
+        vec3 d = u_haze_sun * mu_s * exp(-min(g2 * ta / mu_s, vec3(80.0)));
+        delta += d;
+        up_beams += haze_reflectance_below(tb, t_below, mu_s) * d;
     }
     if (mu_m > 0.0) {
         incoming += u_haze_moon * mu_m * haze_transmission(ta, mu_m);
-        beams += u_haze_moon * exp(-min(ta / mu_m, vec3(80.0))) * hg(u_haze_g, dot(dir, u_moon_dir));
+        vec3 t = exp(-min(ta / mu_m, vec3(80.0)));
+        beams += u_haze_moon * t * hg(u_haze_g, dot(dir, u_moon_dir));
+        beam_true += u_haze_moon * mu_m * t;
+        vec3 d = u_haze_moon * mu_m * exp(-min(g2 * ta / mu_m, vec3(80.0)));
+        delta += d;
+        up_beams += haze_reflectance_below(tb, t_below, mu_m) * d;
     }
-    vec3 t_below = haze_transmission(tb, 0.5);
-    vec3 r_below = (1.0 - t_below) + t_below * t_below * u_haze_ground_albedo / (1.0 - u_haze_ground_albedo * (1.0 - t_below));
+    vec3 r_below = haze_reflectance_below(tb, t_below, 0.5);
     vec3 r_above = 1.0 - haze_transmission(ta, 0.5);
     vec3 down = incoming / (1.0 - r_below * r_above);
-    vec3 up = r_below * down;
-    vec3 beam_h = vec3(0.0);
-    if (mu_s > 0.0) beam_h += u_haze_sun * mu_s * exp(-min(ta / mu_s, vec3(80.0)));
-    if (mu_m > 0.0) beam_h += u_haze_moon * mu_m * exp(-min(ta / mu_m, vec3(80.0)));
-    vec3 down_diffuse = max(down - beam_h, vec3(0.0));
+    vec3 up = r_below * max(down - delta, vec3(0.0)) + up_beams;
+    vec3 down_diffuse = max(down - beam_true, vec3(0.0));
     float w_down = 0.5 + 0.5 * dir.z;  // looking up: light travelling down
     return u_haze_omega * (beams + (up * (1.0 - w_down) + down_diffuse * w_down) / ATMO_PI);
 }

@@ -6,18 +6,22 @@ reflectance under the horizontal illuminance) and local lights near the camera. 
 the log-mean: a bright sunset sky must pull the exposure down (as a camera's average meter or
 the eye's pupil do) rather than blow out.
 
-Steady state: the displayed value of the mean is a key k(M) that stays at KEY_DAY by day and falls
-at night like a Naka-Rushton response (the eye never fully compensates darkness: night must read
-as night, Ferwerda et al. 1996; Pattanaik et al. 2000):
-    k(M) = KEY_DAY sqrt(M / (M + SIGMA)),    exposure = k(M) / M,
-so the displayed mean k(M) is monotone in M: the picture never brightens while the light falls.
+Steady state: a uniform field of luminance M would be shown at the key k(M), KEY_DAY by day,
+falling at night like a Naka-Rushton response (the eye never fully compensates darkness: night
+must read as night, Ferwerda et al. 1996; Pattanaik et al. 2000):
+    k(M) = KEY_DAY sqrt(M / (M + SIGMA)).
+The exposure is then chosen in DISPLAY space (display_metered_ev100): the mean displayed value of
+the view's samples equals D(k(M)), D the tone curve + sRGB, so the displayed brightness follows M
+and never rises while the light falls, whatever the sky's shape does (a sunset).
 In EV100 (ISO 12232 / the reflected-light calibration K = 12.5 used by frame.glsl's
 u_exposure = 1 / (1.2 * 2^EV100)): EV100 = log2(1 / (1.2 exposure)).
 
 Temporal adaptation (state kept by the renderer between frames, driven by sim_time deltas of at most MAX_STREAM_DT; a frame at the same sim_time as the last, or
 after a jump, starts adapted, so re-rendering a state is deterministic):
     EV <- EV_target + (EV - EV_target) exp(-dt / tau),
-tau = TAU_LIGHT = 0.4 s when the scene gets brighter (pupil and cone bleaching: fractions of a
+tau = DAY_REFERENCE = 3000.0  # cd/m^2, a bright day view: the key is KEY_DAY there
+DAY_SLOPE = 0.06  # key ~ M^0.06: 10x less light, 13 % lower key
+TAU_LIGHT = 0.4 s when the scene gets brighter (pupil and cone bleaching: fractions of a
 second to a second), TAU_DARK = 4 s when it gets darker (the fast cone phase of dark adaptation;
 full rod adaptation takes tens of minutes, which a simulator cannot wait for). A fixed
 camera.exposure_ev always wins; camera.adaptation = false gives the steady state every frame.
@@ -30,7 +34,9 @@ import math
 import numpy as np
 
 KEY_DAY = 0.12  # display-linear value of the mean luminance by day (before the tone curve)
-SIGMA = 0.1  # cd/m^2: below this the picture darkens (mesopic range 0.005..5 cd/m^2)
+SIGMA = 0.05  # cd/m^2: below this the picture darkens (mesopic range 0.005..5 cd/m^2)
+DAY_REFERENCE = 3000.0  # cd/m^2, a bright day view: the key is KEY_DAY there
+DAY_SLOPE = 0.06  # key ~ M^0.06: 10x less light, 13 % lower key
 TAU_LIGHT = 0.4  # s, adapting to more light
 TAU_DARK = 4.0  # s, adapting to less light
 GROUND_REFLECTANCE = 0.15
@@ -38,11 +44,56 @@ EV_MIN, EV_MAX = -16.0, 24.0
 MAX_STREAM_DT = 1.0  # s: frames further apart in sim_time are not one continuous view
 
 
+def key_of(m: float) -> float:
+    """Display-linear key of a uniform field of luminance m (cd/m^2): Naka-Rushton at night, and
+    by day a slight rise with the light (Stevens: an adapted eye still sees brighter light as
+    brighter), so the displayed brightness falls strictly as the sun sets."""
+    m = max(m, 1e-9)
+    return KEY_DAY * math.sqrt(m / (m + SIGMA)) * (max(m, 1.0) / DAY_REFERENCE) ** DAY_SLOPE
+
+
 def steady_ev100(mean_luminance: float) -> float:
     m = max(mean_luminance, 1e-9)
-    key = KEY_DAY * math.sqrt(m / (m + SIGMA))
+    key = key_of(m)
     exposure = key / m
     return float(np.clip(math.log2(1.0 / (1.2 * exposure)), EV_MIN, EV_MAX))
+
+
+def aces_fit(x):
+    """The tone curve of post/tonemap.glsl (Narkowicz 2015), numpy mirror."""
+    x = np.asarray(x, dtype=np.float64)
+    return np.clip((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0)
+
+
+def linear_to_srgb(c):
+    c = np.asarray(c, dtype=np.float64)
+    return np.where(c <= 0.0031308, c * 12.92, 1.055 * np.power(np.maximum(c, 0.0031308), 1 / 2.4) - 0.055)
+
+
+def displayed(x):
+    """Displayed value (0..1) of a display-linear value, as the post pass shows it."""
+    return linear_to_srgb(aces_fit(x))
+
+
+def display_metered_ev100(samples: np.ndarray) -> tuple[float, float]:
+    """EV100 that makes the mean DISPLAYED value of the view's luminance samples equal the display
+    of a uniform field at the samples' mean luminance M under the steady key k(M): the meter works
+    in display space, so a sunset sky that grows relatively brighter than the rest pulls the
+    exposure down instead of brightening the picture, and the displayed mean follows D(k(M)),
+    monotone in M. Returns (EV100, M). Bisection on log2(exposure) (the mean is monotone in it)."""
+    samples = np.maximum(np.asarray(samples, dtype=np.float64), 0.0)
+    m = max(float(np.mean(samples)), 1e-9)
+    key = key_of(m)
+    target = float(displayed(key))
+    lo, hi = math.log2(key / m) - 12.0, math.log2(key / m) + 12.0
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        if float(np.mean(displayed(samples * 2.0 ** mid))) < target:
+            lo = mid
+        else:
+            hi = mid
+    exposure = 2.0 ** (0.5 * (lo + hi))
+    return float(np.clip(math.log2(1.0 / (1.2 * exposure)), EV_MIN, EV_MAX)), m
 
 
 def exposure_of_ev100(ev100: float) -> float:
@@ -51,7 +102,19 @@ def exposure_of_ev100(ev100: float) -> float:
 
 def frustum_directions(view, nx: int = 16, ny: int = 9) -> np.ndarray:
     """Unit camera-relative world directions through a grid of pixel centres."""
-    inv = np.linalg.inv(view.view_proj)
+    key = (np.asarray(view.view_proj, dtype=np.float64).tobytes(), nx, ny)
+    if key not in _DIR_CACHE:
+        if len(_DIR_CACHE) > 64:
+            _DIR_CACHE.clear()
+        _DIR_CACHE[key] = _frustum_directions(view.view_proj, nx, ny)
+    return _DIR_CACHE[key]
+
+
+_DIR_CACHE: dict = {}
+
+
+def _frustum_directions(view_proj, nx: int, ny: int) -> np.ndarray:
+    inv = np.linalg.inv(view_proj)
     xs = (np.arange(nx) + 0.5) / nx * 2 - 1
     ys = (np.arange(ny) + 0.5) / ny * 2 - 1
     X, Y = np.meshgrid(xs, ys)

@@ -1,21 +1,70 @@
-"""Post pass: tone mapping, sRGB encoding and dithering into the 8-bit output target."""
+"""Post pass: metering of the rendered frame, exposure (eye adaptation), mesopic vision, tone
+mapping, sRGB encoding and dithering into the 8-bit output target.
+
+The passes render pre-exposed with a provisional exposure (frame.py's estimate of the view from the
+sky-view table); here the frame itself is metered (block means of its luminance, meter.glsl) and
+the exposure the eye would settle on is chosen in display space (post/exposure.py), eased by the
+renderer's adaptation state, and applied as a correction factor before the tone curve. So the
+meter sees everything that is drawn (sea, fires, lamps, fog) and the displayed brightness follows
+the light.
+"""
 
 from __future__ import annotations
 
+import math
+
 import moderngl
+import numpy as np
 
 from ..passes import RenderPass
 from ..shaders import set_uniforms
+from .exposure import display_metered_ev100, exposure_of_ev100
+
+METER_CELLS = 64  # the meter image is at most this many cells wide
 
 
 class PostPass(RenderPass):
     name = "post"
 
     def execute(self, frame, targets) -> None:
+        correction = self._meter(frame, targets)
         program = self.programs.program("common/fullscreen.vert.glsl", "post/tonemap.glsl")
         set_uniforms(program, frame.uniforms)
         program["u_hdr"].value = 0
+        if "u_exposure_correction" in program:
+            program["u_exposure_correction"].value = correction
         targets.hdr.use(0)
         targets.ldr_fbo.use()
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         self.fullscreen(program)
+
+    def _meter(self, frame, targets) -> float:
+        """Meter the frame; set frame.ev100 (and the adaptation state); return the correction of
+        the provisional exposure the passes used."""
+        scene = frame.scene
+        if scene.camera.exposure_ev is not None:
+            return 1.0
+        w, h = targets.size
+        block = max(1, math.ceil(w / METER_CELLS))
+        size = (math.ceil(w / block), math.ceil(h / block))
+        tex = getattr(self, "_meter_tex", None)
+        if tex is None or tex.size != size:
+            if tex is not None:
+                tex.release()
+            tex = self._meter_tex = self.ctx.texture(size, 1, dtype="f4")
+        prog = self.programs.compute("post/meter.glsl")
+        prog["u_block"].value = block
+        targets.hdr.use(0)
+        tex.bind_to_image(0, read=False, write=True)
+        prog.run((size[0] + 7) // 8, (size[1] + 7) // 8, 1)
+        self.ctx.memory_barrier()
+        cells = np.frombuffer(tex.read(), dtype=np.float32).astype(np.float64) / max(frame.exposure, 1e-30)
+        cells = cells[np.isfinite(cells)]
+        if len(cells) == 0:
+            return 1.0
+        target, meter = display_metered_ev100(cells)
+        state = frame.resources.get("frame_state")
+        ev = state.eye.update(target, scene.time.sim_time, scene.camera.adaptation) if state else target
+        frame.ev100 = ev
+        frame.meter_luminance = meter
+        return exposure_of_ev100(ev) / frame.exposure

@@ -3,6 +3,7 @@
 #include "common/frame.glsl"
 
 uniform sampler2D u_hdr;
+uniform float u_exposure_correction;  // metered exposure / the passes' provisional one (post.py)
 uniform float u_adaptation_luminance;  // cd/m^2, what the exposure adapted to (post/exposure.py)
 uniform int u_mesopic;                 // 1: mesopic/scotopic vision (camera.mesopic_vision)
 
@@ -31,7 +32,7 @@ float interleaved_gradient_noise(vec2 p) {
 }
 
 void main() {
-    vec3 hdr = texture(u_hdr, v_uv).rgb;
+    vec3 hdr = texture(u_hdr, v_uv).rgb * u_exposure_correction;
     hdr = max(hdr, vec3(0.0));  // no negative radiance; NaN-free inputs are the passes' duty
     if (u_mesopic == 1) hdr = mesopic(hdr);
     vec3 srgb = linear_to_srgb(aces_fit(hdr));

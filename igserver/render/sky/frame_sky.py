@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 from dataclasses import dataclass, replace
 
 import moderngl
@@ -12,7 +13,7 @@ import numpy as np
 
 from ...scene.model import Scene
 from .atmosphere_model import (KOSCHMIEDER, PRESETS, SOLAR_ILLUMINANCE, AtmosphereParameters, atmosphere_parameters,
-                               ground_extinction_550_per_m)
+                               ground_extinction_550_per_m, turbidity_class)
 from .daylight import Daylight, daylight
 from .haze import HazeLayer, HazeTransition, haze_layer
 from .lighting import (MOON_ANGULAR_RADIUS, MOON_SOLID_ANGLE, NIGHT_SKY_ILLUMINANCE, NIGHT_SKY_LUMINANCE,
@@ -26,7 +27,27 @@ CIRRUS_PERIOD_UNITS = 64.0  # noise period (lattice units) per horizontal axis: 
 
 def scene_atmosphere(scene: Scene) -> AtmosphereParameters:
     a = scene.atmosphere
-    return atmosphere_parameters(a.turbidity, a.ozone, PRESETS[a.quality], a.scattering_orders)
+    return _parameters(turbidity_class(a.turbidity), a.ozone, a.quality, a.scattering_orders)
+
+
+@lru_cache(maxsize=64)
+def _parameters(turbidity: float, ozone: bool, quality: str, orders: int) -> AtmosphereParameters:
+    return atmosphere_parameters(turbidity, ozone, PRESETS[quality], orders)
+
+
+_clear_light_cache: dict = {}
+
+
+def cached_clear_light(params, tables: AtmosphereTables, altitude_m, sun_el, moon_el, moon_phase):
+    """clear_light() memoised per frame inputs (its float64 integrals cost ~5 ms a call)."""
+    key = (tables.key, round(altitude_m, 2), round(sun_el, 6), round(moon_el, 5), round(moon_phase, 6))
+    hit = _clear_light_cache.get(key)
+    if hit is None:
+        if len(_clear_light_cache) > 256:
+            _clear_light_cache.clear()
+        hit = _clear_light_cache[key] = clear_light(params, tables.irradiance_host, altitude_m, sun_el, moon_el,
+                                                    moon_phase)
+    return hit
 
 
 def scene_visibility(scene: Scene) -> float:
@@ -81,12 +102,14 @@ def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
         if transition is not None:
             beta = transition.apply(haze.beta, atm.visibility_transition, scene.time.sim_time)
             haze = replace(haze, beta=beta)
+        clear = cached_clear_light(params, tables, altitude_m, celestial.sun_elevation,
+                                   celestial.moon_elevation, celestial.moon_phase)
         light, horizontal = precomputed_daylight(params, tables.irradiance_host, celestial.sun_elevation, altitude_m,
                                                  atm.turbidity, celestial.moon_elevation, celestial.moon_phase,
-                                                 haze, altitude_m - ground_m)
+                                                 haze, altitude_m - ground_m, clear)
         # Light arriving at the layer: the clear air's at the layer's top.
-        top = clear_light(params, tables.irradiance_host, ground_m + haze.top + 0.5 * haze.edge,
-                          celestial.sun_elevation, celestial.moon_elevation, celestial.moon_phase)
+        top = cached_clear_light(params, tables, ground_m + haze.top + 0.5 * haze.edge,
+                                 celestial.sun_elevation, celestial.moon_elevation, celestial.moon_phase)
         uniforms.update(tables.uniforms())
         uniforms.update(haze.uniforms(ground_m))
         uniforms.update({

@@ -101,11 +101,13 @@ class HazeLayer:
         c = 0.75 * (1.0 - g) * b0 / (0.5 + 0.75 * mu0)
         return t_d + (1.0 - t_d) * b0 / (1.0 + c * tau)
 
-    def reflectance_below(self, tau_below):
-        """Diffuse reflectance of the layer below a height plus the ground seen through it."""
+    def reflectance_below(self, tau_below, mu0: float = SKY_MU0):
+        """Reflectance of the layer below a height plus the ground seen through it, for light
+        arriving at cosine mu0 (SKY_MU0: diffuse)."""
+        t_beam = self.transmission(tau_below, mu0)
         t = self.transmission(tau_below, SKY_MU0)
         r = 1.0 - t
-        return r + t * t * GROUND_ALBEDO / (1.0 - GROUND_ALBEDO * r)
+        return (1.0 - t_beam) + t_beam * t * GROUND_ALBEDO / (1.0 - GROUND_ALBEDO * r)
 
     def fluxes(self, h: float, sun_normal, mu_s: float, sky_horizontal, moon_normal=(0.0, 0.0, 0.0),
                mu_m: float = -1.0) -> dict:
@@ -124,8 +126,11 @@ class HazeLayer:
         def beam(e, mu, scale):
             return e * mu * np.exp(-np.minimum(scale * ta / max(mu, 1e-3), 80.0)) if mu > 0 else np.zeros(3)
         beam_true = beam(sun, ms, 1.0) + beam(moon, mm, 1.0)
-        beam_delta = beam(sun, ms, 1.0 - self.g ** 2) + beam(moon, mm, 1.0 - self.g ** 2)
-        return {"down": down, "up": r_below * down, "beam_true": beam_true, "beam_delta": beam_delta}
+        sun_delta, moon_delta = beam(sun, ms, 1.0 - self.g ** 2), beam(moon, mm, 1.0 - self.g ** 2)
+        # Up: the diffuse part reflects as diffuse light, each beam at its own angle.
+        up = r_below * np.maximum(down - sun_delta - moon_delta, 0.0)
+        up = up + self.reflectance_below(tb, max(ms, 1e-3)) * sun_delta + self.reflectance_below(tb, max(mm, 1e-3)) * moon_delta
+        return {"down": down, "up": up, "beam_true": beam_true, "beam_delta": sun_delta + moon_delta}
 
     def tau_view(self, h0: float, dirs: np.ndarray) -> np.ndarray:
         """(N, 3) optical depth of whole view rays (mirror of haze_sky(): to the flat ground below,

@@ -101,11 +101,12 @@ def clear_light(params: AtmosphereParameters, irradiance_table: np.ndarray, alti
 
 def precomputed_daylight(params: AtmosphereParameters, irradiance_table: np.ndarray, sun_elevation: float,
                          altitude_m: float, turbidity: float, moon_elevation: float, moon_phase: float,
-                         haze: HazeLayer | None = None, haze_height_m: float = 0.0) -> tuple[Daylight, float]:
+                         haze: HazeLayer | None = None, haze_height_m: float = 0.0,
+                         clear: ClearLight | None = None) -> tuple[Daylight, float]:
     """Daylight for the precomputed tier (the gradient fields stay analytic for the cheap tier) and
     the natural horizontal illuminance (lux) at the camera."""
     base = daylight(sun_elevation, altitude_m, turbidity, moon_elevation, moon_phase)
-    light = clear_light(params, irradiance_table, altitude_m, sun_elevation, moon_elevation, moon_phase)
+    light = clear or clear_light(params, irradiance_table, altitude_m, sun_elevation, moon_elevation, moon_phase)
     mu_s = math.sin(math.radians(sun_elevation))
     mu_m = math.sin(math.radians(moon_elevation))
     sun, moon, sky = light.sun_normal, light.moon_normal, light.sky_horizontal

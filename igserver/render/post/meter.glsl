@@ -1,0 +1,22 @@
+// Exposure meter: the pre-exposed HDR frame averaged over blocks of u_block x u_block pixels into
+// a small image of luminance (display-linear, i.e. still multiplied by the frame's provisional
+// exposure), read back by post.py to choose the exposure the tone curve applies.
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+layout(binding = 0) uniform sampler2D u_hdr;
+layout(binding = 0, r32f) uniform writeonly image2D u_out;
+uniform int u_block;
+
+void main() {
+    ivec2 cell = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 out_size = imageSize(u_out);
+    if (any(greaterThanEqual(cell, out_size))) return;
+    ivec2 size = textureSize(u_hdr, 0);
+    ivec2 p0 = cell * u_block;
+    ivec2 p1 = min(p0 + ivec2(u_block), size);
+    float sum = 0.0;
+    for (int y = p0.y; y < p1.y; ++y)
+        for (int x = p0.x; x < p1.x; ++x)
+            sum += dot(max(texelFetch(u_hdr, ivec2(x, y), 0).rgb, vec3(0.0)), vec3(0.2126, 0.7152, 0.0722));
+    int n = max((p1.x - p0.x) * (p1.y - p0.y), 1);
+    imageStore(u_out, cell, vec4(sum / float(n), 0.0, 0.0, 0.0));
+}
