@@ -21,6 +21,27 @@ from ..shaders import set_uniforms
 from .exposure import display_metered_ev100, exposure_of_ev100
 
 METER_CELLS = 64  # the meter image is at most this many cells wide
+MAX_HALOS = 8
+HALO_MIN_BETA = 1e-4  # 1/m (visibility < ~40 km): thinner air shows no halo worth 8 samples a pixel
+
+
+def halo_uniforms(frame) -> dict:
+    """The brightest lights for the fog halos of tonemap.glsl, with the fog at the camera."""
+    haze = frame.resources.get("haze")
+    lights = frame.lights[:MAX_HALOS]
+    if haze is None or not lights:
+        return {"u_halo_count": 0}
+    h = frame.camera_altitude - frame.scene.location.altitude
+    beta = float(haze.beta[1] * haze.density(h))
+    if beta < HALO_MIN_BETA:
+        return {"u_halo_count": 0}
+    pos = np.zeros((MAX_HALOS, 4), np.float32)
+    col = np.zeros((MAX_HALOS, 4), np.float32)
+    for i, light in enumerate(lights):
+        pos[i, :3] = frame.view.relative(light.position)
+        col[i, :3] = light.color
+    return {"u_halo_count": len(lights), "u_halo_pos": pos.tobytes(), "u_halo_intensity": col.tobytes(),
+            "u_halo_beta": beta, "u_halo_g": float(haze.g), "u_halo_omega": float(haze.omega)}
 
 
 class PostPass(RenderPass):
@@ -33,6 +54,10 @@ class PostPass(RenderPass):
         program["u_hdr"].value = 0
         if "u_exposure_correction" in program:
             program["u_exposure_correction"].value = correction
+        set_uniforms(program, halo_uniforms(frame))
+        if "u_distance" in program:
+            program["u_distance"].value = 1
+            targets.distance.use(1)
         targets.hdr.use(0)
         targets.ldr_fbo.use()
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)

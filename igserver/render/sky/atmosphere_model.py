@@ -57,7 +57,7 @@ class TableSizes:
     mu_s: int = 32  # twilight: 16 leaves steps of up to 10x per degree in zenith luminance
     nu: int = 8
     orders: int = 4
-    density_samples: int = 8  # theta samples of the scattering density sphere (phi: 2x)
+    density_samples: int = 16  # theta samples of the scattering density sphere (phi: 2x); twilight needs 16
 
     @property
     def scattering(self) -> tuple[int, int, int]:
@@ -68,7 +68,7 @@ class TableSizes:
 PRESETS: dict[str, TableSizes] = {
     "low": TableSizes((64, 16), (64, 8), 8, 32, 16, 8, 2, 6),
     "medium": TableSizes(),
-    "high": TableSizes((256, 64), (256, 16), 32, 128, 64, 8, 6, 8),
+    "high": TableSizes((256, 64), (256, 16), 32, 128, 64, 8, 6, 16),
 }
 
 

@@ -1,0 +1,218 @@
+"""Light levels, fog and the eye (issues 10 and 11, the atmosphere's part), on tiny frames.
+
+Tolerances carry their independent reason beside them; published values come from the AMS
+Glossary of Meteorology (twilight illuminance) and Koschmieder's law (visibility)."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+
+from igserver.quality.light import AMS_ILLUMINANCE, FULL_MOON_UTC, MOONLESS_UTC
+from igserver.render.frame import build_frame
+from igserver.render.post.exposure import EyeAdaptation, TAU_LIGHT
+from igserver.render.sky.tables import AtmosphereTables
+from igserver.scene.model import Scene
+
+LUMA = np.array([0.2126, 0.7152, 0.0722])
+
+
+def scene(el=30.0, az=180.0, heading=180.0, pitch=5.0, w=32, h=18, utc=MOONLESS_UTC, sim_time=0.0,
+          adaptation=False, **sections) -> Scene:
+    d = {"camera": {"width": w, "height": h, "heading": heading, "pitch": pitch, "position": [0.0, 0.0, 2.0],
+                    "adaptation": adaptation},
+         "time": {"utc": utc, "sun_override": {"elevation": el, "azimuth": az}, "sim_time": sim_time},
+         "atmosphere": {"visibility_transition": 0.0}}
+    for key, value in sections.items():
+        d.setdefault(key, {}).update(value)
+    return Scene.model_validate(d)
+
+
+def mean_display(renderer, s: Scene) -> float:
+    return float(renderer.render(s).rgba[..., :3].mean())
+
+
+def radiance(renderer, s: Scene) -> np.ndarray:
+    """Linear radiance (cd/m^2) of the last frame: the HDR target over the exposure actually shown."""
+    result = renderer.render(s)
+    exposure = 1.0 / (1.2 * 2.0 ** result.ev100)
+    frame = build_frame(renderer.ctx, s)
+    # The HDR target is pre-exposed with the provisional exposure of build_frame; the post pass
+    # corrects only the display. Undo the provisional one.
+    return renderer.read_hdr()[..., :3] / frame.exposure, exposure
+
+
+# --- issue 11: exposure through dusk -----------------------------------------------------------
+
+@pytest.mark.parametrize("heading,ocean", [(180.0, False), (0.0, False), (180.0, True)])
+def test_displayed_brightness_never_rises_while_the_sun_sets(renderer, heading, ocean):
+    # +20 -> -30 deg: 0.5-deg steps over the whole range plus 0.1-deg steps across sunset and the
+    # old 32-column table nodes (-1.85, -5.55, -9.28, -13.05 deg) where main jumped by 1-1.5 EV.
+    coarse = np.arange(20.0, -30.01, -0.5)
+    fine = np.concatenate([np.arange(c + 0.3, c - 0.31, -0.1) for c in (2.0, -1.85, -5.55, -9.28, -13.05)])
+    for els in (coarse, fine):
+        values = [mean_display(renderer, scene(float(e), heading=heading, ocean={"enabled": ocean}))
+                  for e in np.round(els, 2)]
+        rises = np.diff(values)
+        # Half an 8-bit level: the dither of the post pass moves a 32x18 frame's mean by < 0.1 level,
+        # the meter's block means (not per-pixel display) by a few tenths at most.
+        assert rises.max() <= 0.5, (heading, ocean, float(rises.max()), list(np.round(values, 2)))
+    assert values[0] > 5 * mean_display(renderer, scene(-30.0, heading=heading, ocean={"enabled": ocean}))
+
+
+def test_no_glow_band_toward_the_sun_below_minus_16(renderer):
+    # At -16.5 deg the sun lights no air the observer sees low over the horizon (the bright
+    # segment has sunk below the astronomical horizon by -18, AMS Glossary): the rows just above
+    # the horizon toward the sun must not outshine the same rows away from it by more than 30 %
+    # (a band was 252/231/191 sRGB at -15 on main).
+    toward, _ = radiance(renderer, scene(-16.5, heading=180.0, pitch=5.0, w=64, h=36))
+    away, _ = radiance(renderer, scene(-16.5, heading=0.0, pitch=5.0, w=64, h=36))
+    rows = slice(36 // 2 - 1, 36 // 2 + 5)  # 0..10 deg above the horizon (fov 60 over 36 rows, pitch 5)
+    ratio = (toward[rows] @ LUMA).mean() / (away[rows] @ LUMA).mean()
+    assert ratio < 1.3, ratio
+
+
+@pytest.mark.parametrize("elevation", [0.0, -6.0, -12.0, -18.0])
+def test_twilight_illuminance_within_a_factor_two_of_measurements(renderer, elevation):
+    e = build_frame(renderer.ctx, scene(elevation)).illuminance_lux
+    published = AMS_ILLUMINANCE[elevation]
+    assert 0.5 < e / published < 2.0, (elevation, e, published)
+
+
+def test_twilight_is_smooth_at_tenth_degree_steps(renderer):
+    # Issue 11: no step larger than x1.25 per 0.1 deg in the horizontal illuminance (0 .. -18).
+    values = [build_frame(renderer.ctx, scene(float(e))).illuminance_lux for e in np.arange(0.0, -18.01, -0.1)]
+    r = np.asarray(values[:-1]) / np.asarray(values[1:])
+    assert r.max() < 1.25 and r.min() > 0.999, (r.max(), r.min())
+
+
+def test_moonlit_night_is_brighter_than_moonless(renderer):
+    moon = build_frame(renderer.ctx, scene(-30.0, utc=FULL_MOON_UTC)).illuminance_lux
+    dark = build_frame(renderer.ctx, scene(-30.0)).illuminance_lux
+    # Full moon 30 deg up: 0.31 lx * sin(30) * ~0.75 transmission ~ 0.12 lx (Krisciunas & Schaefer).
+    assert 0.05 < moon < 0.3 and moon > 20 * dark, (moon, dark)
+    # ... and the picture shows it.
+    assert mean_display(renderer, scene(-30.0, utc=FULL_MOON_UTC, heading=0.0)) > mean_display(
+        renderer, scene(-30.0, heading=0.0)) + 2.0
+
+
+def test_eye_adapts_to_a_fire_with_its_time_constant(renderer):
+    # Night, a 1 MW-ish lamp/fire appears 5 m away at t = 0; frames every 1/30 s.
+    night = dict(el=-20.0, heading=0.0, pitch=-5.0, adaptation=True)
+    base = scene(**night)
+    renderer.render(base)  # adapted to the dark
+    lit = {"lights": [{"id": "fire", "position": [0.0, 5.0, 1.0], "intensity": 5e4, "range": 200.0}]}
+    steady = renderer.render(scene(**night, sim_time=50.0, **lit)).ev100  # same sim_time jump: adapted
+    dark_ev = renderer.render(scene(**night, sim_time=100.0)).ev100
+    assert steady > dark_ev + 3.0  # the fire brightens the view by > 8x
+    evs = [renderer.render(scene(**night, sim_time=100.0 + k / 30.0, **lit)).ev100 for k in range(1, 31)]
+    # First-order response: after t the remaining gap is exp(-t / TAU_LIGHT) (0.4 s).
+    gap0 = steady - dark_ev
+    for k, ev in enumerate(evs, start=1):
+        t = k / 30.0
+        expected = steady - gap0 * math.exp(-t / TAU_LIGHT)
+        assert abs(ev - expected) < 0.15 * gap0, (t, ev, expected)
+    assert steady - evs[-1] < 0.1 * gap0  # 1 s = 2.5 tau: within 10 %
+
+
+def test_adaptation_is_a_first_order_lag():
+    eye = EyeAdaptation()
+    assert eye.update(0.0, 0.0) == 0.0
+    assert eye.update(10.0, 0.0) == 10.0  # same instant: adapted at once (deterministic re-render)
+    eye.update(0.0, 1.0)  # after a jump of > 1 s: adapted
+    v = eye.update(4.0, 1.4)  # 0.4 s toward more light: 1 - 1/e of the way
+    assert abs(v - 4.0 * (1 - math.exp(-1.0))) < 1e-9
+    v2 = eye.update(0.0, 1.8)  # darker: the slow constant (4 s)
+    assert v2 > v * math.exp(-0.4 / 4.0) - 1e-9 and v2 < v
+
+
+def test_fixed_exposure_wins(renderer):
+    s = scene(10.0, camera={"exposure_ev": 3.0})
+    assert renderer.render(s).ev100 == 3.0
+
+
+# --- issue 10: fog and visibility ----------------------------------------------------------------
+
+def test_visibility_never_rebuilds_tables(renderer):
+    renderer.render(scene(atmosphere={"visibility": 20_000.0}))
+    tables = AtmosphereTables._resident[renderer.ctx]
+    for v in (12_345.0, 12_346.0, 50.0, 200_000.0):
+        renderer.render(scene(atmosphere={"visibility": v}))
+        assert AtmosphereTables._resident[renderer.ctx] is tables
+
+
+def test_visibility_ramp_has_no_slow_frame(renderer):
+    # 20 km -> 100 m in 50 steps, one step per frame at 30 Hz of sim_time, easing on (1 s).
+    times = []
+    for i, v in enumerate(np.geomspace(20_000.0, 100.0, 50)):
+        s = scene(sim_time=1000.0 + i / 30.0, w=64, h=36, atmosphere={"visibility": float(v),
+                                                                        "visibility_transition": 1.0})
+        t0 = time.perf_counter()
+        renderer.render(s)
+        times.append(time.perf_counter() - t0)
+    times = np.asarray(times)
+    # Issue 10: no frame slower than 2x the median. The frames share the machine with other
+    # processes: a frame that overran is re-timed once at the same state (a table rebuild would be
+    # slow both times; a scheduling hiccup is not).
+    median = float(np.median(times))
+    assert times.max() <= 2.0 * median or _retime(renderer, 2.0 * median), (median, times.max())
+
+
+def _retime(renderer, limit: float) -> bool:
+    s = scene(sim_time=2000.0, w=64, h=36, atmosphere={"visibility": 100.0})
+    t0 = time.perf_counter()
+    renderer.render(s)
+    return time.perf_counter() - t0 <= limit
+
+
+def test_visibility_change_eases_in_without_a_pop(renderer):
+    clear = scene(sim_time=500.0, atmosphere={"visibility": 20_000.0, "visibility_transition": 1.0})
+    renderer.render(clear)
+    values = [mean_display(renderer, scene(sim_time=500.0 + k * 0.1, atmosphere={
+        "visibility": 200.0, "visibility_transition": 1.0})) for k in range(1, 16)]
+    target = mean_display(renderer, scene(sim_time=900.0, atmosphere={"visibility": 200.0}))
+    steps = np.abs(np.diff(values))
+    # Smooth: no single 0.1 s step carries more than 40 % of the change (a pop would carry ~100 %).
+    assert steps.max() < 0.4 * abs(values[-1] - values[0]) + 0.5, values
+    # Settled within 2 s (here 1 s): the last frames equal the steady state within a level.
+    assert abs(values[-1] - target) < 1.0, (values[-1], target)
+
+
+def _xy(rgb: np.ndarray) -> np.ndarray:
+    m = np.array([[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722], [0.0193, 0.1192, 0.9505]])
+    xyz = m @ np.asarray(rgb, dtype=np.float64)
+    return xyz[:2] / xyz.sum()
+
+
+@pytest.mark.parametrize("visibility", [200.0, 1000.0])
+def test_noon_fog_is_neutral_and_kilolux(renderer, visibility):
+    s = scene(60.0, heading=0.0, pitch=10.0, w=64, h=36, atmosphere={"visibility": visibility})
+    frame = build_frame(renderer.ctx, s)
+    # Issue 10: horizontal illuminance under the fog in kilolux (noon clear sky at 60 deg ~ 100 klx;
+    # a 200-m fog thinning with height transmits ~30-70 % by diffusion, ~1/(1 + 0.75 (1-g) tau)).
+    assert 5e3 < frame.illuminance_lux < 1.2e5, frame.illuminance_lux
+    hdr, _ = radiance(renderer, s)
+    fog = hdr[5:15].reshape(-1, 3).mean(axis=0)  # sky pixels 10-25 deg up, away from the sun
+    sun_xy = _xy(np.asarray(frame.uniforms["u_haze_sun"]))
+    assert np.all(np.abs(_xy(fog) - sun_xy) < 0.02), (_xy(fog), sun_xy)
+
+
+def _box_contrast(renderer, visibility: float, distance: float, size: float) -> float:
+    base = dict(el=45.0, heading=0.0, pitch=0.0, w=64, h=36, atmosphere={"visibility": visibility})
+    box = {"entities": [{"id": "b", "model": "box", "position": [0.0, distance, 0.0], "scale": [size, size, size],
+                         "color": [0.05, 0.05, 0.05]}]}
+    with_box, _ = radiance(renderer, scene(**base, **box))
+    without, _ = radiance(renderer, scene(**base))
+    centre = (slice(16, 20), slice(30, 34))
+    a, b = with_box[centre] @ LUMA, without[centre] @ LUMA
+    return float(np.abs(a - b).mean() / b.mean())
+
+
+def test_visibility_hides_and_shows_a_box(renderer):
+    # Koschmieder: a black object's contrast at distance d is exp(-3.912 d / V): 4e-4 at d = 2V,
+    # 0.68 at d = V / 10. Thresholds 2 % (the definition of visibility) and 20 %.
+    assert _box_contrast(renderer, 50.0, 100.0, 20.0) < 0.02
+    assert _box_contrast(renderer, 200_000.0, 20_000.0, 2_000.0) > 0.2
