@@ -158,6 +158,15 @@ def build_frame(ctx: moderngl.Context, scene: Scene, state: FrameState | None = 
     return frame
 
 
+def pixel_angle(camera) -> float:
+    """Vertical angle (rad) one pixel covers at the centre of the view."""
+    if camera.frustum is not None:
+        span = math.tan(math.radians(camera.frustum.top)) - math.tan(math.radians(camera.frustum.bottom))
+    else:
+        span = 2.0 * math.tan(math.radians(camera.fov_y) / 2.0)
+    return span / camera.height
+
+
 def _vec3(v) -> tuple[float, float, float]:
     return tuple(float(x) for x in v)
 
@@ -182,6 +191,7 @@ def common_uniforms(frame: FrameContext) -> dict:
         "u_halo_color": _vec3(light.halo),
         "u_halo_exponent": light.halo_exponent,
         "u_sun_disk_cos": math.cos(SUN_ANGULAR_RADIUS),
+        "u_pixel_angle": pixel_angle(scene.camera),
         "u_sun_disk_luminance": _vec3(light.sun_disk_luminance),
         "u_adaptation_luminance": float(frame.meter_luminance),
         "u_mesopic": 1 if scene.camera.mesopic_vision else 0,

@@ -125,9 +125,16 @@ uniform vec3 u_night_sky;   // cd/m^2 at the zenith: airglow, zodiacal light, fa
 uniform vec3 u_moon_scale;  // moon / sun illuminance above the atmosphere, per channel (0: no moon)
 
 // Scattered light of one source (sun or moon) along a ray, per unit source illuminance.
+// (The per-pixel reference path keeps the plain linear lookup of the pre-wave-2 renderer, so its
+// cost is the old cost; the per-frame table can afford the geometric one.)
 vec3 clear_scattering(float r, float mu, float mu_s, float nu, bool hits_ground) {
+#ifdef ATMOSPHERE_DIRECT_TABLES
+    vec3 s = scattering_lookup(u_scattering_lut, r, mu, mu_s, nu, hits_ground).rgb;
+    vec3 m = scattering_lookup(u_single_mie_lut, r, mu, mu_s, nu, hits_ground).rgb;
+#else
     vec3 s = scattering_lookup_geometric(u_scattering_lut, r, mu, mu_s, nu, hits_ground).rgb;
     vec3 m = scattering_lookup_geometric(u_single_mie_lut, r, mu, mu_s, nu, hits_ground).rgb;
+#endif
     return s * rayleigh_phase(nu) + m * mie_phase(u_mie_g, nu);
 }
 
@@ -401,16 +408,29 @@ bool dir_visible(vec3 dir) {
     return !ray_hits_ground(r, dir.z) && dir.z > -0.5;
 }
 
-// Luminance of the sun's disk with limb darkening, zero outside the disk; u_sun_disk_luminance is
-// the disk's mean luminance after the clear air AND the fog at the camera.
+// The sun's disk profile, mean 1 over the disk's solid angle: linear limb darkening I(mu) =
+// I0 (1 - u (1 - mu)), u = 0.6 (mean I0 (1 - u/3)). When the disk is smaller than a pixel's
+// footprint (u_pixel_angle, rad per pixel) its energy is spread over a tent of radius 1.5 px
+// instead: a point-sampled disk would flicker on and off between pixel centres as the sun moves.
+uniform float u_pixel_angle;
+float sun_disk_profile(vec3 dir) {
+    float radius = acos(clamp(u_sun_disk_cos, -1.0, 1.0));
+    float footprint = 1.5 * u_pixel_angle;
+    float theta = atan(length(cross(dir, u_sun_dir)), dot(dir, u_sun_dir));
+    if (footprint > radius) {
+        float x = theta / footprint;
+        if (x >= 1.0) return 0.0;
+        return (radius / footprint) * (radius / footprint) * 3.0 * (1.0 - x);
+    }
+    float x = theta / radius;
+    if (x >= 1.0) return 0.0;
+    return (1.0 - 0.6 * (1.0 - sqrt(max(1.0 - x * x, 0.0)))) / 0.8;
+}
+
+// Luminance of the sun's disk, zero outside it; u_sun_disk_luminance is the disk's mean luminance
+// after the clear air AND the fog at the camera.
 vec3 sun_disk(vec3 dir) {
-    float c = dot(dir, u_sun_dir);
-    if (c < u_sun_disk_cos) return vec3(0.0);
-    float r = sqrt(max(1.0 - c * c, 0.0)) / sqrt(max(1.0 - u_sun_disk_cos * u_sun_disk_cos, 1e-12));
-    float mu = sqrt(max(1.0 - r * r, 0.0));
-    // Linear limb darkening I(mu) = I0 (1 - u (1 - mu)), u = 0.6, normalised to mean 1:
-    // the disk mean is I0 (1 - u / 3).
-    return u_sun_disk_luminance * (1.0 - 0.6 * (1.0 - mu)) / 0.8;
+    return u_sun_disk_luminance * sun_disk_profile(dir);
 }
 
 // Radiance leaving a surface at camera-relative point rel (m), as seen by the camera.

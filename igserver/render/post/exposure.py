@@ -41,6 +41,7 @@ TAU_LIGHT = 0.4  # s, adapting to more light
 TAU_DARK = 4.0  # s, adapting to less light
 GROUND_REFLECTANCE = 0.15
 EV_MIN, EV_MAX = -16.0, 24.0
+LUMA = np.array([0.2126, 0.7152, 0.0722])
 MAX_STREAM_DT = 1.0  # s: frames further apart in sim_time are not one continuous view
 
 
@@ -76,13 +77,15 @@ def displayed(x):
 
 
 def display_metered_ev100(samples: np.ndarray) -> tuple[float, float]:
-    """EV100 that makes the mean DISPLAYED value of the view's luminance samples equal the display
-    of a uniform field at the samples' mean luminance M under the steady key k(M): the meter works
-    in display space, so a sunset sky that grows relatively brighter than the rest pulls the
-    exposure down instead of brightening the picture, and the displayed mean follows D(k(M)),
-    monotone in M. Returns (EV100, M). Bisection on log2(exposure) (the mean is monotone in it)."""
+    """EV100 that makes the mean DISPLAYED value of the view's samples (cd/m^2: luminances (N,), or
+    linear RGB (N, 3), shown per channel as the post pass does) equal the display of a uniform
+    field at the samples' mean luminance M under the steady key k(M): the meter works in display
+    space, so a sunset sky that grows relatively brighter than the rest pulls the exposure down
+    instead of brightening the picture, and the displayed mean follows D(k(M)), monotone in M.
+    Returns (EV100, M). Bisection on log2(exposure) (the mean is monotone in it)."""
     samples = np.maximum(np.asarray(samples, dtype=np.float64), 0.0)
-    m = max(float(np.mean(samples)), 1e-9)
+    lum = samples @ LUMA if samples.ndim == 2 else samples
+    m = max(float(np.mean(lum)), 1e-9)
     key = key_of(m)
     target = float(displayed(key))
     lo, hi = math.log2(key / m) - 12.0, math.log2(key / m) + 12.0

@@ -1,9 +1,9 @@
 // Exposure meter: the pre-exposed HDR frame averaged over blocks of u_block x u_block pixels into
-// a small image of luminance (display-linear, i.e. still multiplied by the frame's provisional
-// exposure), read back by post.py to choose the exposure the tone curve applies.
+// a small RGB image (display-linear, i.e. still multiplied by the frame's provisional exposure),
+// read back by post.py to choose the exposure the tone curve applies (per channel, as displayed).
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 layout(binding = 0) uniform sampler2D u_hdr;
-layout(binding = 0, r32f) uniform writeonly image2D u_out;
+layout(binding = 0, rgba32f) uniform writeonly image2D u_out;
 uniform int u_block;
 
 void main() {
@@ -13,10 +13,10 @@ void main() {
     ivec2 size = textureSize(u_hdr, 0);
     ivec2 p0 = cell * u_block;
     ivec2 p1 = min(p0 + ivec2(u_block), size);
-    float sum = 0.0;
+    vec3 sum = vec3(0.0);
     for (int y = p0.y; y < p1.y; ++y)
         for (int x = p0.x; x < p1.x; ++x)
-            sum += dot(max(texelFetch(u_hdr, ivec2(x, y), 0).rgb, vec3(0.0)), vec3(0.2126, 0.7152, 0.0722));
+            sum += max(texelFetch(u_hdr, ivec2(x, y), 0).rgb, vec3(0.0));
     int n = max((p1.x - p0.x) * (p1.y - p0.y), 1);
-    imageStore(u_out, cell, vec4(sum / float(n), 0.0, 0.0, 0.0));
+    imageStore(u_out, cell, vec4(sum / float(n), 1.0));
 }

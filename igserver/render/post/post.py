@@ -76,15 +76,15 @@ class PostPass(RenderPass):
         if tex is None or tex.size != size:
             if tex is not None:
                 tex.release()
-            tex = self._meter_tex = self.ctx.texture(size, 1, dtype="f4")
+            tex = self._meter_tex = self.ctx.texture(size, 4, dtype="f4")
         prog = self.programs.compute("post/meter.glsl")
         prog["u_block"].value = block
         targets.hdr.use(0)
         tex.bind_to_image(0, read=False, write=True)
         prog.run((size[0] + 7) // 8, (size[1] + 7) // 8, 1)
         self.ctx.memory_barrier()
-        cells = np.frombuffer(tex.read(), dtype=np.float32).astype(np.float64) / max(frame.exposure, 1e-30)
-        cells = cells[np.isfinite(cells)]
+        cells = np.frombuffer(tex.read(), dtype=np.float32).reshape(-1, 4)[:, :3].astype(np.float64)
+        cells = cells[np.all(np.isfinite(cells), axis=1)] / max(frame.exposure, 1e-30)
         if len(cells) == 0:
             return 1.0
         target, meter = display_metered_ev100(cells)

@@ -12,14 +12,6 @@ layout(location = 1) out float out_distance;
 uniform float u_moon_disk_cos;       // cos of the moon's angular radius
 uniform vec3 u_moon_disk_luminance;  // cd/m^2 of the lit part, after the atmosphere
 
-// Limb darkening of the sun, normalised to a mean of 1 over the disk (linear law, u = 0.6).
-float sun_limb(vec3 dir) {
-    float c = dot(dir, u_sun_dir);
-    if (c < u_sun_disk_cos) return 0.0;
-    float r = sqrt(max(1.0 - c * c, 0.0)) / sqrt(max(1.0 - u_sun_disk_cos * u_sun_disk_cos, 1e-12));
-    return (1.0 - 0.6 * (1.0 - sqrt(max(1.0 - r * r, 0.0)))) / 0.8;
-}
-
 // The moon's disk with its phase: a point of the disk at offset o (|o| <= 1 in units of the
 // angular radius) has the sphere normal n = o - m sqrt(1 - |o|^2) (facing us); it is lit where
 // n faces the sun (the sun-moon direction ~ the sun's direction from the earth, 0.15 deg off).
@@ -38,7 +30,7 @@ void main() {
     vec3 radiance = sky_radiance_and_transmittance(dir, t_view);
     if (use_precomputed()) {
         float sun_solid_angle = 2.0 * PI * (1.0 - u_sun_disk_cos);
-        radiance += u_solar_illuminance / sun_solid_angle * sun_limb(dir) * t_view;
+        radiance += u_solar_illuminance / sun_solid_angle * sun_disk_profile(dir) * t_view;
     } else {
         radiance += sun_disk(dir);
     }
