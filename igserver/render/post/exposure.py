@@ -88,8 +88,10 @@ def display_metered_ev100(samples: np.ndarray) -> tuple[float, float]:
     m = max(float(np.mean(lum)), 1e-9)
     key = key_of(m)
     target = float(displayed(key))
+    # The mean displayed value is monotone in log2(exposure): bisection over +-12 EV to 4e-7 EV
+    # (~3 ms of CPU for the 32 x 18 meter cells).
     lo, hi = math.log2(key / m) - 12.0, math.log2(key / m) + 12.0
-    for _ in range(40):
+    for _ in range(26):
         mid = 0.5 * (lo + hi)
         if float(np.mean(displayed(samples * 2.0 ** mid))) < target:
             lo = mid

@@ -20,7 +20,7 @@ from ..passes import RenderPass
 from ..shaders import set_uniforms
 from .exposure import display_metered_ev100, exposure_of_ev100
 
-METER_CELLS = 64  # the meter image is at most this many cells wide
+METER_CELLS = 32  # the meter image is at most this many cells wide (32 x 18 at 16:9)
 MAX_HALOS = 8
 HALO_MIN_BETA = 1e-4  # 1/m (visibility < ~40 km): thinner air shows no halo worth 8 samples a pixel
 
