@@ -251,10 +251,6 @@ uniform float u_haze_edge;       // m, scale height above the top
 uniform float u_haze_base;       // m above sea level of the ground
 uniform float u_haze_g;          // Henyey-Greenstein asymmetry
 uniform float u_haze_omega;      // single-scattering albedo
-uniform float u_haze_ground_albedo;
-uniform vec3 u_haze_sun;         // lux normal to the sun arriving at the layer (clear air)
-uniform vec3 u_haze_moon;        // lux normal to the moon arriving at the layer
-uniform vec3 u_haze_sky;         // lux, horizontal sky irradiance arriving at the layer
 const float HAZE_EARTH_RADIUS_M = 6360000.0;
 
 bool haze_present() { return u_haze_beta.g > 0.0; }
@@ -279,54 +275,20 @@ vec3 haze_tau_up(float h0, float z) {
     float hc = c / max(haze_density(h0), 1e-6);
     return u_haze_beta * (c / sqrt(z * z + 2.0 * hc / HAZE_EARTH_RADIUS_M));
 }
-vec3 haze_transmission(vec3 tau, float mu0) {
-    float g = u_haze_g;
-    mu0 = max(mu0, 1e-3);
-    vec3 t_d = exp(-min((1.0 - g * g) * tau / mu0, vec3(80.0)));
-    float b0 = 0.5 + 0.75 * g / (1.0 + g) * mu0;
-    float c = 0.75 * (1.0 - g) * b0 / (0.5 + 0.75 * mu0);
-    return t_d + (1.0 - t_d) * b0 / (1.0 + c * tau);
-}
 float hg(float g, float nu) {
     return (1.0 - g * g) / (4.0 * ATMO_PI * pow(max(1.0 + g * g - 2.0 * g * nu, 1e-6), 1.5));
 }
-// Reflectance of the layer below plus the ground seen through it, for light at cosine mu0.
-vec3 haze_reflectance_below(vec3 tb, vec3 t_diffuse, float mu0) {
-    vec3 t_beam = haze_transmission(tb, mu0);
-    return (1.0 - t_beam) + t_beam * t_diffuse * u_haze_ground_albedo / (1.0 - u_haze_ground_albedo * (1.0 - t_diffuse));
-}
-// In-scattered radiance source S(h, dir) of the layer (cd/m^2).
+// In-scattered radiance source S(h, dir) of the layer (cd/m^2), from the per-frame table of its
+// light against height (sky/haze.py source_table(): the two-stream model evaluated once per frame
+// at 64 heights; rows: diffuse down, up, sun beam, moon beam).
+layout(binding = 8) uniform sampler2D u_haze_table;
+uniform float u_haze_table_top;  // m, height of the table's last column
 vec3 haze_source(float h, vec3 dir) {
-    vec3 ta = u_haze_beta * haze_column(h);
-    vec3 tb = u_haze_beta * max(haze_column(0.0) - haze_column(h), 0.0);
-    float mu_s = u_sun_dir.z, mu_m = u_moon_dir.z;
-    float g2 = 1.0 - u_haze_g * u_haze_g;
-    vec3 t_below = haze_transmission(tb, 0.5);
-    vec3 incoming = u_haze_sky * haze_transmission(ta, 0.5);
-    vec3 beams = vec3(0.0), beam_true = vec3(0.0), delta = vec3(0.0), up_beams = vec3(0.0);
-    if (mu_s > 0.0) {
-        incoming += u_haze_sun * mu_s * haze_transmission(ta, mu_s);
-        vec3 t = exp(-min(ta / mu_s, vec3(80.0)));
-        beams += u_haze_sun * t * hg(u_haze_g, dot(dir, u_sun_dir));
-        beam_true += u_haze_sun * mu_s * t;
-        vec3 d = u_haze_sun * mu_s * exp(-min(g2 * ta / mu_s, vec3(80.0)));
-        delta += d;
-        up_beams += haze_reflectance_below(tb, t_below, mu_s) * d;
-    }
-    if (mu_m > 0.0) {
-        incoming += u_haze_moon * mu_m * haze_transmission(ta, mu_m);
-        vec3 t = exp(-min(ta / mu_m, vec3(80.0)));
-        beams += u_haze_moon * t * hg(u_haze_g, dot(dir, u_moon_dir));
-        beam_true += u_haze_moon * mu_m * t;
-        vec3 d = u_haze_moon * mu_m * exp(-min(g2 * ta / mu_m, vec3(80.0)));
-        delta += d;
-        up_beams += haze_reflectance_below(tb, t_below, mu_m) * d;
-    }
-    vec3 r_below = haze_reflectance_below(tb, t_below, 0.5);
-    vec3 r_above = 1.0 - haze_transmission(ta, 0.5);
-    vec3 down = incoming / (1.0 - r_below * r_above);
-    vec3 up = r_below * max(down - delta, vec3(0.0)) + up_beams;
-    vec3 down_diffuse = max(down - beam_true, vec3(0.0));
+    float u = tex_coord(clamp(h / u_haze_table_top, 0.0, 1.0), float(textureSize(u_haze_table, 0).x));
+    vec3 down_diffuse = texture(u_haze_table, vec2(u, 0.125)).rgb;
+    vec3 up = texture(u_haze_table, vec2(u, 0.375)).rgb;
+    vec3 beams = texture(u_haze_table, vec2(u, 0.625)).rgb * hg(u_haze_g, dot(dir, u_sun_dir));
+    if (u_moon_dir.z > 0.0) beams += texture(u_haze_table, vec2(u, 0.875)).rgb * hg(u_haze_g, dot(dir, u_moon_dir));
     float w_down = 0.5 + 0.5 * dir.z;  // looking up: light travelling down
     return u_haze_omega * (beams + (up * (1.0 - w_down) + down_diffuse * w_down) / ATMO_PI);
 }

@@ -20,7 +20,8 @@ from ..passes import RenderPass
 from ..shaders import set_uniforms
 from .exposure import display_metered_ev100, exposure_of_ev100
 
-METER_CELLS = 32  # the meter image is at most this many cells wide (32 x 18 at 16:9)
+METER_CELLS = 32  # the meter works on at most this many cells across (32 x 18 at 16:9)
+METER_GPU_CELLS = 160  # the GPU reduces to at most this many across (many small blocks: parallel)
 MAX_HALOS = 8
 HALO_MIN_BETA = 1e-4  # 1/m (visibility < ~40 km): thinner air shows no halo worth 8 samples a pixel
 
@@ -70,7 +71,7 @@ class PostPass(RenderPass):
         if scene.camera.exposure_ev is not None:
             return 1.0
         w, h = targets.size
-        block = max(1, math.ceil(w / METER_CELLS))
+        block = max(1, math.ceil(w / METER_GPU_CELLS))
         size = (math.ceil(w / block), math.ceil(h / block))
         tex = getattr(self, "_meter_tex", None)
         if tex is None or tex.size != size:
@@ -83,7 +84,12 @@ class PostPass(RenderPass):
         tex.bind_to_image(0, read=False, write=True)
         prog.run((size[0] + 7) // 8, (size[1] + 7) // 8, 1)
         self.ctx.memory_barrier()
-        cells = np.frombuffer(tex.read(), dtype=np.float32).reshape(-1, 4)[:, :3].astype(np.float64)
+        grid = np.frombuffer(tex.read(), dtype=np.float32).reshape(size[1], size[0], 4)[..., :3].astype(np.float64)
+        k = max(1, math.ceil(size[0] / METER_CELLS))  # CPU: blocks of k x k GPU cells
+        ny, nx = size[1] // k, size[0] // k
+        if ny > 0 and nx > 0:
+            grid = grid[:ny * k, :nx * k].reshape(ny, k, nx, k, 3).mean(axis=(1, 3))
+        cells = grid.reshape(-1, 3)
         cells = cells[np.all(np.isfinite(cells), axis=1)] / max(frame.exposure, 1e-30)
         if len(cells) == 0:
             return 1.0

@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import math
+import weakref
 from functools import lru_cache
 from dataclasses import dataclass, replace
 
@@ -116,6 +117,11 @@ def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
             "u_haze_sun": _t(top.sun_normal), "u_haze_moon": _t(top.moon_normal),
             "u_haze_sky": _t(top.sky_horizontal + NIGHT_SKY_ILLUMINANCE),
         })
+        if haze.beta[1] > 0.0:
+            table = haze.source_table(top.sun_normal, float(celestial.sun_dir[2]), top.sky_horizontal
+                                      + NIGHT_SKY_ILLUMINANCE, top.moon_normal, float(celestial.moon_dir[2]))
+            haze_table_texture(ctx, table).use(HAZE_TABLE_UNIT)
+        uniforms["u_haze_table"] = HAZE_TABLE_UNIT
         uniforms["u_sky_model"] = 1
         uniforms["u_fog_beta"] = float(haze.beta[1])
     else:
@@ -160,6 +166,23 @@ def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
         sky_view.bind()
         uniforms.update(sky_view.uniforms())
     return SkyFrame(light, uniforms, tables, sky_view, haze, horizontal)
+
+
+HAZE_TABLE_UNIT = 8
+_haze_tables: "weakref.WeakKeyDictionary[moderngl.Context, moderngl.Texture]" = weakref.WeakKeyDictionary()
+
+
+def haze_table_texture(ctx: moderngl.Context, table: np.ndarray) -> moderngl.Texture:
+    """The fog layer's per-frame light table (4 rows x 64 heights, RGBA32F), resident per context."""
+    tex = _haze_tables.get(ctx)
+    size = (table.shape[1], table.shape[0])
+    if tex is None or tex.size != size:
+        tex = ctx.texture(size, 4, dtype="f4")
+        tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        tex.repeat_x = tex.repeat_y = False
+        _haze_tables[ctx] = tex
+    tex.write(np.ascontiguousarray(table, dtype=np.float32).tobytes())
+    return tex
 
 
 def _t(v) -> tuple[float, float, float]:

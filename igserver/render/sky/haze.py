@@ -46,6 +46,7 @@ FOG_VISIBILITY_M = 1_000.0
 HAZE_VISIBILITY_M = 10_000.0
 EARTH_RADIUS_M = 6_360_000.0
 GROUND_ALBEDO = 0.1
+HAZE_TABLE_SIZE = 64  # heights in the per-frame light table of the layer
 SKY_MU0 = 0.5  # diffuse incidence acts like a beam at 60 deg (diffusivity factor 2)
 
 
@@ -124,7 +125,7 @@ class HazeLayer:
         down = incoming / (1.0 - r_below * r_above)
 
         def beam(e, mu, scale):
-            return e * mu * np.exp(-np.minimum(scale * ta / max(mu, 1e-3), 80.0)) if mu > 0 else np.zeros(3)
+            return e * mu * np.exp(-np.minimum(scale * ta / max(mu, 1e-3), 80.0)) if mu > 0 else np.zeros_like(ta)
         beam_true = beam(sun, ms, 1.0) + beam(moon, mm, 1.0)
         sun_delta, moon_delta = beam(sun, ms, 1.0 - self.g ** 2), beam(moon, mm, 1.0 - self.g ** 2)
         # Up: the diffuse part reflects as diffuse light, each beam at its own angle.
@@ -156,6 +157,26 @@ class HazeLayer:
                 out = out + np.asarray(e) * np.exp(-np.minimum(ta / mu, 80.0)) * hg_phase(self.g, dirs @ np.asarray(d))[:, None]
         return self.omega * out
 
+    def table_top(self) -> float:
+        """Height (m) above which the layer no longer matters (density < exp(-8))."""
+        return self.top + 8.0 * self.edge
+
+    def source_table(self, sun_normal, mu_s: float, sky_horizontal, moon_normal, mu_m: float) -> np.ndarray:
+        """(4, HAZE_TABLE_SIZE, 4) float32 per-frame table of the layer's light against height,
+        0 .. table_top(): rows diffuse down, up, sun beam (normal), moon beam (normal), all before
+        the single-scattering albedo; the shader's haze_source() reads it instead of evaluating the
+        two-stream model per pixel (the same formulas, tabulated once per frame)."""
+        h = np.linspace(0.0, self.table_top(), HAZE_TABLE_SIZE)
+        f = self.fluxes(h, sun_normal, mu_s, sky_horizontal, moon_normal, mu_m)
+        ta = self.tau_above(h)
+        out = np.zeros((4, HAZE_TABLE_SIZE, 4), np.float32)
+        out[0, :, :3] = np.maximum(f["down"] - f["beam_true"], 0.0)
+        out[1, :, :3] = f["up"]
+        for row, (e, mu) in ((2, (sun_normal, mu_s)), (3, (moon_normal, mu_m))):
+            if mu > 0.0:
+                out[row, :, :3] = np.asarray(e) * np.exp(-np.minimum(ta / mu, 80.0))
+        return out
+
     def uniforms(self, base_altitude_m: float) -> dict:
         return {
             "u_haze_beta": tuple(float(b) for b in self.beta),
@@ -165,6 +186,7 @@ class HazeLayer:
             "u_haze_g": float(self.g),
             "u_haze_omega": float(self.omega),
             "u_haze_ground_albedo": GROUND_ALBEDO,
+            "u_haze_table_top": float(self.table_top()),
         }
 
 
