@@ -67,6 +67,13 @@ def test_ws_round_trip_and_rejections(server, ig):
             (pack({"type": "patch", "id": 4, "state": {"camera": {"zoom": 1}}}), "validation", "#/state/camera/zoom"),
             (pack({"type": "teleport", "id": 5}), "validation", "#/type"),
             (pack({"type": "credit", "n": 10_000}), "validation", "#/n"),
+            # valid sections beside an invalid one: nothing of it is applied
+            (pack({"type": "patch", "id": 7, "state": {"host_frame": 9050, "camera": {"heading": 10.0},
+                                                     "weather": {"wind_speed": -1.0}}}), "validation",
+             "#/state/weather/wind_speed"),
+            (pack({"type": "replace", "id": 8, "state": {**before.model_dump(mode="json"), "host_frame": 9051,
+                                                       "camera": {"pitch": 95.0}}}), "validation",
+             "#/state/camera/pitch"),
         ]
         for data, kind, pointer in rejections:
             ws.send(data)
