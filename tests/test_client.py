@@ -8,7 +8,7 @@ import json
 import pytest
 from PIL import Image
 
-from clients.igclient import AsyncIGClient, IGClient, IGError, main
+from igserver.client.core import AsyncIGClient, IGClient, IGError, main
 from igserver.protocol.runtime import ServerSettings
 from igserver.protocol.testing import LoopbackServer
 from igserver.scene import Scene, save_scene

@@ -1,6 +1,6 @@
 """Python host client for igserver protocol v1 (sync and asyncio), and the ``igclient`` CLI.
 
-    from clients.igclient import IGClient
+    from igserver.client import IGClient
     with IGClient("http://127.0.0.1:8600") as ig:
         ig.patch_state({"host_frame": 1, "camera": {"heading": 90}})
         frame = ig.get_frame()                 # Frame: .data (JPEG), .host_frame, .frame, .render_ms
