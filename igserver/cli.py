@@ -29,11 +29,16 @@ def _scene_from_args(args):
 def cmd_render(args) -> int:
     from PIL import Image
 
-    from .render.worker import RenderService
+    from .render.worker import RenderError, RenderService
 
     scene = _scene_from_args(args)
-    with RenderService(scene) as service:
-        frame = service.render(timed=True)
+    try:
+        with RenderService(scene) as service:
+            frame = service.render(timed=True)
+    except RenderError as exc:
+        # no EGL, no GL 4.5, a driver crash: say what to install, not where in our code it happened
+        print(f"igserver render: {str(exc).strip().splitlines()[-1]}", file=sys.stderr)
+        return 1
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Image.fromarray(frame.rgba[:, :, :3]).save(args.out)
     print(f"wrote {args.out} ({frame.width}x{frame.height}, passes {' '.join(frame.passes)}, "
@@ -52,8 +57,24 @@ def cmd_bench(args) -> int:
 
 def cmd_serve(args) -> int:
     from .protocol.app import serve
+    from .protocol.settings import ServerSettings
 
-    return serve(scene_path=args.scene, host=args.host, port=args.port, width=args.width, height=args.height) or 0
+    # flags > IGSERVER_* environment > defaults (pydantic-settings merges them)
+    settings = ServerSettings(_cli_settings_source=args.settings_source(parsed_args=args))
+    return serve(scene_path=args.scene or None, width=args.width, height=args.height, settings=settings)
+
+
+def add_serve_arguments(parser: argparse.ArgumentParser, default_scene: str | None) -> None:
+    """``igserver serve``'s flags: the scene and size, and one flag per server setting (settings.py)."""
+    from pydantic_settings import CliSettingsSource
+
+    from .protocol.settings import ServerSettings
+
+    parser.add_argument("--scene", default=default_scene,
+                        help=f"scene file or name in igserver/scenes/ (default {default_scene or 'built-in'})")
+    parser.add_argument("--width", type=int)
+    parser.add_argument("--height", type=int)
+    parser.set_defaults(settings_source=CliSettingsSource(ServerSettings, root_parser=parser))
 
 
 def cmd_quality(args) -> int:
@@ -69,12 +90,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="igserver", description="Network image generator for training simulators")
     sub = parser.add_subparsers(dest="command", required=True)
 
-    p = sub.add_parser("serve", help="start the IG service (REST, WebSocket, MJPEG, viewer page)")
-    p.add_argument("--scene", default="demo", help="scene file or name in igserver/scenes/ (default demo)")
-    p.add_argument("--host", default="127.0.0.1")
-    p.add_argument("--port", type=int, default=8600)
-    p.add_argument("--width", type=int)
-    p.add_argument("--height", type=int)
+    p = sub.add_parser("serve", help="start the IG service (REST, WebSocket, MJPEG, viewer page)",
+                       description="Every setting is also an IGSERVER_* environment variable (README: settings).")
+    add_serve_arguments(p, "demo")
     p.set_defaults(func=cmd_serve)
 
     p = sub.add_parser("render", help="render one frame of a scene to a PNG")
@@ -119,6 +137,9 @@ def main(argv: list[str] | None = None) -> int:
     except (FileNotFoundError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

@@ -6,7 +6,7 @@ from typing import Annotated, Any
 
 from fastapi import Depends, Request, Response
 
-from .codec import MSGPACK, decode, encode, negotiate
+from .codec import MSGPACK, acceptable, decode, encode, negotiate
 from .problems import ProblemError
 from .runtime import IGRuntime
 
@@ -49,6 +49,9 @@ Message = Annotated[Any, Depends(message_body)]
 
 
 def reply_format(request: Request) -> str:
+    accept = request.headers.get("accept")
+    if not acceptable(accept):
+        raise ProblemError("not_acceptable", f"Accept {accept!r}: this route answers in JSON or {MSGPACK}")
     return negotiate(request.headers.get("accept"), request.headers.get("content-type"))
 
 

@@ -22,10 +22,25 @@ def deep_merge(base: dict, patch: dict) -> dict:
     return out
 
 
-def apply_patch(scene: Scene, patch: dict[str, Any]) -> Scene:
-    """Return a new validated Scene: ``scene`` with ``patch`` merged in. Raises pydantic.ValidationError."""
+def validate_wire(tree: Any) -> Scene:
+    """A Scene from a decoded protocol message, with strict types: ``"10"`` is not a number, ``1`` not a bool.
+
+    The tree holds JSON types only (the codec refuses the rest), so it is validated as JSON in pydantic's
+    strict mode: the same rules for msgpack and JSON callers, and ISO strings still parse as times.
+    TOML files and ``--set`` values are not wire input: they keep the lax ``Scene.model_validate``.
+    """
+    return Scene.model_validate_json(json.dumps(tree, allow_nan=False), strict=True)
+
+
+def apply_patch(scene: Scene, patch: dict[str, Any], strict: bool = False) -> Scene:
+    """Return a new validated Scene: ``scene`` with ``patch`` merged in. Raises pydantic.ValidationError.
+
+    ``strict``: the patch came over the wire (see ``validate_wire``).
+    """
     if not isinstance(patch, dict):
         raise TypeError("a patch must be an object")
+    if strict:
+        return validate_wire(deep_merge(scene.model_dump(mode="json"), patch))
     merged = deep_merge(scene.model_dump(mode="python"), patch)
     return Scene.model_validate(merged)
 
