@@ -19,7 +19,7 @@ def _scene_from_args(args):
     from .scene import apply_patch, load_scene, patch_from_assignments
 
     scene = load_scene(args.scene)
-    patch = patch_from_assignments(args.set or [])
+    patch = patch_from_assignments(args.set or [], base=scene.model_dump(mode="json"))
     camera = {k: v for k, v in (("width", args.width), ("height", args.height)) if v is not None}
     if camera:
         patch.setdefault("camera", {}).update(camera)
