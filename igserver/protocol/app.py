@@ -21,6 +21,7 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import Response
 from fastapi_offline import FastAPIOffline
 from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.routing import compile_path
 
 from ..scene.model import Scene
 from .codec import MSGPACK, PROBLEM_JSON, PROBLEM_MSGPACK, encode, negotiate
@@ -61,6 +62,17 @@ def problem_response(request: Request, problem: ProblemError) -> Response:
     return Response(encode(document, fmt), status_code=problem.status, media_type=media, headers=problem.headers)
 
 
+def allowed_methods(request: Request) -> list[str]:
+    """The methods served at this request's path, read from the OpenAPI paths (one route per method)."""
+    methods: set[str] = set()
+    for template, item in request.app.openapi().get("paths", {}).items():
+        if compile_path(template)[0].match(request.url.path):
+            methods |= {m.upper() for m in item if m in ("get", "put", "post", "patch", "delete")}
+    if "GET" in methods:
+        methods.add("HEAD")
+    return sorted(methods)
+
+
 def _install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(ProblemError)
     async def on_problem(request: Request, exc: ProblemError):
@@ -76,9 +88,10 @@ def _install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(StarletteHTTPException)
     async def on_http(request: Request, exc: StarletteHTTPException):
         kind = {404: "not_found", 405: "method_not_allowed"}.get(exc.status_code, "bad_request")
-        # keep the router's headers: a 405 carries Allow (RFC 9110 §15.5.6)
-        return problem_response(request, ProblemError(kind, str(exc.detail), status=exc.status_code,
-                                                      headers=dict(exc.headers or {})))
+        headers = dict(exc.headers or {})
+        if exc.status_code == 405:  # Allow lists every method of the path (RFC 9110 §15.5.6), not one route's
+            headers["Allow"] = ", ".join(allowed_methods(request))
+        return problem_response(request, ProblemError(kind, str(exc.detail), status=exc.status_code, headers=headers))
 
     @app.exception_handler(Exception)
     async def on_unexpected(request: Request, exc: Exception):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from functools import lru_cache
 from html import escape
+from typing import get_args
 
 from fastapi import APIRouter
 from fastapi.responses import HTMLResponse, JSONResponse
@@ -67,7 +68,7 @@ async def asyncapi() -> JSONResponse:
 @router.get("/v1/ws-protocol", response_class=HTMLResponse, summary="The WebSocket protocol, for people")
 async def ws_protocol() -> HTMLResponse:
     rows = "".join(
-        f"<tr><td>{direction}</td><td><code>{escape(m.model_fields['type'].default or '|'.join(m.model_fields['type'].annotation.__args__))}"
+        f"<tr><td>{direction}</td><td><code>{escape(' | '.join(get_args(m.model_fields['type'].annotation)))}"
         f"</code></td><td>{escape(', '.join(m.model_fields))}</td><td>{escape((m.__doc__ or '').strip())}</td></tr>"
         for direction, models in (("client → server", CLIENT_MESSAGES), ("server → client", SERVER_MESSAGES))
         for m in models
