@@ -1,4 +1,4 @@
-"""Command line: ``igserver serve | render | bench | quality``."""
+"""Command line: ``igserver serve | health | render | bench | quality``."""
 
 from __future__ import annotations
 
@@ -64,6 +64,27 @@ def cmd_serve(args) -> int:
     return serve(scene_path=args.scene or None, width=args.width, height=args.height, settings=settings)
 
 
+def cmd_health(args) -> int:
+    """Container health check: is the local server ready (a frame can be served)? Reads the IGSERVER_* settings."""
+    import httpx
+
+    from .protocol.settings import WILDCARD_HOSTS, ServerSettings
+
+    settings = ServerSettings()
+    host = "127.0.0.1" if settings.host in WILDCARD_HOSTS else settings.host
+    host = f"[{host}]" if ":" in host else host
+    token = settings.bearer_token()
+    headers = {"Authorization": f"Bearer {token}"} if token else {}
+    path = "/v1/health" if args.live else "/v1/ready"
+    try:
+        response = httpx.get(f"http://{host}:{settings.port}{path}", headers=headers, timeout=args.timeout)
+    except httpx.HTTPError as exc:
+        print(f"igserver health: {exc}", file=sys.stderr)
+        return 1
+    print(response.text)
+    return 0 if response.status_code == 200 else 1
+
+
 def add_serve_arguments(parser: argparse.ArgumentParser, default_scene: str | None) -> None:
     """``igserver serve``'s flags: the scene and size, and one flag per server setting (settings.py)."""
     from pydantic_settings import CliSettingsSource
@@ -94,6 +115,11 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Every setting is also an IGSERVER_* environment variable (README: settings).")
     add_serve_arguments(p, "demo")
     p.set_defaults(func=cmd_serve)
+
+    p = sub.add_parser("health", help="exit 0 when the local server is ready (Docker HEALTHCHECK)")
+    p.add_argument("--live", action="store_true", help="only check that the server process answers")
+    p.add_argument("--timeout", type=float, default=4.0)
+    p.set_defaults(func=cmd_health)
 
     p = sub.add_parser("render", help="render one frame of a scene to a PNG")
     p.add_argument("--scene", required=True, help="scene file or name in igserver/scenes/")

@@ -110,6 +110,20 @@ def _document_headers(operation: dict, path: str) -> None:
         ok["headers"] = {**ok.get("headers", {}), **copy.deepcopy(STATE_HEADERS)}
 
 
+def _uniform_tuples(node: Any) -> None:
+    """``prefixItems`` whose items are all alike (Vec3) -> ``items``: the same constraint, readable by tools
+    that only know OpenAPI 3.0's ``items`` (Swagger UI's form, schemathesis' response checks)."""
+    if isinstance(node, dict):
+        prefix = node.get("prefixItems")
+        if isinstance(prefix, list) and prefix and all(item == prefix[0] for item in prefix):
+            node["items"] = node.pop("prefixItems")[0]
+        for value in node.values():
+            _uniform_tuples(value)
+    elif isinstance(node, list):
+        for value in node:
+            _uniform_tuples(value)
+
+
 def complete_schema(schema: dict[str, Any]) -> dict[str, Any]:
     components = schema.setdefault("components", {}).setdefault("schemas", {})
     _add_models(components, Problem, FrameMessage, Scene, Effect)
@@ -120,6 +134,7 @@ def complete_schema(schema: dict[str, Any]) -> dict[str, Any]:
         "must be a valid Scene, else nothing changes.")
     components["EffectPatch"] = _partial(components["Effect"], components, deep=False)
     components["EffectPatch"]["title"] = "EffectPatch"
+    components["EffectPatch"]["properties"].pop("id", None)  # the id is the path's; it cannot change
     for unused in ("HTTPValidationError", "ValidationError"):
         components.pop(unused, None)
     for path, item in schema.get("paths", {}).items():
@@ -128,6 +143,7 @@ def complete_schema(schema: dict[str, Any]) -> dict[str, Any]:
                 continue
             _problem_responses(operation, path, method)
             _document_headers(operation, path)
+    _uniform_tuples(schema)
     schema["x-problem-kinds"] = {k: {"status": s, "title": t} for k, (s, t) in PROBLEM_KINDS.items()}
     schema.setdefault("components", {})["securitySchemes"] = {
         "bearer": {"type": "http", "scheme": "bearer",

@@ -2,9 +2,10 @@
 
 Threats, and the rule that stops each:
 - A web page the operator opens POSTs to the IG (cross-site request forgery). Browsers send such "simple"
-  requests without asking first only with form or text content types; so every write (POST/PUT/PATCH) must
-  say ``application/json`` or msgpack (else 415), which forces a CORS preflight the server never grants.
-  And a write or WebSocket whose ``Origin`` is not the server's own (or configured) is refused (403).
+  requests without asking first only with form or text content types; so every write must say
+  ``application/json`` or msgpack (415 otherwise: ``dependencies.message_body``, the one place bodies are
+  read), which forces a CORS preflight the server never grants. And a write or WebSocket whose ``Origin`` is
+  not the server's own (or configured) is refused here (403).
 - DNS rebinding: a hostile name re-pointed at 127.0.0.1 makes the browser treat the IG as that site. The
   ``Host`` header then carries the hostile name: only loopback names, the bind address and configured names
   are served (403 otherwise).
@@ -24,7 +25,7 @@ import logging
 from http.cookies import SimpleCookie
 from urllib.parse import parse_qs, urlencode, urlsplit
 
-from .codec import MSGPACK, PROBLEM_JSON, PROBLEM_MSGPACK, base_media_type, encode, is_json, is_msgpack, negotiate
+from .codec import MSGPACK, PROBLEM_JSON, PROBLEM_MSGPACK, encode, negotiate
 from .problems import ProblemError
 from .settings import LOOPBACK_NAMES, WILDCARD_HOSTS, ServerSettings
 
@@ -32,7 +33,6 @@ log = logging.getLogger("igserver.protocol")
 
 COOKIE = "igserver_token"
 QUERY = "access_token"
-WRITES = frozenset({"POST", "PUT", "PATCH"})
 SAFE = frozenset({"GET", "HEAD", "OPTIONS"})
 OPEN_PATHS = ("/v1/health", "/docs", "/redoc", "/openapi.json", "/asyncapi.json", "/v1/ws-protocol",
               "/static-offline-docs/", "/v1/problems/")
@@ -51,7 +51,7 @@ def _split_host(value: str) -> tuple[str, str | None]:
 
 
 class EdgeGuard:
-    """ASGI middleware enforcing Host, Origin, content type and the bearer token."""
+    """ASGI middleware enforcing Host, Origin and the bearer token."""
 
     def __init__(self, app, settings: ServerSettings):
         self.app = app
@@ -122,13 +122,6 @@ class EdgeGuard:
                     "unauthorized",
                     "send 'Authorization: Bearer <token>' (browsers: open /?access_token=<token> once)",
                     headers={"WWW-Authenticate": 'Bearer realm="igserver"'},
-                )
-        if problem is None and scope["type"] == "http" and method in WRITES:
-            media = base_media_type(headers.get("content-type"))
-            if not (is_json(media) or is_msgpack(media)):
-                problem = ProblemError(
-                    "unsupported_media_type",
-                    f"a {method} needs Content-Type application/json or {MSGPACK} (got {media or 'none'!r})",
                 )
         return problem
 

@@ -30,7 +30,19 @@ def validate_wire(tree: Any) -> Scene:
     strict mode: the same rules for msgpack and JSON callers, and ISO strings still parse as times.
     TOML files and ``--set`` values are not wire input: they keep the lax ``Scene.model_validate``.
     """
-    return Scene.model_validate_json(json.dumps(tree, allow_nan=False), strict=True)
+    return Scene.model_validate_json(json.dumps(_integral_floats_as_ints(tree), allow_nan=False), strict=True)
+
+
+def _integral_floats_as_ints(node: Any) -> Any:
+    """3.0 -> 3: JSON has one number type (JSON Schema calls 3.0 an integer), and strict mode would refuse it
+    for an int field. Float fields take ints, so nothing else changes. (The codec bounded the depth.)"""
+    if isinstance(node, float) and node.is_integer() and abs(node) < 2**53:
+        return int(node)
+    if isinstance(node, dict):
+        return {key: _integral_floats_as_ints(value) for key, value in node.items()}
+    if isinstance(node, list):
+        return [_integral_floats_as_ints(value) for value in node]
+    return node
 
 
 def apply_patch(scene: Scene, patch: dict[str, Any], strict: bool = False) -> Scene:
