@@ -16,10 +16,13 @@ from websockets.exceptions import InvalidStatus
 from websockets.sync.client import connect
 
 from igserver.cli import build_parser
+from igserver.client import IGClient, IGError
 from igserver.cli import main as igserver_main
 from igserver.protocol.settings import ServerSettings, settings_table
 from igserver.protocol.testing import LoopbackServer
 from igserver.scene import Scene
+from igserver.scene.files import dumps_scene
+from igserver.scene.model import Effect
 
 MSGPACK = "application/vnd.msgpack"
 TOKEN = "edge-test-token"
@@ -133,6 +136,14 @@ def test_token_required_and_viewer_login_cookie(token_server):
         with connect(url.replace("http", "ws") + "/v1/ws"):
             pass
     assert info.value.response.status_code == 403  # a refused handshake is answered 403 by uvicorn
+    # the Python client and its WebSocket stream carry the token
+    with IGClient(url, token=TOKEN) as ig:
+        assert ig.patch_state({"host_frame": 9}).host_frame == 9
+        with ig.stream(credits=1) as stream:  # the first frame may predate the patch: the newest follows
+            assert any(stream.recv().host_frame == 9 for _ in range(20))
+    with IGClient(url) as ig, pytest.raises(IGError) as info:
+        ig.get_state()
+    assert info.value.status == 401
     # a configured origin (a console on another host) may write with the token
     with httpx.Client(base_url=url, timeout=30, headers={"Authorization": f"Bearer {TOKEN}"}) as console:
         assert console.patch("/v1/state", json={"host_frame": 8},
@@ -163,7 +174,31 @@ def test_wrong_scene_name_lists_the_scenes(capsys):
     assert "no_such_scene" in err and "demo" in err and "sky_only" in err
 
 
-# --------------------------------------------------------------------------- item 10: settings, metrics
+def test_render_without_egl_is_a_message(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "IGSERVER_EGL_DEVICE": "99"}  # no such EGL device: context creation fails
+    result = subprocess.run([sys.executable, "-m", "igserver.cli", "render", "--scene", "sky_only", "--out",
+                             str(tmp_path / "x.png"), "--width", "64", "--height", "36"],
+                            capture_output=True, text=True, timeout=120, env=env)
+    assert result.returncode == 1 and "Traceback" not in result.stderr
+    assert "EGL" in result.stderr and "install" in result.stderr
+
+
+# --------------------------------------------------------------------------- item 10: settings, metrics, TOML
+
+def test_toml_writer_round_trips_awkward_strings():
+    import tomllib
+
+    text = 'tab\there\nnew line "quoted" back\\slash'
+    effect = Effect(id="e1").model_copy(update={"profile": text})  # any string the writer may meet
+    scene = small_scene().model_copy(update={"effects": [effect]})
+    tree = tomllib.loads(dumps_scene(scene))
+    assert tree["effects"][0]["profile"] == text
+    assert Scene.model_validate(tree) == scene
+
 
 def test_settings_from_flags_then_environment_then_defaults(monkeypatch):
     monkeypatch.setenv("IGSERVER_MAX_FPS", "20")

@@ -634,8 +634,7 @@ def _cmd_effects(args) -> int:
         if not args.id:
             raise ValueError(f"effects {action}: give the effect id")
         if action == "add":
-            effect = patch_from_assignments(args.fields)
-            effect.update({"id": args.id, "type": args.type})
+            effect = {**patch_from_assignments(args.fields), "id": args.id}  # type=fire|smoke|gas_burner
             result = ig.add_effect(effect)
         elif action == "start":
             result = ig.patch_effect(args.id, {"active": True})
@@ -702,12 +701,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(run=_cmd_record)
 
     p = sub.add_parser("effects", help="list, add, start, stop (fade), remove or change effects",
-                       description="igclient effects list | add ID --type fire [PATH=VALUE...] | start ID | "
+                       description="igclient effects list | add ID [type=smoke] [PATH=VALUE...] | start ID | "
                                    "stop ID | remove ID | set ID PATH=VALUE...")
     p.add_argument("action", nargs="?", default="list", choices=["list", "add", "start", "stop", "remove", "set"])
     p.add_argument("id", nargs="?")
     p.add_argument("fields", nargs="*", metavar="PATH=VALUE")
-    p.add_argument("--type", default="fire", help="effect type for add (default fire)")
     p.set_defaults(run=_cmd_effects)
 
     p = sub.add_parser("bench", help="latency statistics: state sent -> frame received (the state is restored)")
