@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from websockets.sync.client import connect
 
-from clients.igclient import IGClient, IGError, iter_multipart_jpegs
+from igserver.client.core import IGClient, IGError, iter_multipart_jpegs
 from igserver.protocol.runtime import ServerSettings
 from igserver.protocol.testing import LoopbackServer
 from igserver.scene import Scene
