@@ -47,8 +47,8 @@ from ..camera import CameraView
 
 BLOCK = 4096  # particles per random block: the pool grows in blocks, so a prefix never changes
 SNOW_SPEED_SCATTER = (0.75, 1.2)  # per-flake factor on the Locatelli-Hobbs speed (riming, shape)
-SNOW_FLUTTER_RADIUS = (0.05, 0.3)  # m, radius of a flake's horizontal flutter circle
-SNOW_FLUTTER_HZ = (0.3, 1.0)  # flutter frequency
+SNOW_FLUTTER_RADIUS = (0.02, 0.08)  # m, radius of a flake's horizontal flutter circle (a few cm)
+SNOW_FLUTTER_HZ = (0.4, 1.2)  # Hz: flutter speeds 0.05-0.6 m/s, below the fall speed
 
 
 @dataclass(frozen=True)

@@ -2,9 +2,10 @@
 
 Absent from the frame graph when nothing falls (``weather.precipitation.type == "none"`` or rate 0).
 Otherwise, per frame: the CPU moves the particles of one wrapped cube in float64 and lists the
-visible tiles (particles.py); the GPU draws every particle of every tile as a streak quad
-(precip.vert.glsl, instanced: one instance per tile) clipped by the copied scene distance, lit by
-sun, moon, sky and the point/spot lights, faded by the aerial perspective (precip.frag.glsl).
+visible tiles (particles.py); a compute pass lights every streak once - sun, moon, sky and the
+point/spot lights, then the aerial perspective (precip_light.comp.glsl); the GPU draws every
+particle of every tile as a streak quad (precip.vert.glsl, instanced: one instance per tile)
+clipped by the copied scene distance (precip.frag.glsl).
 
 Cost is bounded: at most ``max_streaks`` quads whatever the rate (particles.py), and the CPU work is
 O(particles per tile) numpy.
@@ -75,14 +76,30 @@ class PrecipPass(RenderPass):
         self._upload("particles", packed).bind_to_storage_buffer(0)
         self._upload("tiles", tiles).bind_to_storage_buffer(1)
 
+        self._upload("radiance", np.zeros((particles.streak_count, 4))).bind_to_storage_buffer(2)
+        view = frame.view
+        optics = OPTICS[kind]
+        # Per level: first tile, particles per tile, first entry of radiance[] (one per streak).
+        levels, first_streak = [], 0
+        for first, count, per_tile, drops in particles.levels:
+            levels.append((first, count, per_tile, drops, first_streak))
+            first_streak += count * per_tile
+
+        light = self.programs.compute("precip/precip_light.comp.glsl")
+        set_uniforms(light, frame.uniforms)
+        set_uniforms(light, optics)
+        for first, count, per_tile, _, base in levels:
+            set_uniforms(light, {"u_first_tile": first, "u_particles": per_tile, "u_first_streak": base,
+                                 "u_streaks": count * per_tile})
+            light.run((count * per_tile + 63) // 64)
+        self.ctx.memory_barrier()
+
         program = self.programs.program("precip/precip.vert.glsl", "precip/precip.frag.glsl")
         set_uniforms(program, frame.uniforms)
-        view = frame.view
         set_uniforms(program, {
             "u_scene_distance": 0,
             "u_fade": float(particles.fade),
             "u_px_per_tan": float(0.5 * view.height * view.projection[1, 1]),
-            **OPTICS[kind],
         })
         frame.resources["scene_distance"].use(0)
         if self._vao is None:
@@ -91,9 +108,10 @@ class PrecipPass(RenderPass):
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         self.ctx.enable(moderngl.BLEND)
         self.ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
-        for first, count, particles_per_tile, drops in particles.levels:  # one draw per LOD level
-            set_uniforms(program, {"u_first_tile": first, "u_drops_per_streak": float(drops)})
-            self._vao.render(moderngl.TRIANGLES, vertices=6 * particles_per_tile, instances=count)
+        for first, count, per_tile, drops, base in levels:  # one draw per LOD level
+            set_uniforms(program, {"u_first_tile": first, "u_particles": per_tile, "u_first_streak": base,
+                                   "u_drops_per_streak": float(drops)})
+            self._vao.render(moderngl.TRIANGLES, vertices=6 * per_tile, instances=count)
         self.ctx.disable(moderngl.BLEND)
 
 

@@ -1,65 +1,30 @@
 // Precipitation streaks (seed 003): one screen-aligned quad per particle copy, from the particle's
 // position T ago to its current position (particles.py), at least one pixel wide.
 //
-// Particle i (gl_VertexID / 6) of tile k (u_first_tile + gl_InstanceID) sits at q_i + L k camera-relative. Opacity carries the
-// coverage of the m real drops one streak stands for: a drop of diameter D_px (pixels) sweeping
+// Particle i (gl_VertexID / 6) of tile k (u_first_tile + gl_InstanceID) sits at q_i + L k,
+// camera-relative. Its light comes from precip_light.comp.glsl (once per streak). Opacity carries
+// the coverage of the m real drops one streak stands for: a drop of diameter D_px (pixels) sweeping
 // the streak during the exposure covers D_px^2 pixel-exposures in all, however long the streak
 // (time-averaged coverage of a moving disk), so spread over the quad's area w (l + w):
 //     alpha = m D_px^2 / (w (l_px + w)),   w = max(D_px, 1 px).
-// Faded by the one aerial perspective (apply_aerial_perspective). It fades out toward u_fade (beyond, the extinction in the visibility carries the rain) and
-// near the camera (a drop centimetres from the lens is a defocused blur, not a streak).
+// It fades out toward u_fade (beyond, the extinction in the visibility carries the rain) and near
+// the camera (a drop centimetres from the lens is a defocused blur, not a streak).
 #include "common/frame.glsl"
-#include "common/atmosphere.glsl"
-#include "common/brdf.glsl"
-#include "common/lights.glsl"
+#include "precip/precip_common.glsl"
 
-struct Particle {
-    vec4 pos_diameter;       // xyz m in [0, L), camera-relative wrapped; w diameter m
-    vec4 streak_brightness;  // xyz m, p(t) - p(t - T); w brightness factor (~1)
-};
-layout(std430, binding = 0) readonly buffer Particles { Particle particles[]; };
-layout(std430, binding = 1) readonly buffer Tiles { vec4 tiles[]; };  // xyz camera-relative offset
-
-uniform int u_first_tile;          // this draw's tiles (one LOD level) start here
 uniform float u_drops_per_streak;  // m, of this level
 uniform float u_fade;              // m, streaks gone beyond
 uniform float u_px_per_tan;        // px per unit tangent (0.5 height P[1][1])
-uniform float u_albedo;
-uniform float u_phase_g;           // Henyey-Greenstein asymmetry of one particle's scattering
 
 out vec3 v_rel;
 flat out vec3 v_radiance;  // pre-exposed, after the aerial perspective
 flat out float v_alpha;
 
-float henyey_greenstein(float cos_theta, float g) {
-    float d = 1.0 + g * g - 2.0 * g * cos_theta;
-    return (1.0 - g * g) / (4.0 * PI * d * sqrt(d));
-}
-
-// Radiance a particle sends toward the camera: sky light (a drop shows the sky around it, a flake
-// reflects it), sun and moon, and the point/spot lights (fires' flicker lights, lamps, searchlights)
-// through the particle's phase function; cos(theta) = l . v with v from the camera to the particle.
-vec3 particle_radiance(vec3 p) {
-    vec3 v = normalize(p);
-    vec3 radiance = u_sky_ambient;
-    radiance += u_sun_illuminance * henyey_greenstein(dot(u_sun_dir, v), u_phase_g);
-    radiance += u_moon_illuminance * henyey_greenstein(dot(u_moon_dir, v), u_phase_g);
-    for (int i = 0; i < u_light_count; ++i) {
-        vec3 to_light = u_light_pos[i].xyz - p;
-        float d2 = max(dot(to_light, to_light), 1e-4);
-        float d = sqrt(d2);
-        vec3 l = to_light / d;
-        float factor = range_window(d, u_light_pos[i].w) / d2;  // cd -> lux
-        if (u_light_color[i].w > 0.5) factor *= smoothstep(u_light_dir[i].w, u_light_cos_inner[i], dot(-l, u_light_dir[i].xyz));
-        radiance += u_light_color[i].rgb * factor * henyey_greenstein(dot(l, v), u_phase_g);
-    }
-    return u_albedo * radiance;
-}
-
 const vec2 CORNERS[6] = vec2[6](vec2(0, -1), vec2(1, -1), vec2(1, 1), vec2(0, -1), vec2(1, 1), vec2(0, 1));
 
 void main() {
-    Particle particle = particles[gl_VertexID / 6];
+    int index = gl_VertexID / 6;
+    Particle particle = particles[index];
     vec2 corner = CORNERS[gl_VertexID % 6];  // x: 0 = tail (T ago), 1 = head (now); y: side
     vec3 head = particle.pos_diameter.xyz + tiles[u_first_tile + gl_InstanceID].xyz;
     vec3 tail = head - particle.streak_brightness.xyz;
@@ -89,7 +54,5 @@ void main() {
     float coverage = u_drops_per_streak * d_px * d_px / (w * (l_px + w));
     float fade = (1.0 - smoothstep(0.6 * u_fade, u_fade, dist)) * smoothstep(0.2, 0.8, dist);
     v_alpha = clamp(coverage, 0.0, 1.0) * fade;
-    // Aerial perspective once per particle (its head), not per fragment: within the fade distance
-    // it varies by far less than a streak's own brightness along the streak.
-    v_radiance = pre_expose(apply_aerial_perspective(particle_radiance(head) * particle.streak_brightness.w, head));
+    v_radiance = radiance[u_first_streak + gl_InstanceID * u_particles + index].rgb;
 }
