@@ -39,6 +39,7 @@ class PrecipPass(RenderPass):
         self.stats = {"particles": 0, "tiles": 0, "streaks": 0, "drops_per_streak": 0.0}
         self._buffers: dict[str, moderngl.Buffer] = {}
         self._vao = None
+        self._quads = 0  # quads the index buffer holds
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
         return precipitation_falls(scene)
@@ -102,8 +103,7 @@ class PrecipPass(RenderPass):
             "u_px_per_tan": float(0.5 * view.height * view.projection[1, 1]),
         })
         frame.resources["scene_distance"].use(0)
-        if self._vao is None:
-            self._vao = self.ctx.vertex_array(program, [])
+        self._quad_indices(program, max(per_tile for _, _, per_tile, _, _ in levels))
         targets.color_fbo.use()
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         self.ctx.enable(moderngl.BLEND)
@@ -112,6 +112,19 @@ class PrecipPass(RenderPass):
             set_uniforms(program, {"u_first_tile": first, "u_particles": per_tile, "u_first_streak": base,
                                    "u_drops_per_streak": float(drops)})
             self._vao.render(moderngl.TRIANGLES, vertices=6 * per_tile, instances=count)
+
+    def _quad_indices(self, program, quads: int) -> None:
+        """Index buffer of quads (0 1 2, 0 2 3) + 4 i, grown in powers of two."""
+        if self._vao is not None and self._quads >= quads:
+            return
+        self._quads = 1 << max(quads - 1, 0).bit_length()
+        base = (np.arange(self._quads, dtype=np.uint32) * 4)[:, None]
+        indices = (base + np.array([0, 1, 2, 0, 2, 3], dtype=np.uint32)).ravel()
+        if self._vao is not None:
+            self._vao.release()
+            self._index_buffer.release()
+        self._index_buffer = self.ctx.buffer(indices.tobytes())
+        self._vao = self.ctx.vertex_array(program, [], index_buffer=self._index_buffer, index_element_size=4)
         self.ctx.disable(moderngl.BLEND)
 
 

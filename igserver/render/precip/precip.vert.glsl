@@ -1,7 +1,7 @@
 // Precipitation streaks (seed 003): one screen-aligned quad per particle copy, from the particle's
 // position T ago to its current position (particles.py), at least one pixel wide.
 //
-// Particle i (gl_VertexID / 6) of tile k (u_first_tile + gl_InstanceID) sits at q_i + L k,
+// Particle i (gl_VertexID / 4) of tile k (u_first_tile + gl_InstanceID) sits at q_i + L k,
 // camera-relative. Its light comes from precip_light.comp.glsl (once per streak). Opacity carries
 // the coverage of the m real drops one streak stands for: a drop of diameter D_px (pixels) sweeping
 // the streak during the exposure covers D_px^2 pixel-exposures in all, however long the streak
@@ -20,12 +20,14 @@ out vec3 v_rel;
 flat out vec3 v_radiance;  // pre-exposed, after the aerial perspective
 flat out float v_alpha;
 
-const vec2 CORNERS[6] = vec2[6](vec2(0, -1), vec2(1, -1), vec2(1, 1), vec2(0, -1), vec2(1, 1), vec2(0, 1));
+// The quad's 4 corners; an index buffer makes its two triangles (0 1 2, 0 2 3), so each corner is
+// shaded once (the draw's vertex cache) instead of 6 vertices per quad.
+const vec2 CORNERS[4] = vec2[4](vec2(0, -1), vec2(1, -1), vec2(1, 1), vec2(0, 1));
 
 void main() {
-    int index = gl_VertexID / 6;
+    int index = gl_VertexID / 4;
     Particle particle = particles[index];
-    vec2 corner = CORNERS[gl_VertexID % 6];  // x: 0 = tail (T ago), 1 = head (now); y: side
+    vec2 corner = CORNERS[gl_VertexID % 4];  // x: 0 = tail (T ago), 1 = head (now); y: side
     vec3 head = particle.pos_diameter.xyz + tiles[u_first_tile + gl_InstanceID].xyz;
     vec3 tail = head - particle.streak_brightness.xyz;
     vec4 clip_tail = u_view_proj * vec4(tail, 1.0);
