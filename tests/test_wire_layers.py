@@ -54,7 +54,8 @@ def test_codec_passes_finite_trees_through_unchanged():
             "flag": True, "n": 3, "s": "text"}
     assert decode(pack(tree), MSGPACK) == tree
     assert decode(json.dumps(tree).encode(), JSON) == tree
-    assert decode(json.dumps(tree).encode(), "") == tree  # no content type: JSON
+    # no content type is refused (issue 9 item 3: a write must name JSON or msgpack)
+    assert raises_kind("unsupported_media_type", decode, json.dumps(tree).encode(), "")
     assert decode(pack(tree), "application/x-msgpack; charset=binary") == tree
 
 
