@@ -140,6 +140,12 @@ def test_particle_count_follows_the_rate_and_the_cap_bounds_the_cost():
     settings = PrecipSettings()
     counts = [particle_count("rain", r, settings) for r in (0.5, 2.0, 10.0, 50.0)]
     assert counts == sorted(counts) and counts[0] < counts[-1] / 4
+    # Snow too, over the whole accepted range (Gunn-Marshall alone would turn over beyond its data).
+    rates = np.geomspace(0.01, 200.0, 40)
+    snow = [visible_number_density("snow", r) for r in rates]
+    assert all(b > a for a, b in zip(snow, snow[1:]))
+    beta = [precipitation_extinction("snow", r) for r in rates]
+    assert all(b > a for a, b in zip(beta, beta[1:]))
     # Drawn streaks = rate-proportional number density x visible volume: follow the rate until the cap.
     pool = ParticlePool()
     streaks = []

@@ -55,7 +55,7 @@ SNOW_FLUTTER_HZ = (0.4, 1.2)  # Hz: flutter speeds 0.05-0.6 m/s, below the fall 
 class PrecipSettings:
     tile_size: float = 4.0  # m, side of the wrapped cube
     drops_per_streak: dict | None = None  # per kind; None = DEFAULT_DROPS_PER_STREAK
-    max_streaks: int = 65536  # cost cap: drawn streaks per frame (tiles x particles per tile)
+    max_streaks: int = 32768  # cost cap: drawn streaks per frame (tiles x particles per tile)
     fade_distance: dict | None = None  # per kind, m; None = DEFAULT_FADE
     lod_distance: float = 8.0  # m, r0: tiles beyond r0 2^l draw 1/4^l of the particles
 
