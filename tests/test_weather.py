@@ -249,3 +249,15 @@ def test_bad_precipitation_is_rejected_naming_the_field(bad, path):
     with pytest.raises(ValidationError) as err:
         Scene.model_validate({"weather": {"precipitation": bad}})
     assert path in {".".join(str(p) for p in e["loc"]) for e in err.value.errors()}
+
+
+@pytest.mark.parametrize("kind", ["rain", "snow"])
+@pytest.mark.parametrize("rate", [1e-30, 1e-6, 200.0])
+def test_extreme_rates_stay_finite(kind, rate):
+    scene = tiny({"weather": {"wind_speed": 80.0, "precipitation": {"type": kind, "rate": rate}},
+                  "time": {"sim_time": 1e12}})
+    frame = particle_frame(scene, make_view(scene.camera), PrecipSettings(), ParticlePool())
+    for array in (frame.positions, frame.streaks, frame.diameters):
+        assert np.all(np.isfinite(array))
+    assert frame.streak_count <= PrecipSettings().max_streaks
+    assert math.isfinite(effective_visibility(scene)) and effective_visibility(scene) >= 50.0

@@ -42,7 +42,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...scene.model import Scene
-from ...weather import VISIBLE_DIAMETER, FLAKE_OVER_MELTED, fall_speed, size_distribution, visible_number_density, wind_vector
+from ...weather import (
+    FLAKE_OVER_MELTED, VISIBLE_DIAMETER, fall_speed, size_distribution, visible_number_density, wind_vector,
+)
 from ..camera import CameraView
 
 BLOCK = 4096  # particles per random block: the pool grows in blocks, so a prefix never changes
@@ -98,8 +100,8 @@ class ParticlePool:
         key = (kind, tile_size)
         pool = self._pools.get(key)
         have = 0 if pool is None else len(pool["p0"])
-        if have < n:
-            blocks = [_block(kind, i, tile_size) for i in range(have // BLOCK, math.ceil(n / BLOCK))]
+        if pool is None or have < n:
+            blocks = [_block(kind, i, tile_size) for i in range(have // BLOCK, math.ceil(max(n, 1) / BLOCK))]
             merged = {k: np.concatenate(([pool[k]] if pool else []) + [b[k] for b in blocks]) for k in blocks[0]}
             self._pools[key] = pool = merged
         return {k: v[:n] for k, v in pool.items()}
@@ -110,8 +112,9 @@ def diameters(kind: str, rate: float, quantile: np.ndarray) -> np.ndarray:
     between the visible sizes, by inverse CDF of each particle's fixed quantile."""
     _, lam = size_distribution(kind, rate)
     d1, d2 = VISIBLE_DIAMETER[kind]
-    e1, e2 = math.exp(-lam * d1), math.exp(-lam * d2)
-    d = -np.log(e1 - quantile * (e1 - e2)) / lam
+    # D = d1 - ln(1 - q (1 - e^(-Lambda (d2 - d1)))) / Lambda: relative to d1, so no exp(-Lambda d1)
+    # underflows to 0 for drizzle (Lambda -> inf); log1p/expm1 keep it exact for Lambda -> 0 too.
+    d = d1 - np.log1p(quantile * np.expm1(-lam * (d2 - d1))) / lam
     return d * FLAKE_OVER_MELTED if kind == "snow" else d
 
 
