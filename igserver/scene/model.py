@@ -102,9 +102,14 @@ class Time(Strict):
     def _aware(cls, value: datetime) -> datetime:
         if value.tzinfo is None:
             value = value.replace(tzinfo=timezone.utc)
+        # check the year after conversion: 1800-01-01T00:00+23:59 is 1799 in UTC
+        try:
+            value = value.astimezone(timezone.utc)
+        except OverflowError:
+            raise ValueError("utc year must be within 1800..2200") from None
         if not (1800 <= value.year <= 2200):
             raise ValueError("utc year must be within 1800..2200")
-        return value.astimezone(timezone.utc)
+        return value
 
 
 class Location(Strict):
