@@ -5,6 +5,7 @@ Routes (details in OpenAPI at /docs and /openapi.json):
   GET|PUT|PATCH /v1/state
   GET /v1/frame, POST /v1/render, GET /v1/stream.mjpg, WS /v1/ws
   GET|POST /v1/effects, GET|PATCH|DELETE /v1/effects/{id}
+  GET|PATCH /v1/clock
   GET /  (viewer page)
 """
 
@@ -20,10 +21,11 @@ from fastapi.responses import Response
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from ..scene.model import Scene
+from .clock import ClockChange
 from .codec import MSGPACK, PROBLEM_JSON, PROBLEM_MSGPACK, encode, negotiate
 from .models import FrameMessage
 from .problems import PROBLEM_KINDS, Problem, ProblemError, json_pointer
-from .routers import effects, frames, health, state, viewer, ws
+from .routers import clock, effects, frames, health, state, viewer, ws
 from .runtime import IGRuntime, ServerSettings
 
 log = logging.getLogger("igserver.protocol")
@@ -100,7 +102,7 @@ def create_app(
     )
     app.state.runtime = runtime
     _install_error_handlers(app)
-    for module in (health, state, frames, ws, effects, viewer):
+    for module in (health, state, frames, ws, effects, clock, viewer):
         app.include_router(module.router)
 
     # documents that no route returns as a pydantic model still belong in the schema
@@ -110,7 +112,7 @@ def create_app(
         if app.openapi_schema is None:
             schema = original_openapi()
             components = schema.setdefault("components", {}).setdefault("schemas", {})
-            for model in (Problem, FrameMessage):
+            for model in (Problem, FrameMessage, ClockChange):
                 components[model.__name__] = model.model_json_schema(ref_template="#/components/schemas/{model}")
                 for name, sub in components[model.__name__].pop("$defs", {}).items():
                     components.setdefault(name, sub)
