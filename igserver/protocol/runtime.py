@@ -72,7 +72,7 @@ class IGRuntime:
             return self.start_error
         if not info.get("ready"):
             return "render process starting"
-        unresponsive = self.unresponsive or self.service.unresponsive_reason()
+        unresponsive = self.unresponsive_now()
         if unresponsive:
             return unresponsive
         if self.gateway.recovering:
@@ -83,6 +83,10 @@ class IGRuntime:
                 return f"precomputing {progress['phase']} ({progress['fraction']:.0%})"
             return "rendering the first frame"
         return None
+
+    def unresponsive_now(self) -> str | None:
+        """The watchdog's finding, or a fresher one (the watchdog looks every watchdog_interval_s)."""
+        return self.unresponsive or self.service.unresponsive_reason()
 
     def ready(self) -> bool:
         return self.not_ready_reason() is None

@@ -54,7 +54,7 @@ async def ready(runtime: Runtime):
         error=reason,
         progress=service.progress,
         last_precompute=service.last_progress and {k: service.last_progress[k] for k in ("phase", "elapsed_s")},
-        unresponsive=runtime.unresponsive,
+        unresponsive=runtime.unresponsive_now() if info.get("ready") else None,
         fault=runtime.gateway.fault,
     )
     return JSONResponse(body.model_dump(), status_code=200 if body.ready else 503)
