@@ -33,6 +33,17 @@ class ServerSettings:
     max_raw_frame_bytes: int = 32 * 2**20  # raw (RGBA) frames above this are refused: use jpeg or png
 
 
+def _ensure_log_output() -> None:
+    """Operators see start-up, precompute progress, watchdog and abandoned renders on stderr even when the
+    embedding program configured no logging (``igserver serve``); a configured root logger is left alone."""
+    package = logging.getLogger("igserver")
+    if not logging.getLogger().handlers and not package.handlers:
+        handler = logging.StreamHandler()
+        handler.setFormatter(logging.Formatter("%(asctime)s igserver %(levelname)s %(message)s"))
+        package.addHandler(handler)
+        package.setLevel(logging.INFO)
+
+
 class IGRuntime:
     def __init__(self, service, scene: Scene | None = None, settings: ServerSettings | None = None):
         self.settings = settings or ServerSettings()
@@ -109,6 +120,7 @@ class IGRuntime:
                 self.start_error = f"{type(exc).__name__}: {exc}"
                 log.error("render process failed to start: %s", self.start_error)
 
+        _ensure_log_output()
         loop = asyncio.get_running_loop()
         self._end_streams_on_exit_signal(loop)
         loop.create_task(start_render_process())
