@@ -3,8 +3,8 @@
     .venv/bin/python scripts/soak.py [--frames 3000]
 
 Starts ``python -m igserver.protocol`` on a small scene with a scratch asset directory of 100 profile
-images, then for ``--frames`` frames: fetches frames, grows the frame to 960x540 every 200 frames (new
-shared-memory ring each time), names a different profile asset every 10 frames, and keeps two WebSocket
+images, then for ``--frames`` frames: fetches frames, grows the frame to 960x540 for 10 of every 200 frames
+(a new shared-memory ring each way), names a different profile asset every 10 frames, and keeps two WebSocket
 clients that ask for raw frames and never read. At the end it returns to the small frame, closes the
 clients and reports RSS of both processes (first/last), the /dev/shm ring segments and the deleted
 segments still mapped in the render process.
@@ -86,8 +86,8 @@ def main() -> int:
         t0 = time.perf_counter()
         peak = first[:2]
         for i in range(args.frames):
-            if i % 200 == 0:
-                size = BIG if (i // 200) % 2 else SMALL
+            if i % 200 in (0, 10):  # 10 big frames in every 200: a new ring each way
+                size = BIG if i % 200 == 0 else SMALL
                 http.patch("/v1/state", json={"camera": {"width": size[0], "height": size[1]}}).raise_for_status()
             if i % 10 == 0:
                 http.patch("/v1/effects/f", json={"profile": f"p{(i // 10) % 100}"}).raise_for_status()
@@ -111,7 +111,10 @@ def main() -> int:
     finally:
         http.close()
         server.send_signal(signal.SIGTERM)
-        server.wait(30)
+        try:
+            server.wait(30)
+        except subprocess.TimeoutExpired:
+            server.kill()
     return 0
 
 

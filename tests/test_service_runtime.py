@@ -386,3 +386,27 @@ def test_sigterm_exits_within_5_s_with_open_streams(tmp_path):
         if server.poll() is None:
             server.kill()
             server.wait()
+
+
+def test_clock_arithmetic_with_a_fake_monotonic_clock():
+    from igserver.protocol.clock import ClockChange, IGClock
+
+    now = [1000.0]
+    clock = IGClock(sim_time=10.0, now=lambda: now[0])
+    now[0] += 2.0
+    assert clock.sim_time() == 12.0 and clock.running
+    clock.change(ClockChange(rate=0.5))  # from this instant on at half speed; the past is kept
+    now[0] += 2.0
+    assert clock.sim_time() == 13.0
+    clock.change(ClockChange(paused=True))
+    now[0] += 5.0
+    assert clock.sim_time() == 13.0 and not clock.running
+    clock.change(ClockChange(paused=False, sim_time=100.0))
+    now[0] += 1.0
+    assert clock.sim_time() == 100.5
+    clock.host_sent(42.0)
+    now[0] += 3.0
+    assert clock.mode == "host" and clock.sim_time() == 42.0 and not clock.running
+    clock.change(ClockChange(mode="free"))
+    now[0] += 2.0
+    assert clock.sim_time() == 43.0  # runs on from the host's value at the rate set before

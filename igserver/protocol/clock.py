@@ -36,7 +36,8 @@ class ClockChange(BaseModel):
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
-    mode: Literal["free", "host"] | None = Field(None, description="free: run by itself; host: hold until the host sends sim_time")
+    mode: Literal["free", "host"] | None = Field(
+        None, description="free: run by itself; host: hold until the host sends sim_time")
     rate: float | None = Field(None, ge=0.0, le=MAX_RATE, description="sim seconds per real second")
     paused: bool | None = Field(None, description="freeze (true) or resume (false) free-running time")
     sim_time: float | None = Field(None, ge=0.0, le=MAX_SIM_TIME, description="s, set the clock to this sim_time")

@@ -87,7 +87,8 @@ def over_budget(scene) -> list[tuple[tuple, str]]:
         share = cost.frame / cost.frame_budget
         if cost.volumes and cost.volumes * cost.pixels * VOLUME_PRESETS[scene.quality.preset][0] > cost.frame / 2:
             where = ("effects",)
-            lower = "use fewer effects (a fire with emits_smoke counts twice), a lower quality.preset or a smaller camera.width/height"
+            lower = ("use fewer effects (a fire with emits_smoke counts twice), a lower quality.preset or a "
+                     "smaller camera.width/height")
         else:
             where = ("camera", "width")
             lower = "use a smaller camera.width/height"

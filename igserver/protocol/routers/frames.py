@@ -26,6 +26,7 @@ Format = Literal["jpeg", "png", "raw"]
 FRAME_HEADERS_DOC = {
     "X-IG-Host-Frame": {"description": "host_frame of the state the frame shows", "schema": {"type": "integer"}},
     "X-IG-Frame": {"description": "IG frame number", "schema": {"type": "integer"}},
+    "X-IG-Sim-Time": {"description": "sim_time the frame shows (s, the IG clock)", "schema": {"type": "number"}},
     "X-IG-Render-Ms": {"description": "render time in the render process (ms)", "schema": {"type": "number"}},
 }
 IMAGE_CONTENT = {media: {} for media in MEDIA_TYPES.values()}
