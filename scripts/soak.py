@@ -94,6 +94,9 @@ def main() -> int:
             assert http.get("/v1/frame").status_code == 200
             if i % 100 == 0:
                 peak = (max(peak[0], rss_mb(server.pid)), max(peak[1], rss_mb(render_pid)))
+            if i % 1000 == 999:  # at a small-frame point: the trend shows a leak, a plateau does not
+                print(f"  after {i + 1} frames: server {rss_mb(server.pid):.0f} MB, render {rss_mb(render_pid):.0f} MB",
+                      flush=True)
         elapsed = time.perf_counter() - t0
         http.patch("/v1/state", json={"camera": {"width": SMALL[0], "height": SMALL[1]}}).raise_for_status()
         for ws in slow:

@@ -59,6 +59,18 @@ class Frame:
         return int(self.rgba.shape[0])
 
 
+def release_free_memory() -> None:
+    """Give freed heap back to the OS (glibc ``malloc_trim``). After a big frame, glibc's dynamic mmap
+    threshold has risen to the frame's size, so later frame-sized buffers come from the heap, and freed
+    heap stays in the process: RSS would stay at the big frame's level. Called when the frame size changes."""
+    try:
+        import ctypes
+
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    except (OSError, AttributeError):  # not glibc: nothing to do
+        pass
+
+
 # --------------------------------------------------------------------------- render process side
 
 def _attach(name: str) -> shared_memory.SharedMemory:
@@ -141,8 +153,11 @@ def _render_process_main(conn, device_index: int | None, stamp=None) -> None:
             continue
         _, scene, timed, shm_name, ring_names = message
         # the parent replaced its ring (frame size changed): unmap the slots it has unlinked
-        for name in [n for n in attached if n not in ring_names]:
+        stale = [n for n in attached if n not in ring_names]
+        for name in stale:
             attached.pop(name).close()
+        if stale:
+            release_free_memory()
         try:
             result = renderer.render(scene, timed=timed)
             if shm_name not in attached:
@@ -323,7 +338,9 @@ class RenderService:
         # a new size gets a new ring (also when it shrinks: memory goes back after a big frame); the
         # render process unmaps the old slots when it sees the new ring's names
         if not self._ring or not nbytes <= self._ring[0].size <= 2 * nbytes:
-            self._release_ring()
+            if self._ring:
+                self._release_ring()
+                release_free_memory()
             self._ring = [shared_memory.SharedMemory(create=True, size=nbytes) for _ in range(RING_SLOTS)]
         slot = self._ring[self._next_slot % len(self._ring)]
         self._next_slot += 1
