@@ -27,7 +27,7 @@ async def get_clock(runtime: Runtime, fmt: ReplyFormat):
     "",
     response_model=ClockState,
     summary="Set the clock: mode, rate (sim s per real s), paused, sim_time (s); any subset",
-    openapi_extra=body_doc({"$ref": "#/components/schemas/ClockChange"}, "a ClockChange"),
+    openapi_extra=body_doc(ClockChange.model_json_schema(), "a ClockChange: any subset of mode, rate, paused, sim_time"),
     responses={200: {"content": MSGPACK_ALSO}, **PROBLEM_RESPONSES},
 )
 async def patch_clock(runtime: Runtime, message: Message, fmt: ReplyFormat):
