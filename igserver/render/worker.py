@@ -229,8 +229,8 @@ class RenderService:
                 raise RenderError("render process exited during start") from exc
             if reply[0] != "ready":
                 self._terminate()
-                if len(reply) > 2 and reply[2]:
-                    log.error("render process failed to start:\n%s", reply[2])
+                if len(reply) > 2 and reply[2]:  # the message says what to do; the traceback is for debugging
+                    log.debug("render process failed to start:\n%s", reply[2])
                 raise RenderError(f"render process failed to start: {reply[1]}")
             self._caps = reply[1]
             self.warm = False
