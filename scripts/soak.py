@@ -6,8 +6,8 @@ Starts ``python -m igserver.protocol`` on a small scene with a scratch asset dir
 images, then for ``--frames`` frames: fetches frames, grows the frame to 960x540 for 10 of every 200 frames
 (a new shared-memory ring each way), names a different profile asset every 10 frames, and keeps two WebSocket
 clients that ask for raw frames and never read. At the end it returns to the small frame, closes the
-clients and reports RSS of both processes (first/last), the /dev/shm ring segments and the deleted
-segments still mapped in the render process.
+clients and reports RSS of both processes (first/peak/last, and every 1000 frames), the ring segments
+each process maps and the deleted segments still mapped.
 """
 
 from __future__ import annotations
@@ -37,8 +37,10 @@ def rss_mb(pid: int) -> float:
     return float("nan")
 
 
-def ring_segments() -> int:
-    return sum(1 for name in os.listdir("/dev/shm") if name.startswith("psm_"))
+def ring_segments(pid: int) -> int:
+    """Distinct shared-memory ring segments this process has mapped (other servers on the machine excluded)."""
+    return len({line.split()[-1] for line in Path(f"/proc/{pid}/maps").read_text().splitlines()
+                if "/dev/shm/psm_" in line and "(deleted)" not in line})
 
 
 def deleted_mapped(pid: int) -> int:
@@ -77,7 +79,7 @@ def main() -> int:
         render_pid = ready.json()["pid"]
         for _ in range(50):
             http.get("/v1/frame")
-        first = (rss_mb(server.pid), rss_mb(render_pid), ring_segments())
+        first = (rss_mb(server.pid), rss_mb(render_pid), ring_segments(server.pid), ring_segments(render_pid))
         slow = []
         for _ in range(2):  # raw frames, never read: the server must hold at most one frame each
             ws = connect(f"ws://127.0.0.1:{port}/v1/ws", compression=None, max_size=2**28).__enter__()
@@ -104,13 +106,13 @@ def main() -> int:
         for _ in range(20):
             http.get("/v1/frame")
         time.sleep(2)
-        last = (rss_mb(server.pid), rss_mb(render_pid), ring_segments())
+        last = (rss_mb(server.pid), rss_mb(render_pid), ring_segments(server.pid), ring_segments(render_pid))
         restarts = http.get("/v1/ready").json()["restarts"]
         print(f"frames {args.frames} in {elapsed:.0f} s; restarts {restarts}")
         print(f"server RSS MB   first {first[0]:.0f}  peak {peak[0]:.0f}  last {last[0]:.0f}")
         print(f"render RSS MB   first {first[1]:.0f}  peak {peak[1]:.0f}  last {last[1]:.0f}")
-        print(f"/dev/shm ring segments first {first[2]} last {last[2]}; deleted segments mapped in the render "
-              f"process {deleted_mapped(render_pid)}")
+        print(f"ring segments mapped: server first {first[2]} last {last[2]}, render first {first[3]} last {last[3]}; "
+              f"deleted segments still mapped: server {deleted_mapped(server.pid)}, render {deleted_mapped(render_pid)}")
     finally:
         http.close()
         server.send_signal(signal.SIGTERM)
