@@ -24,6 +24,7 @@ layout(binding = 3) uniform sampler3D u_delta_mie_in;        // unit 3
 layout(binding = 4) uniform sampler3D u_delta_multiple_in;   // unit 4
 layout(binding = 5) uniform sampler3D u_delta_density_in;    // unit 5
 uniform int u_order;
+uniform int u_z_offset;  // 3D stages run in slabs of altitude rows (short dispatches: progress, liveness)
 uniform int u_tail;  // 1 on the last order (>= 3): add the geometric tail of the missing orders
 
 #ifndef DENSITY_SAMPLES
@@ -127,7 +128,7 @@ void main() {
 layout(binding = 0, rgba32f) uniform writeonly image3D u_out_rayleigh;
 layout(binding = 1, rgba32f) uniform writeonly image3D u_out_mie;
 void main() {
-    ivec3 texel = ivec3(gl_GlobalInvocationID);
+    ivec3 texel = ivec3(gl_GlobalInvocationID) + ivec3(0, 0, u_z_offset);
     ivec3 size = imageSize(u_out_rayleigh);
     if (any(greaterThanEqual(texel, size))) return;
     float r, mu, mu_s, nu;
@@ -161,7 +162,7 @@ void main() {
 #elif defined(STAGE_SCATTERING_DENSITY)
 layout(binding = 0, rgba32f) uniform writeonly image3D u_out;
 void main() {
-    ivec3 texel = ivec3(gl_GlobalInvocationID);
+    ivec3 texel = ivec3(gl_GlobalInvocationID) + ivec3(0, 0, u_z_offset);
     ivec3 size = imageSize(u_out);
     if (any(greaterThanEqual(texel, size))) return;
     float r, mu, mu_s, nu;
@@ -244,7 +245,7 @@ void main() {
 layout(binding = 0, rgba32f) uniform image3D u_out_delta;  // read: dS(n-1), then write dS(n)
 layout(binding = 1, rgba32f) uniform image3D u_accumulate;
 void main() {
-    ivec3 texel = ivec3(gl_GlobalInvocationID);
+    ivec3 texel = ivec3(gl_GlobalInvocationID) + ivec3(0, 0, u_z_offset);
     ivec3 size = imageSize(u_out_delta);
     if (any(greaterThanEqual(texel, size))) return;
     float r, mu, mu_s, nu;

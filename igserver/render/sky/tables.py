@@ -195,8 +195,18 @@ class AtmosphereTables:
             return prog
 
         def run(prog, size, three_d=False):
-            prog.run(*_groups(size, (4, 4, 4) if three_d else (8, 8, 1)))
-            ctx.memory_barrier()
+            if not three_d:
+                prog.run(*_groups(size, (8, 8, 1)))
+                ctx.memory_barrier()
+                return
+            # Slabs of 4 altitude rows: each dispatch stays short (a long one starves the render
+            # process's progress messages, and the service takes silence for a hang).
+            gx, gy, _ = _groups(size, (4, 4, 4))
+            for z in range(0, size[2], 4):
+                if "u_z_offset" in prog:
+                    prog["u_z_offset"].value = z
+                prog.run(gx, gy, 1)
+                ctx.memory_barrier()
 
         delta_irradiance = self._tex2d(s.irradiance)
         delta_rayleigh = self._tex3d(s.scattering)
