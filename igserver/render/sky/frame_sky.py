@@ -13,7 +13,7 @@ import moderngl
 import numpy as np
 
 from ...scene.model import Scene
-from ...weather import wind_heading
+from ...weather import effective_visibility, wind_heading
 from .atmosphere_model import (KOSCHMIEDER, PRESETS, SOLAR_ILLUMINANCE, AtmosphereParameters, atmosphere_parameters,
                                ground_extinction_550_per_m, turbidity_class)
 from .daylight import Daylight, daylight
@@ -53,9 +53,9 @@ def cached_clear_light(params, tables: AtmosphereTables, altitude_m, sun_el, moo
 
 
 def scene_visibility(scene: Scene) -> float:
-    """The one place the renderer reads the host's visibility (m): weather may lower it (rain,
-    snow) at merge, through igserver.weather.effective_visibility(scene)."""
-    return float(scene.atmosphere.visibility)
+    """The one place the renderer reads the visibility (m): the host's, lowered by falling rain or
+    snow unless the host says its value already includes them (igserver.weather)."""
+    return float(effective_visibility(scene))
 
 
 def scene_haze(scene: Scene, params: AtmosphereParameters) -> HazeLayer:
