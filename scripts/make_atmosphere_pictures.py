@@ -50,7 +50,7 @@ def main() -> int:
     fog.save(DOCS / "fog_noon_300m.jpg", quality=85)
     above = frame(r, {"camera": {"width": 640, "height": 360, "pitch": -12.0, "position": [0, 0, 500]},
                       "time": {"sun_override": {"elevation": 25.0, "azimuth": 200.0}},
-                      "atmosphere": {"visibility": 150.0, "fog_top": 60.0},
+                      "atmosphere": {"visibility": 100.0, "fog_top": 150.0},
                       "ocean": {"enabled": True}})
     above.save(DOCS / "fog_from_500m.jpg", quality=85)
     r.release()
