@@ -223,3 +223,23 @@ def test_visibility_hides_and_shows_a_box(renderer):
     # 0.68 at d = V / 10. Thresholds 2 % (the definition of visibility) and 20 %.
     assert _box_contrast(renderer, 50.0, 100.0, 20.0) < 0.02
     assert _box_contrast(renderer, 200_000.0, 20_000.0, 2_000.0) > 0.2
+
+
+# --- photometric read-out on the wire --------------------------------------------------------------
+
+def test_frame_reports_ev100_and_illuminance(renderer):
+    from igserver.protocol.frames import EncodedFrame
+    from igserver.protocol.routers.frames import frame_message
+    from igserver.render.worker import Frame
+
+    result = renderer.render(scene(30.0))
+    # Noon-ish clear sky at 30 deg: 60-80 klx horizontal (sun 50 klx on the ground + sky 15-20 klx).
+    assert 3e4 < result.illuminance_lux < 1.2e5 and 10.0 < result.ev100 < 18.0
+    frame = Frame(result.rgba, 7, 3, 1.0, ev100=result.ev100, illuminance_lux=result.illuminance_lux)
+    encoded = EncodedFrame(frame, revision=1, accepted_at=0.0, render_call_ms=1.0)
+    headers = encoded.headers()
+    assert float(headers["X-IG-EV100"]) == pytest.approx(result.ev100, abs=1e-3)
+    assert float(headers["X-IG-Illuminance-Lux"]) == pytest.approx(result.illuminance_lux, rel=1e-5)
+    message = frame_message(encoded, "png", b"", 0.0)
+    assert message["ev100"] == pytest.approx(result.ev100, abs=1e-3)
+    assert message["illuminance_lux"] == pytest.approx(result.illuminance_lux, rel=1e-5)

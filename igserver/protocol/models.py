@@ -22,6 +22,9 @@ FRAME_HEADERS = {
     "X-IG-Height": {"description": "frame height (px)", "schema": {"type": "integer"}},
     "X-IG-Render-Ms": {"description": "render time in the render process (ms)", "schema": {"type": "number"}},
     "X-IG-Encode-Ms": {"description": "image encoding time in the server (ms)", "schema": {"type": "number"}},
+    "X-IG-EV100": {"description": "exposure the frame was rendered with (EV100)", "schema": {"type": "number"}},
+    "X-IG-Illuminance-Lux": {"description": "natural horizontal illuminance at the camera (lux)",
+                             "schema": {"type": "number"}},
 }
 STATE_HEADERS = {
     "X-IG-Revision": {"description": "accepted state revision", "schema": {"type": "integer"}},

@@ -194,7 +194,6 @@ def common_uniforms(frame: FrameContext) -> dict:
         "u_pixel_angle": pixel_angle(scene.camera),
         "u_sun_disk_luminance": _vec3(light.sun_disk_luminance),
         "u_adaptation_luminance": float(frame.meter_luminance),
-        "u_mesopic": 1 if scene.camera.mesopic_vision else 0,
         "u_fog_color": _vec3(light.horizon),
         "u_fog_scale_height": 1200.0,
         **light_uniforms(frame.lights, view, MAX_LIGHTS),

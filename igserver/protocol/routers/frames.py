@@ -28,6 +28,9 @@ FRAME_HEADERS_DOC = {
     "X-IG-Frame": {"description": "IG frame number", "schema": {"type": "integer"}},
     "X-IG-Sim-Time": {"description": "sim_time the frame shows (s, the IG clock)", "schema": {"type": "number"}},
     "X-IG-Render-Ms": {"description": "render time in the render process (ms)", "schema": {"type": "number"}},
+    "X-IG-EV100": {"description": "exposure the frame was rendered with (EV100)", "schema": {"type": "number"}},
+    "X-IG-Illuminance-Lux": {"description": "natural horizontal illuminance at the camera (lux)",
+                             "schema": {"type": "number"}},
 }
 IMAGE_CONTENT = {media: {} for media in MEDIA_TYPES.values()}
 MJPEG_BOUNDARY = "igframe"

@@ -50,12 +50,18 @@ class PostPass(RenderPass):
 
     def execute(self, frame, targets) -> None:
         correction = self._meter(frame, targets)
-        program = self.programs.program("common/fullscreen.vert.glsl", "post/tonemap.glsl")
+        halos = halo_uniforms(frame)
+        defines = {}
+        if halos["u_halo_count"] > 0:
+            defines["HALOS"] = 1  # variants: the common frame compiles neither loop nor branch
+        if frame.scene.camera.mesopic_vision:
+            defines["MESOPIC"] = 1
+        program = self.programs.program("common/fullscreen.vert.glsl", "post/tonemap.glsl", defines)
         set_uniforms(program, frame.uniforms)
         program["u_hdr"].value = 0
         if "u_exposure_correction" in program:
             program["u_exposure_correction"].value = correction
-        set_uniforms(program, halo_uniforms(frame))
+        set_uniforms(program, halos)
         if "u_distance" in program:
             program["u_distance"].value = 1
             targets.distance.use(1)

@@ -11,6 +11,7 @@ uniform sampler2D u_distance;        // m along the view ray (1e30: sky)
 // Henyey-Greenstein g). With h the light's distance from the ray and s = t0 + h tan(phi):
 //   L = omega beta I / h  integral_{phi0}^{phi1} p(sin phi) exp(-beta (s + h / cos phi)) dphi,
 // phi0 = -atan(t0 / h), phi1 = atan((D - t0) / h); 8 midpoint steps in phi (smooth in phi).
+#ifdef HALOS
 #define MAX_HALOS 8
 uniform int u_halo_count;
 uniform vec4 u_halo_pos[MAX_HALOS];        // camera-relative m
@@ -45,10 +46,11 @@ vec3 light_halos(vec3 dir, float surface_distance) {
     }
     return sum;
 }
+#endif
 uniform float u_exposure_correction;  // metered exposure / the passes' provisional one (post.py)
 uniform float u_adaptation_luminance;  // cd/m^2, what the exposure adapted to (post/exposure.py)
-uniform int u_mesopic;                 // 1: mesopic/scotopic vision (camera.mesopic_vision)
 
+#ifdef MESOPIC
 // Mesopic vision: below ~3 cd/m^2 rods take over from cones; at 0.003 cd/m^2 vision is scotopic
 // (no colour). Rod fraction s from the adaptation luminance (log-linear between the two), rod
 // luminance from linear sRGB with weights near the scotopic curve V'(lambda) (peak 507 nm: mostly
@@ -58,6 +60,7 @@ vec3 mesopic(vec3 c) {
     float rod = dot(c, vec3(0.02, 0.55, 0.43));
     return mix(c, rod * vec3(0.80, 0.95, 1.25), s);
 }
+#endif
 in vec2 v_uv;
 out vec4 out_color;
 
@@ -75,10 +78,14 @@ float interleaved_gradient_noise(vec2 p) {
 
 void main() {
     vec3 hdr = texture(u_hdr, v_uv).rgb;
-    if (u_halo_count > 0) hdr += pre_expose(light_halos(view_ray(v_uv), texture(u_distance, v_uv).r));
+#ifdef HALOS
+    hdr += pre_expose(light_halos(view_ray(v_uv), texture(u_distance, v_uv).r));
+#endif
     hdr *= u_exposure_correction;
     hdr = max(hdr, vec3(0.0));  // no negative radiance; NaN-free inputs are the passes' duty
-    if (u_mesopic == 1) hdr = mesopic(hdr);
+#ifdef MESOPIC
+    hdr = mesopic(hdr);
+#endif
     vec3 srgb = linear_to_srgb(aces_fit(hdr));
     srgb += (interleaved_gradient_noise(gl_FragCoord.xy) - 0.5) / 255.0;
     out_color = vec4(clamp(srgb, 0.0, 1.0), 1.0);

@@ -21,7 +21,10 @@ class SkyPass(RenderPass):
 
     def execute(self, frame, targets) -> None:
         model = frame.scene.atmosphere.model
-        program = self.programs.program("common/fullscreen.vert.glsl", "sky/sky.glsl", {"SKY_" + model.upper(): 1})
+        defines = {"SKY_" + model.upper(): 1}
+        if frame.scene.weather.cirrus_coverage > 0.0:
+            defines["CIRRUS"] = 1  # compiled in only when drawn: llvmpipe pays for it even when skipped
+        program = self.programs.program("common/fullscreen.vert.glsl", "sky/sky.glsl", defines)
         set_uniforms(program, frame.uniforms)
         targets.scene_fbo.use()
         self.ctx.enable(moderngl.DEPTH_TEST)
