@@ -243,3 +243,28 @@ def test_frame_reports_ev100_and_illuminance(renderer):
     message = frame_message(encoded, "png", b"", 0.0)
     assert message["ev100"] == pytest.approx(result.ev100, abs=1e-3)
     assert message["illuminance_lux"] == pytest.approx(result.illuminance_lux, rel=1e-5)
+
+
+# --- issue 9 item 4: the table cache is bounded ------------------------------------------------------
+
+def test_table_cache_evicts_least_recently_used(tmp_path):
+    import os
+
+    from igserver.render.sky.tables import evict_least_recently_used
+
+    for i in range(6):  # six "table sets" of 1 MB, used in order 0..5
+        path = tmp_path / f"k{i}.npz"
+        path.write_bytes(b"\0" * 1_000_000)
+        os.utime(path, (1000.0 + i, 1000.0 + i))
+    os.utime(tmp_path / "k0.npz", (2000.0, 2000.0))  # k0 loaded again: most recently used
+    removed = evict_least_recently_used(tmp_path, 3_500_000, keep=tmp_path / "k5.npz")
+    assert sorted(p.name for p in removed) == ["k1.npz", "k2.npz", "k3.npz"]
+    assert sorted(p.name for p in tmp_path.glob("*.npz")) == ["k0.npz", "k4.npz", "k5.npz"]
+
+
+def test_cache_key_holds_the_format_version(monkeypatch):
+    from igserver.render.sky import atmosphere_model as am
+
+    key = am.atmosphere_parameters(2.0).key()
+    monkeypatch.setattr(am, "TABLE_FORMAT_VERSION", am.TABLE_FORMAT_VERSION + 1)
+    assert am.atmosphere_parameters(2.0).key() != key

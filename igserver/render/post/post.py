@@ -29,12 +29,25 @@ HALO_MIN_BETA = 1e-4  # 1/m (visibility < ~40 km): thinner air shows no halo wor
 def halo_uniforms(frame) -> dict:
     """The brightest lights for the fog halos of tonemap.glsl, with the fog at the camera."""
     haze = frame.resources.get("haze")
-    lights = frame.lights[:MAX_HALOS]
-    if haze is None or not lights:
+    if haze is None or not frame.lights:
         return {"u_halo_count": 0}
     h = frame.camera_altitude - frame.scene.location.altitude
     beta = float(haze.beta[1] * haze.density(h))
     if beta < HALO_MIN_BETA:
+        return {"u_halo_count": 0}
+    # Only halos that can show: the glow one pixel off a light at distance D is about
+    # beta I exp(-beta D) / (10 D theta_px) cd/m^2 (the airlight integral near its peak, HG forward
+    # lobe ~0.1 sr^-1 at a few degrees); below 1 % of display white after exposure it is invisible
+    # (a fire by day, a lamp in clear air), and 64 samples a pixel are saved.
+    theta_px = max(float(frame.uniforms.get("u_pixel_angle", 1e-3)), 1e-5)
+    lights = []
+    for light in frame.lights:
+        d = max(float(np.linalg.norm(frame.view.relative(light.position))), 1.0)
+        peak = beta * float(np.max(light.color)) * math.exp(-min(beta * d, 80.0)) / (10.0 * d * theta_px)
+        if peak * frame.exposure > 0.01:
+            lights.append(light)
+    lights = lights[:MAX_HALOS]
+    if not lights:
         return {"u_halo_count": 0}
     pos = np.zeros((MAX_HALOS, 4), np.float32)
     col = np.zeros((MAX_HALOS, 4), np.float32)
