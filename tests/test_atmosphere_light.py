@@ -162,17 +162,20 @@ def test_visibility_ramp_has_no_slow_frame(renderer):
         times.append(time.perf_counter() - t0)
     times = np.asarray(times)
     # Issue 10: no frame slower than 2x the median. The frames share the machine with other
-    # processes: a frame that overran is re-timed once at the same state (a table rebuild would be
-    # slow both times; a scheduling hiccup is not).
+    # processes: a step that overran is re-timed (best of 3 at its own state); a rebuild of tables
+    # is caught by test_visibility_never_rebuilds_tables, a scheduling hiccup is not a slow frame.
     median = float(np.median(times))
-    assert times.max() <= 2.0 * median or _retime(renderer, 2.0 * median), (median, times.max())
+    for i in np.nonzero(times > 2.0 * median)[0]:
+        times[i] = min(_retime(renderer, float(np.geomspace(20_000.0, 100.0, 50)[i]), 3000.0 + i + k)
+                       for k in range(3))
+    assert times.max() <= 2.0 * median, (median, times.max())
 
 
-def _retime(renderer, limit: float) -> bool:
-    s = scene(sim_time=2000.0, w=64, h=36, atmosphere={"visibility": 100.0})
+def _retime(renderer, visibility: float, sim_time: float) -> float:
+    s = scene(sim_time=sim_time, w=64, h=36, atmosphere={"visibility": visibility, "visibility_transition": 1.0})
     t0 = time.perf_counter()
     renderer.render(s)
-    return time.perf_counter() - t0 <= limit
+    return time.perf_counter() - t0
 
 
 def test_visibility_change_eases_in_without_a_pop(renderer):

@@ -85,8 +85,10 @@ def test_parameters_change_the_key():
 
 def test_sky_colour_noon_sunset_night(renderer):
     noon = radiance(renderer, scene(el=60.0, pitch=60.0))
-    assert noon[..., 2].mean() > noon[..., 0].mean() * 1.3  # blue sky
-    assert 2e3 < noon.mean() < 2e4  # cd/m^2
+    # Medians: the sun is in this view, and at 64x36 its disk (spread over a pixel's footprint,
+    # energy kept) carries most of the frame's mean.
+    assert np.median(noon[..., 2]) > np.median(noon[..., 0]) * 1.3  # blue sky
+    assert 2e3 < np.median(noon) < 2e4  # cd/m^2
     sunset = radiance(renderer, scene(el=0.5, pitch=2.0))
     row = sunset[H // 2 - 2 : H // 2 + 2, W // 2 - 4 : W // 2 + 4]  # just above the horizon toward the sun
     assert row[..., 0].mean() > row[..., 2].mean()  # reddened
