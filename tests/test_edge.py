@@ -152,6 +152,17 @@ def test_token_required_and_viewer_login_cookie(token_server):
                              headers={"Origin": "https://console.example"}).status_code == 200
 
 
+def test_health_command_for_container_checks(token_server, monkeypatch, capsys):
+    """Docker's HEALTHCHECK: ``igserver health`` reads the same IGSERVER_* settings as the server."""
+    monkeypatch.setenv("IGSERVER_PORT", str(token_server.port))
+    monkeypatch.setenv("IGSERVER_HOST", "0.0.0.0")  # as in the image: checked through loopback
+    monkeypatch.delenv("IGSERVER_TOKEN", raising=False)
+    assert igserver_main(["health"]) == 1  # /v1/ready needs the token
+    assert igserver_main(["health", "--live"]) == 0
+    monkeypatch.setenv("IGSERVER_TOKEN", TOKEN)
+    assert igserver_main(["health"]) == 0 and '"ready":true' in capsys.readouterr().out.replace(" ", "")
+
+
 def test_serve_refuses_non_loopback_without_token(capsys, monkeypatch):
     monkeypatch.delenv("IGSERVER_TOKEN", raising=False)
     assert igserver_main(["serve", "--host", "0.0.0.0", "--port", "0"]) == 2
