@@ -3,6 +3,12 @@
 // Ray t in [t0, t1]: t0 = box entry (0 when the camera is inside), t1 = min(box exit, scene
 // distance) so ships, the pier and the water clip the effect. The start is shifted by a fraction
 // of one step from interleaved-gradient noise (no banding, no white-noise clumping).
+// Step length u_step (m) = min(box diagonal / steps, one voxel): a step longer than a voxel
+// point-samples detail it cannot resolve, and the per-pixel jitter then turns that aliasing into
+// the jitter's own (diagonal) pattern: the stripes seen from inside a plume, where neighbouring
+// rays cross the same voxels and differ only by their jitter.
+// With BLEND the texture is a blend of two models of the turbulence (re-modelled at a capped
+// rate, keyframes at sim times k/rate and (k+1)/rate; volumes.py), weight u_blend of the second.
 // Front-to-back, energy conserving per segment of optical depth s = sigma * dt:
 //   L += T * S * (1 - exp(-s)),   T *= exp(-s)
 // with S the segment's source radiance: fire = emitted colour * luminance (optically thick fire
@@ -14,13 +20,17 @@
 #include "common/atmosphere.glsl"
 
 uniform sampler3D u_volume;
+#ifdef BLEND
+uniform sampler3D u_volume_next;
+uniform float u_blend;
+#endif
 uniform sampler2D u_scene_distance;  // m along the view ray, 1e30 = sky
 uniform vec3 u_box_min;              // m, camera-relative AABB of the (bent) container
 uniform vec3 u_box_max;
 uniform vec3 u_base;                 // m, camera-relative base centre
 uniform vec3 u_extent;               // m: radius, radius, height
 uniform vec2 u_lean;                 // m, horizontal offset of the axis at the top (wind)
-uniform int u_steps;                 // samples along the box diagonal
+uniform float u_step;                // m, march step
 uniform float u_sigma;               // 1/m, extinction at density 1
 uniform float u_jitter_offset;       // per-frame shift of the start jitter, in [0,1)
 #ifdef SMOKE
@@ -68,7 +78,7 @@ void main() {
     t1 = min(t1, scene_t);
     if (!(t1 > t0)) discard;
 
-    float dt = length(u_box_max - u_box_min) / float(u_steps);
+    float dt = u_step;
     float jitter = fract(interleaved_gradient_noise(gl_FragCoord.xy) + u_jitter_offset);
     int n = int(ceil((t1 - t0) / dt - jitter)) + 1;
 #ifdef SMOKE
@@ -91,6 +101,9 @@ void main() {
         vec3 uvw = to_volume(dir * tc);
         if (any(lessThan(uvw, vec3(0.0))) || any(greaterThan(uvw, vec3(1.0)))) continue;
         vec4 voxel = textureLod(u_volume, uvw, 0.0);
+#ifdef BLEND
+        voxel = mix(voxel, textureLod(u_volume_next, uvw, 0.0), u_blend);
+#endif
         float s = voxel.a * u_sigma * (sb - sa);
         if (s <= 1e-6) continue;
         float absorbed = 1.0 - exp(-s);
