@@ -140,6 +140,7 @@ def serve(
     height: int | None = None,
     settings: ServerSettings | None = None,
     device_index: int | None = None,
+    preset: str | None = None,
 ) -> None:
     """Load the scene, start the app under uvicorn, print the viewer URL; returns when the server stops."""
     import uvicorn
@@ -151,6 +152,8 @@ def serve(
     size = {k: v for k, v in (("width", width), ("height", height)) if v}
     if size:
         scene = apply_patch(scene, {"camera": size})
+    if preset:
+        scene = apply_patch(scene, {"quality": {"preset": preset}})
     app = create_app(scene=scene, settings=settings, device_index=device_index)
     server = uvicorn.Server(uvicorn_config(app, host, port))
     shown = f"[{host}]" if ":" in host else host

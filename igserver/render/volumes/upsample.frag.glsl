@@ -8,13 +8,18 @@ uniform sampler2D u_volume_color;     // low resolution, premultiplied
 uniform sampler2D u_volume_distance;  // low resolution scene distance used by the march (m)
 uniform sampler2D u_scene_distance;   // full resolution (m)
 uniform int u_scale;
+uniform float u_volumes_far;          // m, farthest point of any volume box: beyond it, every
+                                      // distance marches alike (ground 500 m away = the sky)
 layout(location = 0) out vec4 out_color;
 
-const float DEPTH_TOLERANCE = 0.05;  // relative: 5 % of the distance
+// Relative: a low-resolution pixel holds the nearest of its block, so on ground seen at a grazing
+// angle it is up to a few rows (~10 %) nearer than this pixel; objects in front of a volume (a
+// crate before a fire) differ by far more.
+const float DEPTH_TOLERANCE = 0.2;
 
 void main() {
     ivec2 pixel = ivec2(gl_FragCoord.xy);
-    float d = texelFetch(u_scene_distance, pixel, 0).r;
+    float d = min(texelFetch(u_scene_distance, pixel, 0).r, u_volumes_far);
     ivec2 low_size = textureSize(u_volume_color, 0);
     vec2 p = gl_FragCoord.xy / float(u_scale) - 0.5;  // in low-resolution texel centres
     ivec2 i0 = ivec2(floor(p));
@@ -27,7 +32,7 @@ void main() {
         ivec2 o = ivec2(k & 1, k >> 1);
         ivec2 q = clamp(i0 + o, ivec2(0), low_size - 1);
         vec4 c = texelFetch(u_volume_color, q, 0);
-        float dq = texelFetch(u_volume_distance, q, 0).r;
+        float dq = min(texelFetch(u_volume_distance, q, 0).r, u_volumes_far);
         float diff = abs(dq - d) / max(min(dq, d), 1e-3);
         float w = (o.x == 1 ? f.x : 1.0 - f.x) * (o.y == 1 ? f.y : 1.0 - f.y);
         if (diff < DEPTH_TOLERANCE) {

@@ -176,8 +176,11 @@ class VolumesPass(RenderPass):
             return model.texture, model.texture, 0.0
         # Capped rate: keyframes k and k + 1 around sim_time (float64), blended by the fraction.
         period = 1.0 / settings.model_hz
-        k = math.floor(sim_time / period)
-        blend = sim_time / period - k
+        x = sim_time * settings.model_hz
+        k = math.floor(x)
+        if x - k > 1.0 - 1e-6:  # on a keyframe up to rounding (100 + 3/30 s at 10 Hz)
+            k += 1
+        blend = min(max(x - k, 0.0), 1.0)
         keep = [m for m in slot.models if m.key in (k, k + 1)]
         for m in slot.models:
             if m not in keep:
@@ -281,7 +284,10 @@ class VolumesPass(RenderPass):
             self.ctx.enable(moderngl.BLEND)
             self.ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
             up = self.programs.program("common/fullscreen.vert.glsl", "volumes/upsample.frag.glsl")
-            set_uniforms(up, {"u_volume_color": 0, "u_volume_distance": 2, "u_scene_distance": 1, "u_scale": scale})
+            far = max((float(np.linalg.norm(view.relative(v.bounding_sphere[0]))) + v.bounding_sphere[1]
+                       for v in volumes), default=1.0)
+            set_uniforms(up, {"u_volume_color": 0, "u_volume_distance": 2, "u_scene_distance": 1, "u_scale": scale,
+                              "u_volumes_far": far})
             low_color.use(0)
             distance.use(1)
             low_distance.use(2)
@@ -302,6 +308,10 @@ class VolumesPass(RenderPass):
         self.ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
         distance.use(1)
         jitter_offset = (scene.host_frame * 0.6180339887) % 1.0  # golden-ratio sequence per frame
+        left, right, bottom, top = view.tangents
+        march_height = self.ctx.fbo.viewport[3] if self.ctx.fbo is not None else view.height
+        pixel_angle = math.atan(top) - math.atan(bottom)
+        pixel_angle /= max(march_height, 1)  # rad per pixel of the march's resolution
         for vol, (tex, tex_next, blend) in zip(volumes, textures):
             smoke = vol.kind == "smoke"
             defines = {"SMOKE": 1} if smoke else {}
@@ -311,9 +321,10 @@ class VolumesPass(RenderPass):
             set_uniforms(program, frame.uniforms)
             lo, hi = vol.box
             size = tex.size
-            # The step: the knob's share of the diagonal, at most one voxel (march.frag.glsl).
+            # Steps: the knob's share of the diagonal at most, one voxel at least, in between the
+            # pixel footprint at the sample's distance (march.frag.glsl).
+            step = float(np.linalg.norm(hi - lo)) / settings.steps
             voxel = min(2.0 * vol.radius / size[0], 2.0 * vol.radius / size[1], vol.height / size[2])
-            step = min(float(np.linalg.norm(hi - lo)) / settings.steps, voxel)
             uniforms = {
                 "u_volume": 0, "u_volume_next": 2, "u_blend": blend, "u_scene_distance": 1,
                 "u_box_min": tuple(float(x) for x in view.relative(lo)),
@@ -322,6 +333,8 @@ class VolumesPass(RenderPass):
                 "u_extent": (vol.radius, vol.radius, vol.height),
                 "u_lean": (float(vol.lean[0]), float(vol.lean[1])),
                 "u_step": max(step, 1e-4),
+                "u_voxel": max(min(voxel, step), 1e-4),
+                "u_pixel_angle": pixel_angle,
                 "u_sigma": (SMOKE_SIGMA_D if smoke else FIRE_SIGMA_D) / max(vol.effect.diameter, 1e-3),
                 "u_jitter_offset": jitter_offset,
             }
