@@ -1,8 +1,8 @@
-"""(Named to run before test_volumes.py, whose module-scoped second GL context, once released,
-leaves no context current for the session renderer.)
+"""Volume speed-ups and the stripe fix (issue 12): footprint-limited march steps, reduced-resolution
+march with depth-aware upsampling, re-modelling at a capped rate with keyframe blending.
 
-Volume speed-ups and the stripe fix (issue 12): footprint-limited march steps, reduced-resolution
-march with depth-aware upsampling, re-modelling at a capped rate with keyframe blending."""
+Named to run before test_volumes.py, whose module-scoped second GL context, once released, leaves
+no context current for the session renderer."""
 
 from __future__ import annotations
 
