@@ -64,10 +64,6 @@ def cmd_serve(args) -> int:
 
 
 def cmd_quality(args) -> int:
-    if args.pipeline is None or args.pipeline.startswith("-"):
-        from .quality.report import run_all
-
-        return run_all(([args.pipeline] if args.pipeline else []) + args.rest)
     try:
         module = importlib.import_module(f"igserver.quality.{args.pipeline}")
     except ModuleNotFoundError:
@@ -126,6 +122,11 @@ def main(argv: list[str] | None = None) -> int:
         from .protocol.bench import run_service_bench
 
         return run_service_bench([a for a in argv[1:] if a != "--service"]) or 0
+    if argv[:1] == ["quality"] and (len(argv) == 1 or argv[1].startswith("-")) and "-h" not in argv[1:2]:
+        # No study named: every study into one report (its own flags: --quick --out --only).
+        from .quality.report import run_all
+
+        return run_all(argv[1:])
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)

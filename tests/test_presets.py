@@ -101,3 +101,19 @@ def test_preset_flag_on_the_cli(command):
         assert _scene_from_args(args).quality.preset == "low"
     with pytest.raises(SystemExit):
         build_parser().parse_args(argv[:-1] + ["ultra"])
+
+
+@pytest.mark.parametrize("name,expected", [
+    ("sky_only", ["sky", "post"]),
+    ("demo", ["surfaces", "water", "sky", "depth_copy", "volumes", "post"]),
+    ("night_fire", ["surfaces", "sky", "depth_copy", "volumes", "post"]),
+])
+def test_example_scene_pass_lists_unchanged_at_every_preset(renderer, name, expected):
+    from igserver.render.graph import plan_passes
+    from igserver.scene import apply_patch, load_scene
+
+    known = {"surfaces", "water", "sky", "depth_copy", "volumes", "post"}  # passes other pipelines add
+    for preset in (*presets.LEVELS, "auto"):  # (precipitation, ...) may join; these keep their order
+        scene = apply_patch(load_scene(name), {"quality": {"preset": preset}})
+        assert [p for p in plan_passes(scene) if p in known] == expected
+        assert [p for p in renderer.graph.plan(scene) if p in known] == expected
