@@ -57,17 +57,19 @@ class VolumeSettings:
     model_hz: float = 0.0  # re-modelling keyframes per second of sim time; 0 = every frame
 
 
-# Quality presets: points on the measured curve (igserver quality volumes, close night fire at
-# 640x360 on llvmpipe; errors in 8-bit sRGB levels vs 1024 steps / 4 octaves / 128 voxels):
-#   low    32 / 2 / 16: rmse ~9.5, banding ~3.9, ~40 ms
-#   medium 48 / 3 / 32: rmse ~5.5, banding ~1.9, ~90 ms  (the knee: banding < 2 levels)
-#   high  128 / 4 / 64: rmse ~1.6, banding ~0.5, ~220-440 ms (the 64-voxel modelling dominates)
-# Octaves matter least (the 4th octave has weight 1/8); steps and texture size trade together:
-# a sharper texture needs more steps or it aliases (16 steps: error grows with resolution).
+# Quality presets: points on the measured curves (igserver quality volumes: close night fire on
+# llvmpipe, errors in 8-bit sRGB levels against 1024 steps / 4 octaves / 128 voxels, full
+# resolution, exact modelling time). What the curves showed:
+#   * the modelling stage dominates while time runs: re-modelling at 5-10 Hz with keyframe
+#     blending instead of every frame cut the pass 2-4x for +0.2..2.5 RMSE;
+#   * half-resolution marching cuts the march ~3x for ~+1.5 levels of low-passed error; quarter
+#     resolution shows blocks at fire edges (low only);
+#   * steps matter little once the step follows the pixel footprint; octaves least (the 4th has
+#     weight 1/8); a 64-voxel texture makes modelling and the voxel-limited near steps dominate.
 PRESETS = {
-    "low": VolumeSettings(steps=32, octaves=2, resolution=16, scale=4, model_hz=10.0),
-    "medium": VolumeSettings(steps=48, octaves=3, resolution=32, scale=2, model_hz=15.0),
-    "high": VolumeSettings(steps=128, octaves=4, resolution=64, scale=1, model_hz=0.0),
+    "low": VolumeSettings(steps=32, octaves=2, resolution=16, scale=4, model_hz=5.0),
+    "medium": VolumeSettings(steps=48, octaves=3, resolution=32, scale=2, model_hz=10.0),
+    "high": VolumeSettings(steps=96, octaves=4, resolution=48, scale=1, model_hz=30.0),
 }
 presets.register("volumes", PRESETS)
 
