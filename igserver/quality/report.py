@@ -107,7 +107,7 @@ def write_report(studies: list[Study], out_dir: Path, failures: dict[str, str] |
         plot_study(study, out_dir / plot)
         lines += study_markdown(study, plot)
     for name, reason in (failures or {}).items():
-        lines += [f"## {name}", "", f"Study failed: {reason}", ""]
+        lines += [f"## {name}", "", reason if reason.startswith("no study()") else f"Study failed: {reason}", ""]
     path = out_dir / "report.md"
     path.write_text("\n".join(lines))
     (out_dir / "report.json").write_text(json.dumps([s.to_dict() for s in studies], indent=1))
@@ -170,8 +170,15 @@ def run_all(argv: list[str]) -> int:
     names = args.only.split(",") if args.only else study_modules()
     studies, failures = [], {}
     start = time.perf_counter()
+    import importlib
+
     for name in names:
         t0 = time.perf_counter()
+        if args.quick and not callable(getattr(importlib.import_module(f"igserver.quality.{name}"), "study", None)):
+            failures[name] = (f"no study() for the combined report yet; skipped in --quick "
+                              f"(its own table: igserver quality {name})")
+            print(f"quality: {name}: skipped (no study())", flush=True)
+            continue
         print(f"quality: {name} ...", flush=True)
         study, reason = _study_in_subprocess(name, args.quick, out_dir, args.timeout)
         if study is None:
@@ -184,7 +191,7 @@ def run_all(argv: list[str]) -> int:
               f"({time.perf_counter() - start:.0f} s). Studies: {', '.join(names)}.", ""]
     path = write_report(studies, out_dir, failures, header)
     print(f"wrote {path}")
-    return 0 if not failures else 1
+    return 0 if not [r for r in failures.values() if not r.startswith("no study()")] else 1
 
 
 def _one(argv: list[str]) -> int:
