@@ -138,6 +138,7 @@ class VolumesPass(RenderPass):
         self._cube_vbo = None
         self._vaos: dict = {}
         self._frame = 0
+        self._low = None  # (size, colour, distance, colour fbo, distance fbo) of the reduced march
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
         return volumes_needed(scene, view)
@@ -247,8 +248,8 @@ class VolumesPass(RenderPass):
 
     def _low_targets(self, size: tuple[int, int]):
         """Low-resolution colour + distance targets of the reduced-resolution march."""
-        if getattr(self, "_low", None) is None or self._low[0] != size:
-            if getattr(self, "_low", None) is not None:
+        if self._low is None or self._low[0] != size:
+            if self._low is not None:
                 for obj in self._low[1:]:
                     obj.release()
             color = self.ctx.texture(size, 4, dtype="f2")
@@ -281,7 +282,7 @@ class VolumesPass(RenderPass):
             self.fullscreen(down)
             color_fbo.use()
             color_fbo.clear(0.0, 0.0, 0.0, 0.0)
-            self._march(frame, volumes, textures, settings, low_distance)
+            self._march(frame, volumes, textures, settings, low_distance, low_size[1])
             targets.color_fbo.use()
             self.ctx.enable(moderngl.BLEND)
             self.ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
@@ -297,11 +298,12 @@ class VolumesPass(RenderPass):
             self.ctx.disable(moderngl.BLEND)
         else:
             targets.color_fbo.use()
-            self._march(frame, volumes, textures, settings, distance)
+            self._march(frame, volumes, textures, settings, distance, targets.size[1])
         self._evict()
 
-    def _march(self, frame, volumes, textures, settings: VolumeSettings, distance) -> None:
-        """Draw every volume's box into the bound framebuffer (premultiplied, far to near)."""
+    def _march(self, frame, volumes, textures, settings: VolumeSettings, distance, march_height: int) -> None:
+        """Draw every volume's box into the bound framebuffer (premultiplied, far to near);
+        ``march_height``: its height in pixels (for the footprint of a pixel)."""
         scene, view = frame.scene, frame.view
         self.ctx.disable(moderngl.DEPTH_TEST)
         self.ctx.enable(moderngl.BLEND | moderngl.CULL_FACE)
@@ -310,10 +312,8 @@ class VolumesPass(RenderPass):
         self.ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
         distance.use(1)
         jitter_offset = (scene.host_frame * 0.6180339887) % 1.0  # golden-ratio sequence per frame
-        left, right, bottom, top = view.tangents
-        march_height = self.ctx.fbo.viewport[3] if self.ctx.fbo is not None else view.height
-        pixel_angle = math.atan(top) - math.atan(bottom)
-        pixel_angle /= max(march_height, 1)  # rad per pixel of the march's resolution
+        _, _, bottom, top = view.tangents
+        pixel_angle = (math.atan(top) - math.atan(bottom)) / max(march_height, 1)  # rad per march pixel
         for vol, (tex, tex_next, blend) in zip(volumes, textures):
             smoke = vol.kind == "smoke"
             defines = {"SMOKE": 1} if smoke else {}
