@@ -91,6 +91,26 @@ def texture_size(vol: Volume, view: CameraView, settings: VolumeSettings) -> tup
     return res_xy, res_xy, res_z
 
 
+def screen_rect(volumes: list[Volume], view: CameraView, width: int, height: int, pad: int):
+    """(x, y, w, h) in pixels (GL's lower-left origin) covering every volume's box, padded; the
+    whole screen when a box reaches behind the near plane. The full-resolution passes of the
+    reduced march (downsample, upsample) run only there."""
+    x0, y0, x1, y1 = width, height, 0, 0
+    for vol in volumes:
+        lo, hi = (view.relative(c) for c in vol.box)
+        corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        clip = corners @ view.view_proj.T
+        if (clip[:, 3] <= view.near).any():
+            return 0, 0, width, height
+        ndc = clip[:, :2] / clip[:, 3:4]
+        px = (ndc * 0.5 + 0.5) * np.array([width, height])
+        x0, y0 = min(x0, float(px[:, 0].min())), min(y0, float(px[:, 1].min()))
+        x1, y1 = max(x1, float(px[:, 0].max())), max(y1, float(px[:, 1].max()))
+    x0, y0 = max(int(math.floor(x0)) - pad, 0), max(int(math.floor(y0)) - pad, 0)
+    x1, y1 = min(int(math.ceil(x1)) + pad, width), min(int(math.ceil(y1)) + pad, height)
+    return x0, y0, max(x1 - x0, 0), max(y1 - y0, 0)
+
+
 class _Model:
     """One modelled 3D texture and the state (and keyframe) it was modelled for."""
 
@@ -274,16 +294,23 @@ class VolumesPass(RenderPass):
             width, height = targets.size
             low_size = (-(-width // scale), -(-height // scale))
             low_color, low_distance, color_fbo, distance_fbo = self._low_targets(low_size)
+            # Full-resolution work only where the boxes are (the upsample reads one low-res texel
+            # around each pixel: the low-resolution rectangle is padded by two).
+            x, y, w, h = screen_rect(volumes, view, width, height, pad=2 * scale)
+            low_rect = (x // scale, y // scale, -(-w // scale) + 2, -(-h // scale) + 2)
             self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
             distance_fbo.use()
+            distance_fbo.scissor = low_rect
             down = self.programs.program("common/fullscreen.vert.glsl", "volumes/downsample.frag.glsl")
             set_uniforms(down, {"u_scene_distance": 1, "u_scale": scale})
             distance.use(1)
             self.fullscreen(down)
+            distance_fbo.scissor = None
             color_fbo.use()
             color_fbo.clear(0.0, 0.0, 0.0, 0.0)
             self._march(frame, volumes, textures, settings, low_distance, low_size[1])
             targets.color_fbo.use()
+            targets.color_fbo.scissor = (x, y, w, h)
             self.ctx.enable(moderngl.BLEND)
             self.ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
             up = self.programs.program("common/fullscreen.vert.glsl", "volumes/upsample.frag.glsl")
@@ -295,6 +322,7 @@ class VolumesPass(RenderPass):
             distance.use(1)
             low_distance.use(2)
             self.fullscreen(up)
+            targets.color_fbo.scissor = None
             self.ctx.disable(moderngl.BLEND)
         else:
             targets.color_fbo.use()
