@@ -5,8 +5,8 @@ table precompute of tens of seconds on llvmpipe: that is the render budget's bus
 The longer run, over every operation (README, "Fuzzing"):
 
     .venv/bin/igserver serve --scene sky_only --port 8711 --width 64 --height 36 &
-    .venv/bin/st run http://127.0.0.1:8711/openapi.json --checks all --exclude-checks positive_data_acceptance \\
-        --exclude-path /v1/stream.mjpg --request-timeout 120 --max-time 600 -w 1
+    .venv/bin/st run http://127.0.0.1:8711/openapi.json --checks all --exclude-checks positive_data_acceptance,use_after_free \\
+        --exclude-path /v1/stream.mjpg --request-timeout 120 --max-response-time 120 --max-time 600 -w 1
 """
 
 from __future__ import annotations
