@@ -16,7 +16,7 @@ import msgpack
 import pytest
 from PIL import Image
 
-from clients.igclient import iter_multipart_jpegs
+from igserver.client.core import iter_multipart_jpegs
 from igserver.protocol.runtime import ServerSettings
 from igserver.protocol.testing import LoopbackServer
 from igserver.scene import Scene
@@ -36,6 +36,8 @@ def small_scene(**extra) -> Scene:
 @pytest.fixture(scope="module")
 def server():
     with LoopbackServer(small_scene(), ServerSettings(keepalive_s=0.25)) as srv:
+        # a frozen IG clock: these tests compare states and count frames, which a running sim_time changes
+        httpx.patch(srv.url + "/v1/clock", json={"paused": True}).raise_for_status()
         yield srv
 
 
@@ -194,10 +196,10 @@ def test_problem_counters_in_metrics(http):
     text = http.get("/metrics").text
     counts = {line.split(" ")[0]: float(line.split(" ")[1]) for line in text.splitlines() if line and line[0] != "#"}
     assert counts['igserver_protocol_errors_total{kind="non_finite"}'] >= 1
-    for name in ("igserver_frames_rendered_total", "igserver_render_process_restarts", "igserver_frame_render_ms_count",
+    for name in ("igserver_frames_rendered_total", "igserver_render_process_restarts", "igserver_frame_render_seconds_count",
                  "igserver_state_updates_total{method=\"patch\"}"):
         assert name in counts, name
-    assert any(k.startswith('igserver_pass_ms_count{pass="') for k in counts)
+    assert any(k.startswith('igserver_pass_seconds_count{pass="') for k in counts)
 
 
 def test_unknown_route_and_method_are_problems(http):

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from websockets.sync.client import connect
 
-from clients.igclient import IGClient, IGError, iter_multipart_jpegs
+from igserver.client.core import IGClient, IGError, iter_multipart_jpegs
 from igserver.protocol.runtime import ServerSettings
 from igserver.protocol.testing import LoopbackServer
 from igserver.scene import Scene
@@ -30,6 +30,8 @@ def pack(value) -> bytes:
 def server():
     scene = Scene.model_validate({"camera": {"width": W, "height": H}, "atmosphere": {"model": "gradient"}})
     with LoopbackServer(scene, ServerSettings(keepalive_s=0.25)) as srv:
+        # a frozen IG clock: these tests compare states and count frames, which a running sim_time changes
+        httpx.patch(srv.url + "/v1/clock", json={"paused": True}).raise_for_status()
         yield srv
 
 

@@ -54,7 +54,8 @@ def test_codec_passes_finite_trees_through_unchanged():
             "flag": True, "n": 3, "s": "text"}
     assert decode(pack(tree), MSGPACK) == tree
     assert decode(json.dumps(tree).encode(), JSON) == tree
-    assert decode(json.dumps(tree).encode(), "") == tree  # no content type: JSON
+    # no content type is refused (issue 9 item 3: a write must name JSON or msgpack)
+    assert raises_kind("unsupported_media_type", decode, json.dumps(tree).encode(), "")
     assert decode(pack(tree), "application/x-msgpack; charset=binary") == tree
 
 
@@ -162,8 +163,16 @@ def test_model_alone_rejects_non_finite_in_every_float_field():
 
 # --------------------------------------------------------------------------- the state store
 
+def frozen_store(**kwargs) -> StateStore:
+    """A store whose IG clock is paused: ``store.scene`` is then the accepted object itself (a running clock
+    hands out copies at the current sim_time)."""
+    store = StateStore(Scene(), **kwargs)
+    store.clock.paused = True
+    return store
+
+
 def test_store_rejected_patch_or_replace_changes_nothing():
-    store = StateStore(Scene())
+    store = frozen_store()
     scene, revision = store.scene, store.revision
     mixed = {"camera": {"pitch": 10.0}, "weather": {"wind_speed": -5.0}, "host_frame": 9}
     for call in (store.patch, store.validate_patch):
@@ -180,7 +189,7 @@ def test_store_rejected_patch_or_replace_changes_nothing():
 
 def test_store_accepts_whole_messages_and_counts_revisions():
     seen = []
-    store = StateStore(Scene(), on_accept=seen.append)
+    store = frozen_store(on_accept=seen.append)
     t0 = store.accepted_at
     new = store.patch({"camera": {"pitch": 10.0}, "host_frame": 3})
     assert store.revision == 1 and store.scene is new and seen == [new] and store.accepted_at >= t0

@@ -15,7 +15,10 @@ import math
 from datetime import datetime, timezone
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic_core import InitErrorDetails, PydanticCustomError
+
+from ..assets import ASSET_NAME_PATTERN, AssetError, resolve_asset
 
 # Upper bound on any world coordinate (m). 1e7 m is beyond a continent; float64 keeps mm there.
 WORLD_LIMIT_M = 1.0e7
@@ -102,9 +105,14 @@ class Time(Strict):
     def _aware(cls, value: datetime) -> datetime:
         if value.tzinfo is None:
             value = value.replace(tzinfo=timezone.utc)
+        # check the year after conversion: 1800-01-01T00:00+23:59 is 1799 in UTC
+        try:
+            value = value.astimezone(timezone.utc)
+        except OverflowError:
+            raise ValueError("utc year must be within 1800..2200") from None
         if not (1800 <= value.year <= 2200):
             raise ValueError("utc year must be within 1800..2200")
-        return value.astimezone(timezone.utc)
+        return value
 
 
 class Location(Strict):
@@ -127,8 +135,22 @@ class Atmosphere(Strict):
 
 
 class Precipitation(Strict):
-    type: Literal["none", "rain", "snow"] = "none"
-    rate: float = Field(0.0, ge=0.0, le=200.0, description="mm/h")
+    """Rain or snow (DESIGN §4.5; drawn by render/precip, physics in igserver/weather.py)."""
+
+    type: Literal["none", "rain", "snow"] = Field("none", description="what falls; none = no particle pass")
+    rate: float = Field(
+        0.0, ge=0.0, le=200.0, description="mm/h, liquid-water-equivalent rate (snow too); 0 = nothing falls"
+    )
+    lowers_visibility: bool = Field(
+        True,
+        description="add the rain/snow extinction to atmosphere.visibility (then the visibility of the air "
+        "alone); false = the host's visibility already includes the precipitation",
+    )
+    streak_time: float = Field(
+        1.0 / 60.0, ge=1e-3, le=0.1,
+        description="s, exposure of a streak: each particle is drawn from its position this long ago to now "
+        "(independent of frame rate and camera motion)",
+    )
 
 
 class Weather(Strict):
@@ -170,10 +192,25 @@ class Effect(Strict):
     fade: float = Field(3.0, ge=0.0, le=600.0, description="s, fade-in/out duration")
     emits_smoke: bool = Field(False, description="fire also emits a smoke plume")
     seed: int = Field(1, ge=0, le=2**31 - 1, description="random seed of noise and flicker")
-    profile: str | None = Field(None, max_length=1024, description="optional profile image file")
+    profile: str | None = Field(
+        None, pattern=ASSET_NAME_PATTERN, description="optional profile: the name of a `profiles` asset (PNG; "
+        "a name, never a path: see README, Assets)"
+    )
     changed_at: float | None = Field(
         None, ge=0.0, le=1e12, description="s, sim_time of the last activate/deactivate (set by the IG)"
     )
+
+
+    @field_validator("profile")
+    @classmethod
+    def _profile_asset(cls, value: str | None) -> str | None:
+        # the host names an asset; the server's asset directory decides which file (DESIGN §7b)
+        if value is not None:
+            try:
+                resolve_asset("profiles", value, (".png",))
+            except AssetError as exc:
+                raise ValueError(str(exc)) from None
+        return value
 
 
 class Flicker(Strict):
@@ -271,6 +308,19 @@ class Scene(Strict):
     @classmethod
     def _entity_ids(cls, v):
         return _unique_ids(v, "entity")
+
+    # -- render budget (svc-runtime): every accepted state renders within a bounded cost (scene/budget.py)
+    @model_validator(mode="after")
+    def _within_budget(self):
+        from .budget import over_budget
+
+        problems = over_budget(self)
+        if problems:
+            raise ValidationError.from_exception_data("Scene", [
+                InitErrorDetails(type=PydanticCustomError("over_budget", message), loc=loc, input=None)
+                for loc, message in problems
+            ])
+        return self
 
 
 def is_finite_tree(value) -> bool:
