@@ -286,9 +286,6 @@ def test_msgpack_decoder_itself_bounds_what_it_builds():
     assert codec._loads_msgpack(pack({"s": "text"}), limits) == {"s": "text"}  # str, not bytes
 
 
-@pytest.mark.xfail(strict=True, reason="msgpack's StackError subclasses ValueError, so codec._loads_msgpack's "
-                   "'except ValueError' answers 400 malformed and its StackError branch is dead code (issue 9, "
-                   "item 9b: svc-edge); remove this marker with that fix")
 def test_msgpack_nesting_beyond_the_decoder_stack_is_a_limit():
     deep = b"\x91" * 5000 + b"\xc0"  # 5000 nested one-element arrays
     problem = raises_kind("limits", decode, deep, MSGPACK)
