@@ -27,11 +27,14 @@ is exact for any m and only the graininess changes. m is DROPS_PER_STREAK (the q
 drawn count follows the rate) and grows only where the cost cap binds: the drawn streaks (tiles x
 particles per tile) never exceed ``max_streaks``.
 
-Level of detail: a tile whose centre is beyond r0 2^l (``lod_distance`` r0) draws only the first
-n / 4^l particles of the cube (a prefix of a uniform random set is uniform), each standing for
-4^l times more drops. The solid angle of a shell grows like r^2 while its streaks shrink like 1/r,
-so this keeps about as many streaks per steradian per shell as near the camera, and cuts the drawn
-count ~9x at a 30 m fade against drawing every tile in full.
+Level of detail: space is cut into spherical shells [r0 2^(l-1), r0 2^l) (``lod_distance`` r0,
+shell 0 from the camera), each filled by its own cube (side L 2^floor(l/2)) with its own particles,
+a quarter of the density of the shell inside it: each streak of shell l stands for 4^l m drops.
+The solid angle of a shell grows like r^2 while its streaks shrink like 1/r, so every shell shows
+about as many streaks per steradian as the first, and the drawn count falls ~9x at a 30 m fade
+against tiling the near density everywhere. Larger cubes further out keep more distinct particles
+per tile, so far tiles do not line up into rows of a few repeated particles; streaks are kept in
+exactly one shell by their distance (the vertex shader), so shells neither overlap nor gap.
 """
 
 from __future__ import annotations
@@ -59,7 +62,7 @@ class PrecipSettings:
     drops_per_streak: dict | None = None  # per kind; None = DEFAULT_DROPS_PER_STREAK
     max_streaks: int = 32768  # cost cap: drawn streaks per frame (tiles x particles per tile)
     fade_distance: dict | None = None  # per kind, m; None = DEFAULT_FADE
-    lod_distance: float = 8.0  # m, r0: tiles beyond r0 2^l draw 1/4^l of the particles
+    lod_distance: float = 8.0  # m, r0: shell l = [r0 2^(l-1), r0 2^l), cubes of L 2^l, density / 4^l
 
     def drops(self, kind: str) -> float:
         return (self.drops_per_streak or DEFAULT_DROPS_PER_STREAK)[kind]
@@ -76,8 +79,8 @@ DEFAULT_DROPS_PER_STREAK = {"rain": 64.0, "snow": 128.0}
 DEFAULT_FADE = {"rain": 30.0, "snow": 40.0}
 
 
-def _block(kind: str, index: int, tile_size: float) -> dict[str, np.ndarray]:
-    rng = np.random.default_rng([0x5EED, 1 if kind == "rain" else 2, index])
+def _block(kind: str, level: int, index: int, tile_size: float) -> dict[str, np.ndarray]:
+    rng = np.random.default_rng([0x5EED, 1 if kind == "rain" else 2, level, index])
     n = BLOCK
     return {
         "p0": rng.uniform(0.0, tile_size, (n, 3)),
@@ -96,12 +99,13 @@ class ParticlePool:
     def __init__(self):
         self._pools: dict[tuple, dict[str, np.ndarray]] = {}
 
-    def get(self, kind: str, tile_size: float, n: int) -> dict[str, np.ndarray]:
-        key = (kind, tile_size)
+    def get(self, kind: str, tile_size: float, n: int, level: int = 0) -> dict[str, np.ndarray]:
+        key = (kind, tile_size, level)
         pool = self._pools.get(key)
         have = 0 if pool is None else len(pool["p0"])
         if pool is None or have < n:
-            blocks = [_block(kind, i, tile_size) for i in range(have // BLOCK, math.ceil(max(n, 1) / BLOCK))]
+            blocks = [_block(kind, level, i, tile_size)
+                      for i in range(have // BLOCK, math.ceil(max(n, 1) / BLOCK))]
             merged = {k: np.concatenate(([pool[k]] if pool else []) + [b[k] for b in blocks]) for k in blocks[0]}
             self._pools[key] = pool = merged
         return {k: v[:n] for k, v in pool.items()}
@@ -118,40 +122,71 @@ def diameters(kind: str, rate: float, quantile: np.ndarray) -> np.ndarray:
     return d * FLAKE_OVER_MELTED if kind == "snow" else d
 
 
+@dataclass(frozen=True)
+class Level:
+    """One shell of the level of detail, drawn with one instanced draw."""
+
+    index: int
+    tile_size: float  # m, L 2^floor(l/2)
+    r_min: float  # m, the shell's streaks have their head in [r_min, r_max) from the camera
+    r_max: float
+    first_tile: int  # into ParticleFrame.tiles
+    tile_count: int
+    first_particle: int  # into ParticleFrame.positions etc.
+    particles: int  # per tile
+    drops_per_streak: float  # m 4^l (rounding aside), or more where the cap binds
+
+    @property
+    def streaks(self) -> int:
+        return self.tile_count * self.particles
+
+
 @dataclass
 class ParticleFrame:
-    """What the GPU draws this frame."""
+    """What the GPU draws this frame: every level's particles and tiles, concatenated."""
 
-    positions: np.ndarray  # (n, 3) float64 in [0, L): camera-relative, wrapped
+    positions: np.ndarray  # (n, 3) float64, camera-relative, wrapped into [0, L_l) per level
     streaks: np.ndarray  # (n, 3) m, p(t) - p(t - T)
     diameters: np.ndarray  # (n,) m
     brightness: np.ndarray  # (n,)
-    tiles: np.ndarray  # (k, 3) m, camera-relative offsets of the visible tiles, sorted by level
-    levels: list[tuple[int, int, int, float]]  # (first tile, tile count, particles, drops per streak)
-    real_per_tile: float  # visible drops in one cube
-    tile_size: float
+    tiles: np.ndarray  # (k, 3) m, camera-relative offsets of the visible tiles of every level
+    levels: list[Level]
     fade: float
 
     @property
     def streak_count(self) -> int:
-        return sum(count * n for _, count, n, _ in self.levels)
+        return sum(level.streaks for level in self.levels)
 
     @property
     def drops_per_streak(self) -> float:
-        """m of the nearest level (the knob, or more where the cap binds)."""
-        return self.levels[0][3] if self.levels else 0.0
+        """m of the nearest level drawn (the knob, or more where the cap binds)."""
+        return self.levels[0].drops_per_streak if self.levels else 0.0
+
+    def level_slice(self, level: Level) -> slice:
+        return slice(level.first_particle, level.first_particle + level.particles)
 
 
-def visible_tiles(view: CameraView, tile_size: float, fade: float) -> np.ndarray:
-    """Camera-relative offsets L k of the tiles [L k, L (k + 1)) that reach within ``fade`` of the
-    camera and intersect the frustum (bounding-sphere test)."""
-    n = math.ceil(fade / tile_size)
+def shells(lod_distance: float, fade: float) -> list[tuple[float, float]]:
+    """[r_min, r_max) of each level out to the fade distance."""
+    out, r_min = [], 0.0
+    while r_min < fade:
+        r_max = min(lod_distance * 2.0 ** len(out), fade)
+        out.append((r_min, r_max))
+        r_min = r_max
+    return out
+
+
+def visible_tiles(view: CameraView, tile_size: float, r_min: float, r_max: float) -> np.ndarray:
+    """Camera-relative offsets L k of the tiles [L k, L (k + 1)) that meet the shell
+    [r_min, r_max) around the camera and the frustum (bounding-sphere tests)."""
+    n = math.ceil(r_max / tile_size)
     k = np.arange(-n, n)
     grid = np.stack(np.meshgrid(k, k, k, indexing="ij"), axis=-1).reshape(-1, 3) * tile_size
     half = 0.5 * tile_size
     radius = half * math.sqrt(3.0)
     centres = grid + half
-    keep = np.linalg.norm(centres, axis=1) - radius < fade
+    distance = np.linalg.norm(centres, axis=1)
+    keep = (distance - radius < r_max) & (distance + radius >= r_min)
     # The frustum planes of view_proj (camera-relative), as in CameraView.sphere_visible, vectorised.
     m = view.view_proj
     for plane in (m[3] + m[0], m[3] - m[0], m[3] + m[1], m[3] - m[1], m[3] + m[2], m[3] - m[2]):
@@ -161,63 +196,78 @@ def visible_tiles(view: CameraView, tile_size: float, fade: float) -> np.ndarray
     return grid[keep].astype(np.float64)
 
 
-def tile_levels(tiles: np.ndarray, tile_size: float, lod_distance: float) -> np.ndarray:
-    """LOD level per tile: 0 within r0 of the camera, l where the centre is in [r0 2^(l-1), r0 2^l)."""
-    d = np.linalg.norm(tiles + 0.5 * tile_size, axis=1)
-    return np.maximum(np.ceil(np.log2(np.maximum(d, 1e-9) / lod_distance)), 0).astype(int)
-
-
 def particle_count(kind: str, rate: float, settings: PrecipSettings) -> int:
-    """Particles per near tile before the cost cap: the visible drops in one cube over m."""
+    """Particles per tile of the nearest level before the cost cap: the visible drops in one cube
+    over m."""
     return int(round(visible_number_density(kind, rate) * settings.tile_size**3 / settings.drops(kind)))
 
 
-def _level_counts(n: int, tiles_per_level: np.ndarray) -> list[int]:
-    return [max(1, int(round(n / 4**lvl))) if n > 0 else 0 for lvl in range(len(tiles_per_level))]
+def level_tile_size(tile_size: float, level: int) -> float:
+    """Cube side of level l: L 2^floor(l/2). Doubling it every level would give far tiles the most
+    distinct particles, but a cube much thicker than its shell is mostly drawn outside it (culled
+    streaks still cost their vertices); doubling every other level keeps the waste small."""
+    return tile_size * 2.0 ** (level // 2)
+
+
+def _level_counts(n0: float, sizes: list[float]) -> list[int]:
+    """Particles per tile of level l: a quarter of the density per level in cubes of side L_l."""
+    return [int(round(n0 * (size / sizes[0]) ** 3 / 4.0**lvl)) for lvl, size in enumerate(sizes)]
 
 
 def particle_frame(scene: Scene, view: CameraView, settings: PrecipSettings, pool: ParticlePool) -> ParticleFrame:
     p = scene.weather.precipitation
     kind, rate, L = p.type, p.rate, settings.tile_size
     fade = settings.fade(kind)
-    tiles = visible_tiles(view, L, fade)
-    level = tile_levels(tiles, L, settings.lod_distance)
-    order = np.argsort(level, kind="stable")
-    tiles, level = tiles[order], level[order]
-    per_level = np.bincount(level) if len(level) else np.zeros(0, int)
-    n = particle_count(kind, rate, settings)
-    counts = _level_counts(n, per_level)
-    total = sum(int(t) * c for t, c in zip(per_level, counts))
-    while total > settings.max_streaks and n > 1:  # the cost cap: fewer particles, more drops each
-        n = max(1, int(n * settings.max_streaks / total * 0.98))
-        counts = _level_counts(n, per_level)
-        total = sum(int(t) * c for t, c in zip(per_level, counts))
-    real = visible_number_density(kind, rate) * L**3
-    levels, first = [], 0
-    for t_count, count in zip(per_level, counts):
-        if t_count and count:
-            levels.append((first, int(t_count), count, real / count))
-        first += int(t_count)
-    c = pool.get(kind, L, n)
+    rho = visible_number_density(kind, rate)  # drops per m^3
+    radii = shells(settings.lod_distance, fade)
+    sizes = [level_tile_size(L, lvl) for lvl in range(len(radii))]
+    tiles = [visible_tiles(view, size, r0, r1) for size, (r0, r1) in zip(sizes, radii)]
+    n0 = float(particle_count(kind, rate, settings))
+    counts = _level_counts(n0, sizes)
+    total = sum(len(t) * c for t, c in zip(tiles, counts))
+    while total > settings.max_streaks and n0 > 0.0:  # the cost cap: fewer particles, more drops each
+        n0 *= settings.max_streaks / total * 0.98
+        counts = _level_counts(n0, sizes)
+        total = sum(len(t) * c for t, c in zip(tiles, counts))
 
+    t, T = scene.time.sim_time, p.streak_time
+    wind = wind_vector(scene)
+    parts: list[tuple] = []
+    levels: list[Level] = []
+    first_tile = first_particle = 0
+    for lvl, (size, (r0, r1), tile_list, n) in enumerate(zip(sizes, radii, tiles, counts)):
+        if n == 0 or len(tile_list) == 0:
+            continue
+        q, streaks, d_mm, brightness = _move(pool.get(kind, size, n, lvl), kind, rate, size, wind, t, T,
+                                             view.position)
+        parts.append((q, streaks, d_mm, brightness, tile_list))
+        levels.append(Level(lvl, size, r0, r1, first_tile, len(tile_list), first_particle, n, rho * size**3 / n))
+        first_tile += len(tile_list)
+        first_particle += n
+    if not parts:
+        empty = np.zeros((0, 3))
+        return ParticleFrame(empty, empty, np.zeros(0), np.zeros(0), empty, [], fade)
+    q, streaks, d_mm, brightness, tile_arrays = (np.concatenate(x) for x in zip(*parts))
+    return ParticleFrame(q, streaks, d_mm * 1e-3, brightness, tile_arrays, levels, fade)
+
+
+def _move(c: dict, kind: str, rate: float, size: float, wind: np.ndarray, t: float, T: float,
+          camera_position: np.ndarray) -> tuple:
+    """Wrapped camera-relative positions in [0, size)^3, streaks, diameters (mm), brightness."""
     d_mm = diameters(kind, rate, c["u_size"])
     v_fall = fall_speed(kind, d_mm) * c["speed_factor"]
-    wind = wind_vector(scene)
-    velocity = np.repeat(wind[None, :], n, axis=0)
+    velocity = np.repeat(wind[None, :], len(d_mm), axis=0)
     velocity[:, 2] -= v_fall
-    t = scene.time.sim_time
-    T = p.streak_time
-
-    # float64 reductions: each term mod L before the sum, the flutter phase mod 1.
-    travel = np.fmod(velocity * t, L)
-    camera = np.fmod(view.position, L)
+    # float64 reductions: each term mod the cube before the sum, the flutter phase mod 1.
+    travel = np.fmod(velocity * t, size)
+    camera = np.fmod(camera_position, size)
     phase_now = np.fmod(c["flutter_hz"] * t + c["flutter_phase"], 1.0)
     phase_then = phase_now - c["flutter_hz"] * T
     flutter_now = _flutter(c["flutter_radius"], phase_now)
-    q = np.mod(c["p0"] + travel + flutter_now - camera, L)
-    q = np.where(q >= L, 0.0, q)  # mod can round up to L itself
+    q = np.mod(c["p0"] + travel + flutter_now - camera, size)
+    q = np.where(q >= size, 0.0, q)  # mod can round up to the size itself
     streaks = velocity * T + flutter_now - _flutter(c["flutter_radius"], phase_then)
-    return ParticleFrame(q, streaks, d_mm * 1e-3, c["brightness"], tiles, levels, real, L, fade)
+    return q, streaks, d_mm, c["brightness"]
 
 
 def _flutter(radius: np.ndarray, phase: np.ndarray) -> np.ndarray:
@@ -225,5 +275,5 @@ def _flutter(radius: np.ndarray, phase: np.ndarray) -> np.ndarray:
     return np.stack([radius * np.cos(a), radius * np.sin(a), np.zeros_like(radius)], axis=1)
 
 
-__all__ = ["PrecipSettings", "ParticlePool", "ParticleFrame", "particle_frame", "particle_count",
-           "visible_tiles", "tile_levels", "diameters", "DEFAULT_DROPS_PER_STREAK", "DEFAULT_FADE"]
+__all__ = ["PrecipSettings", "ParticlePool", "ParticleFrame", "Level", "particle_frame", "particle_count",
+           "shells", "level_tile_size", "visible_tiles", "diameters", "DEFAULT_DROPS_PER_STREAK", "DEFAULT_FADE"]

@@ -19,6 +19,7 @@
 uniform float u_drops_per_streak;  // m, of this level
 uniform float u_fade;              // m, streaks gone beyond
 uniform float u_px_per_tan;        // px per unit tangent (0.5 height P[1][1])
+uniform vec2 u_shell;              // m, this level draws the streaks whose head lies in [x, y)
 
 out vec3 v_rel;
 noperspective out vec2 v_local;  // px: along the quad from its tail end, across from the axis
@@ -32,7 +33,7 @@ const vec2 CORNERS[4] = vec2[4](vec2(0, -1), vec2(1, -1), vec2(1, 1), vec2(0, 1)
 
 void main() {
     int index = gl_VertexID / 4;
-    Particle particle = particles[index];
+    Particle particle = particles[u_first_particle + index];
     vec2 corner = CORNERS[gl_VertexID % 4];  // x: 0 = tail (T ago), 1 = head (now); y: side
     vec3 head = particle.pos_diameter.xyz + tiles[u_first_tile + gl_InstanceID].xyz;
     vec3 tail = head - particle.streak_brightness.xyz;
@@ -44,8 +45,8 @@ void main() {
     v_local = vec2(0.0);
     v_shape = vec2(0.0);
     v_rel = head;
-    if (clip_tail.w < 0.05 || clip_head.w < 0.05 || dist > u_fade) {
-        gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // behind the camera or out of range: culled
+    if (clip_tail.w < 0.05 || clip_head.w < 0.05 || dist > u_fade || dist < u_shell.x || dist >= u_shell.y) {
+        gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // behind the camera, out of range or another shell's
         return;
     }
     vec2 s_tail = (clip_tail.xy / clip_tail.w * 0.5 + 0.5) * u_resolution;
