@@ -10,7 +10,7 @@ import pytest
 from igserver.render.camera import make_view
 from igserver.render.graph import plan_passes
 from igserver.render.precip.particles import (
-    ParticlePool, PrecipSettings, particle_count, particle_frame, shells,
+    ParticlePool, PrecipSettings, particle_count, particle_frame,
 )
 from igserver.render.sky.frame_sky import cirrus_offset_units
 from igserver.render.volumes.effects import effect_volumes
@@ -183,7 +183,7 @@ def test_wrapping_keeps_the_cube_uniform():
             L = level.tile_size
             q = frame.positions[frame.level_slice(level)]
             n = len(q)
-            assert n > 2000 and np.all((q >= 0.0) & (q < L))
+            assert n > 500 and np.all((q >= 0.0) & (q < L))
             # 8 slabs per axis: each holds n/8 +- 5 sigma (binomial); the outer slabs are the faces.
             sigma = math.sqrt(n * (1 / 8) * (7 / 8))
             for axis in range(3):
@@ -210,23 +210,26 @@ def test_streaks_do_not_depend_on_the_camera_motion():
         assert np.max(np.linalg.norm(fast.streaks, axis=1)) < 10.0 * 0.1  # < 10 m/s x the exposure
 
 
-def test_shells_cover_the_view_out_to_the_fade_exactly_once():
+def test_level_tiles_fill_the_view_out_to_the_fade_exactly_once():
     settings = PrecipSettings()
     scene = rain(10.0)
     view = make_view(scene.camera)
     fade = settings.fade("rain")
-    radii = shells(settings.lod_distance, fade)
-    assert radii[0][0] == 0.0 and radii[-1][1] == fade
-    assert all(a[1] == b[0] for a, b in zip(radii, radii[1:]))  # no gap, no overlap
     frame = particle_frame(scene, view, settings, ParticlePool())
-    assert len(frame.levels) == len(radii) >= 3
-    # A point on the view axis at any distance up to the fade lies in a tile of the level whose
-    # shell holds it (the vertex shader keeps each streak in its own shell).
-    for d in np.linspace(0.3, fade - 0.1, 60):
-        p = view.forward * d
-        level = next(lv for lv in frame.levels if lv.r_min <= d < lv.r_max)
-        tiles = frame.tiles[level.first_tile:level.first_tile + level.tile_count]
-        assert np.any(np.all((p >= tiles) & (p < tiles + level.tile_size), axis=1)), d
+    assert len(frame.levels) >= 3
+    # Points in the view (on the axis and toward the corners) at any distance up to the fade lie in
+    # exactly one tile of one level: the levels partition space, no gap at a level's boundary.
+    directions = [view.forward] + [view.forward + 0.3 * a * view.rotation[:, 0] + 0.2 * b * view.rotation[:, 2]
+                                   for a in (-1, 1) for b in (-1, 1)]
+    for direction in directions:
+        direction = direction / np.linalg.norm(direction)
+        for d in np.linspace(0.3, fade - 0.1, 60):
+            p = direction * d
+            hits = 0
+            for level in frame.levels:
+                tiles = frame.tiles[level.first_tile:level.first_tile + level.tile_count]
+                hits += int(np.sum(np.all((p >= tiles) & (p < tiles + level.tile_size), axis=1)))
+            assert hits == 1, (d, hits)
     # Each level: a quarter of the density: 4x the drops per streak (up to the rounding of counts).
     for a, b in zip(frame.levels, frame.levels[1:]):
         assert b.tile_size >= a.tile_size

@@ -27,14 +27,15 @@ is exact for any m and only the graininess changes. m is DROPS_PER_STREAK (the q
 drawn count follows the rate) and grows only where the cost cap binds: the drawn streaks (tiles x
 particles per tile) never exceed ``max_streaks``.
 
-Level of detail: space is cut into spherical shells [r0 2^(l-1), r0 2^l) (``lod_distance`` r0,
-shell 0 from the camera), each filled by its own cube (side L 2^floor(l/2)) with its own particles,
-a quarter of the density of the shell inside it: each streak of shell l stands for 4^l m drops.
-The solid angle of a shell grows like r^2 while its streaks shrink like 1/r, so every shell shows
+Level of detail: a tile whose centre lies in [r0 2^(l-1), r0 2^l) from the camera (``lod_distance``
+r0; level 0 within r0) belongs to level l, which has its own cube (side L 2^floor(l/2)) and its own
+particles at a quarter of the density of level l - 1: each streak of level l stands for 4^l m drops.
+The solid angle of a shell grows like r^2 while its streaks shrink like 1/r, so every level shows
 about as many streaks per steradian as the first, and the drawn count falls ~9x at a 30 m fade
 against tiling the near density everywhere. Larger cubes further out keep more distinct particles
-per tile, so far tiles do not line up into rows of a few repeated particles; streaks are kept in
-exactly one shell by their distance (the vertex shader), so shells neither overlap nor gap.
+per tile, so far tiles do not line up into rows of a few repeated particles. The tiles form a
+hierarchy (a cube of level 2 is 8 cubes of level 1 where it is near enough to be split), so the
+levels fill space exactly once: no overlap, no gap.
 """
 
 from __future__ import annotations
@@ -72,7 +73,7 @@ class PrecipSettings:
 
 
 # Real drops per drawn streak (the knob): chosen with igserver quality weather (quality/precipitation.py):
-# the lowest image error within 12 000 streaks at 640x360 in the rain_harbour and snow scenes.
+# the lowest image error within 16 000 streaks at 640x360 in the rain_harbour and snow scenes.
 DEFAULT_DROPS_PER_STREAK = {"rain": 64.0, "snow": 128.0}
 # Streaks fade out to this distance; beyond, the precipitation is a veil carried by its extinction
 # (weather.effective_visibility). A 2 mm drop at 30 m is 1/40 px at 640x360: only the sum shows.
@@ -128,8 +129,6 @@ class Level:
 
     index: int
     tile_size: float  # m, L 2^floor(l/2)
-    r_min: float  # m, the shell's streaks have their head in [r_min, r_max) from the camera
-    r_max: float
     first_tile: int  # into ParticleFrame.tiles
     tile_count: int
     first_particle: int  # into ParticleFrame.positions etc.
@@ -166,47 +165,64 @@ class ParticleFrame:
         return slice(level.first_particle, level.first_particle + level.particles)
 
 
-def shells(lod_distance: float, fade: float) -> list[tuple[float, float]]:
-    """[r_min, r_max) of each level out to the fade distance."""
-    out, r_min = [], 0.0
-    while r_min < fade:
-        r_max = min(lod_distance * 2.0 ** len(out), fade)
-        out.append((r_min, r_max))
-        r_min = r_max
-    return out
+def level_tile_size(tile_size: float, level: int) -> float:
+    """Cube side of level l: L 2^floor(l/2). Doubling it every level would give far tiles more
+    distinct particles still, but tiles far larger than their level's shell would put the level
+    boundaries far from where the density should change."""
+    return tile_size * 2.0 ** (level // 2)
 
 
-def visible_tiles(view: CameraView, tile_size: float, r_min: float, r_max: float) -> np.ndarray:
-    """Camera-relative offsets L k of the tiles [L k, L (k + 1)) that meet the shell
-    [r_min, r_max) around the camera and the frustum (bounding-sphere tests)."""
-    n = math.ceil(r_max / tile_size)
-    k = np.arange(-n, n)
-    grid = np.stack(np.meshgrid(k, k, k, indexing="ij"), axis=-1).reshape(-1, 3) * tile_size
-    half = 0.5 * tile_size
-    radius = half * math.sqrt(3.0)
-    centres = grid + half
-    distance = np.linalg.norm(centres, axis=1)
-    keep = (distance - radius < r_max) & (distance + radius >= r_min)
-    # The frustum planes of view_proj (camera-relative), as in CameraView.sphere_visible, vectorised.
+def level_count(lod_distance: float, fade: float) -> int:
+    """Levels out to the fade: level l reaches r0 2^l."""
+    return max(1, math.ceil(math.log2(max(fade / lod_distance, 1.0))) + 1)
+
+
+def level_tiles(view: CameraView, tile_size: float, lod_distance: float, fade: float) -> list[np.ndarray]:
+    """Camera-relative offsets of the visible tiles of every level (index = level).
+
+    Start from cubes of the largest level's size over the fade sphere; a cube whose centre's level
+    wants smaller cubes is split into 8, recursively; the others are emitted at their size, so the
+    tiles of all levels partition space. Kept: cubes that reach within ``fade`` of the camera and
+    meet the frustum (bounding-sphere tests)."""
+    levels = level_count(lod_distance, fade)
+    sizes = [level_tile_size(tile_size, lvl) for lvl in range(levels)]
+    planes = []
     m = view.view_proj
     for plane in (m[3] + m[0], m[3] - m[0], m[3] + m[1], m[3] - m[1], m[3] + m[2], m[3] - m[2]):
         length = float(np.linalg.norm(plane[:3]))
-        if length > 0.0:
-            keep &= (centres @ plane[:3] + plane[3]) / length >= -radius
-    return grid[keep].astype(np.float64)
+        if length > 0.0:  # the frustum planes of view_proj, as in CameraView.sphere_visible, vectorised
+            planes.append(plane / length)
+    size = sizes[-1]
+    n = math.ceil(fade / size)
+    k = np.arange(-n, n)
+    cells = np.stack(np.meshgrid(k, k, k, indexing="ij"), axis=-1).reshape(-1, 3) * size
+    out: list[list[np.ndarray]] = [[] for _ in range(levels)]
+    children = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=np.float64)
+    while len(cells):
+        centres = cells + 0.5 * size
+        radius = 0.5 * size * math.sqrt(3.0)
+        distance = np.linalg.norm(centres, axis=1)
+        keep = distance - radius < fade
+        for plane in planes:
+            keep &= centres @ plane[:3] + plane[3] >= -radius
+        cells, distance = cells[keep], distance[keep]
+        level = np.minimum(np.ceil(np.log2(np.maximum(distance, 1e-9) / lod_distance)), levels - 1)
+        level = np.maximum(level, 0).astype(int)
+        wanted = np.array(sizes)[level]
+        same = [lvl for lvl in range(levels) if sizes[lvl] == size]
+        emit = wanted >= size
+        for cell, lvl in zip(cells[emit], np.clip(level[emit], same[0], same[-1])):
+            out[lvl].append(cell)
+        half = 0.5 * size
+        cells = (cells[~emit][:, None, :] + children[None] * half).reshape(-1, 3)
+        size = half
+    return [np.array(t, dtype=np.float64).reshape(-1, 3) for t in out]
 
 
 def particle_count(kind: str, rate: float, settings: PrecipSettings) -> int:
     """Particles per tile of the nearest level before the cost cap: the visible drops in one cube
     over m."""
     return int(round(visible_number_density(kind, rate) * settings.tile_size**3 / settings.drops(kind)))
-
-
-def level_tile_size(tile_size: float, level: int) -> float:
-    """Cube side of level l: L 2^floor(l/2). Doubling it every level would give far tiles the most
-    distinct particles, but a cube much thicker than its shell is mostly drawn outside it (culled
-    streaks still cost their vertices); doubling every other level keeps the waste small."""
-    return tile_size * 2.0 ** (level // 2)
 
 
 def _level_counts(n0: float, sizes: list[float]) -> list[int]:
@@ -219,9 +235,8 @@ def particle_frame(scene: Scene, view: CameraView, settings: PrecipSettings, poo
     kind, rate, L = p.type, p.rate, settings.tile_size
     fade = settings.fade(kind)
     rho = visible_number_density(kind, rate)  # drops per m^3
-    radii = shells(settings.lod_distance, fade)
-    sizes = [level_tile_size(L, lvl) for lvl in range(len(radii))]
-    tiles = [visible_tiles(view, size, r0, r1) for size, (r0, r1) in zip(sizes, radii)]
+    tiles = level_tiles(view, L, settings.lod_distance, fade)
+    sizes = [level_tile_size(L, lvl) for lvl in range(len(tiles))]
     n0 = float(particle_count(kind, rate, settings))
     counts = _level_counts(n0, sizes)
     total = sum(len(t) * c for t, c in zip(tiles, counts))
@@ -235,13 +250,13 @@ def particle_frame(scene: Scene, view: CameraView, settings: PrecipSettings, poo
     parts: list[tuple] = []
     levels: list[Level] = []
     first_tile = first_particle = 0
-    for lvl, (size, (r0, r1), tile_list, n) in enumerate(zip(sizes, radii, tiles, counts)):
+    for lvl, (size, tile_list, n) in enumerate(zip(sizes, tiles, counts)):
         if n == 0 or len(tile_list) == 0:
             continue
         q, streaks, d_mm, brightness = _move(pool.get(kind, size, n, lvl), kind, rate, size, wind, t, T,
                                              view.position)
         parts.append((q, streaks, d_mm, brightness, tile_list))
-        levels.append(Level(lvl, size, r0, r1, first_tile, len(tile_list), first_particle, n, rho * size**3 / n))
+        levels.append(Level(lvl, size, first_tile, len(tile_list), first_particle, n, rho * size**3 / n))
         first_tile += len(tile_list)
         first_particle += n
     if not parts:
@@ -276,4 +291,4 @@ def _flutter(radius: np.ndarray, phase: np.ndarray) -> np.ndarray:
 
 
 __all__ = ["PrecipSettings", "ParticlePool", "ParticleFrame", "Level", "particle_frame", "particle_count",
-           "shells", "level_tile_size", "visible_tiles", "diameters", "DEFAULT_DROPS_PER_STREAK", "DEFAULT_FADE"]
+           "level_tiles", "level_tile_size", "level_count", "diameters", "DEFAULT_DROPS_PER_STREAK", "DEFAULT_FADE"]

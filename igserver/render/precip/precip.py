@@ -111,8 +111,7 @@ class PrecipPass(RenderPass):
         self.ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
         for level, base in zip(particles.levels, first_streak):  # one instanced draw per level
             set_uniforms(program, {**self._level_uniforms(level, int(base)),
-                                   "u_drops_per_streak": float(level.drops_per_streak),
-                                   "u_shell": (float(level.r_min), float(level.r_max))})
+                                   "u_drops_per_streak": float(level.drops_per_streak)})
             self._vao.render(moderngl.TRIANGLES, vertices=6 * level.particles, instances=level.tile_count)
         self.ctx.disable(moderngl.BLEND)
 

@@ -19,7 +19,6 @@
 uniform float u_drops_per_streak;  // m, of this level
 uniform float u_fade;              // m, streaks gone beyond
 uniform float u_px_per_tan;        // px per unit tangent (0.5 height P[1][1])
-uniform vec2 u_shell;              // m, this level draws the streaks whose head lies in [x, y)
 
 out vec3 v_rel;
 noperspective out vec2 v_local;  // px: along the quad from its tail end, across from the axis
@@ -45,8 +44,8 @@ void main() {
     v_local = vec2(0.0);
     v_shape = vec2(0.0);
     v_rel = head;
-    if (clip_tail.w < 0.05 || clip_head.w < 0.05 || dist > u_fade || dist < u_shell.x || dist >= u_shell.y) {
-        gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // behind the camera, out of range or another shell's
+    if (clip_tail.w < 0.05 || clip_head.w < 0.05 || dist > u_fade) {
+        gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // behind the camera or out of range: culled
         return;
     }
     vec2 s_tail = (clip_tail.xy / clip_tail.w * 0.5 + 0.5) * u_resolution;
