@@ -29,6 +29,7 @@ from __future__ import annotations
 import argparse
 import json
 import statistics
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -83,8 +84,7 @@ def run(argv: list[str]) -> int:
     default = PrecipSettings()
 
     def settings(m: float, tile: float, cap: int = default.max_streaks) -> PrecipSettings:
-        return PrecipSettings(tile_size=tile, drops_per_streak={kind: m}, max_streaks=cap,
-                              fade_distance=default.fade_distance, lod_distance=default.lod_distance)
+        return replace(default, tile_size=tile, max_streaks=cap, **{f"{kind}_drops": m})
 
     def frame(s, config):
         ppass.settings = config
@@ -131,7 +131,7 @@ def run(argv: list[str]) -> int:
             print(f"L {tile:4.1f} m {m:6.1f}  particles/tile {r['particles_per_tile']:6d}  streaks {r['streaks']:7d}  "
                   f"bias {r['bias']:+.3f}  lowpass {r['lowpass']:5.2f}  rmse {r['rmse']:5.2f}  "
                   f"cv {r['block_cv']:.2f}  ms {r['ms']:7.1f}", flush=True)
-    ppass.settings = PrecipSettings()
+    ppass.settings = None
 
     good = [r for r in rows if r["streaks"] <= STREAK_BUDGET and abs(r["bias"]) <= BIAS_LIMIT
             and r["tile"] >= MIN_TILE]
