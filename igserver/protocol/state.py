@@ -19,13 +19,14 @@ from .clock import IGClock, sends_sim_time
 from .problems import ProblemError, from_validation_error
 
 
-def stamp_effect_changes(old: Scene, new: Scene, now: float) -> Scene:
-    """Set ``changed_at = now`` (the IG clock's sim_time) on effects that appeared or switched ``active``,
-    so the renderer fades.
+def stamp_effect_changes(old: Scene, new: Scene, now: float | None = None) -> Scene:
+    """Set ``changed_at = now`` (the IG clock's sim_time; default the new state's) on effects that appeared
+    or switched ``active``, so the renderer fades.
 
     ``changed_at`` belongs to the IG: whatever the client sent there is overwritten on a switch.
     """
     previous = {effect.id: effect for effect in old.effects}
+    now = new.time.sim_time if now is None else now
     changed = False
     effects: list[Effect] = []
     for effect in new.effects:

@@ -11,6 +11,7 @@ import numpy as np
 from ..astro import celestial_state, direction_enu
 from ..scene.model import Scene
 from .camera import CameraView, gl_matrix, make_view
+from .depth import zero_to_one
 from .lights import PointLight, gather_lights, light_uniforms
 from .post.exposure import (GROUND_REFLECTANCE, EyeAdaptation, display_metered_ev100, exposure_of_ev100,
                             frustum_directions)
@@ -72,6 +73,8 @@ class FrameContext:
     meter_luminance: float = 0.0  # cd/m^2, mean luminance of the view the exposure adapts to
     # Shared resources the passes hand each other (e.g. "scene_distance": the copied distance texture).
     resources: dict = field(default_factory=dict)
+    # Quality level in force (presets.knobs(pipeline, frame.quality)): a level name or an auto rung.
+    quality: object = "medium"
 
     @property
     def camera_altitude(self) -> float:
@@ -130,7 +133,7 @@ def meter_samples(sky: SkyFrame, scene: Scene, view, celestial, haze_height_m: f
 def build_frame(ctx: moderngl.Context, scene: Scene, state: FrameState | None = None) -> FrameContext:
     """Per-frame data. ``state`` (the renderer's) eases fog changes and adapts the exposure over
     sim_time; without it the frame shows the steady state of its scene."""
-    view = make_view(scene.camera)
+    view = make_view(scene.camera, zero_to_one(ctx))
     celestial = sun_and_moon(scene)
     altitude = scene.location.altitude + float(view.position[2])
     # Sky: resident atmosphere tables (units 12..15), fog layer, sky-view table (9..11), light.
@@ -175,7 +178,11 @@ def common_uniforms(frame: FrameContext) -> dict:
     view, light, scene = frame.view, frame.light, frame.scene
     return {
         "u_view_proj": gl_matrix(view.view_proj),
-        "u_inv_view_proj": gl_matrix(np.linalg.inv(view.view_proj)),
+        "u_inv_view_proj": gl_matrix(np.linalg.inv(view.view_proj)),  # float64 inverse, finite depths
+        "u_camera_right": _vec3(view.rotation[:, 0]),
+        "u_camera_up": _vec3(view.rotation[:, 2]),
+        "u_camera_forward": _vec3(view.rotation[:, 1]),
+        "u_frustum_tangents": tuple(float(t) for t in view.tangents),
         "u_resolution": (float(view.width), float(view.height)),
         "u_camera_altitude": frame.camera_altitude,
         "u_exposure": frame.exposure,

@@ -106,29 +106,14 @@ def exposure_of_ev100(ev100: float) -> float:
 
 
 def frustum_directions(view, nx: int = 16, ny: int = 9) -> np.ndarray:
-    """Unit camera-relative world directions through a grid of pixel centres."""
-    key = (np.asarray(view.view_proj, dtype=np.float64).tobytes(), nx, ny)
-    if key not in _DIR_CACHE:
-        if len(_DIR_CACHE) > 64:
-            _DIR_CACHE.clear()
-        _DIR_CACHE[key] = _frustum_directions(view.view_proj, nx, ny)
-    return _DIR_CACHE[key]
-
-
-_DIR_CACHE: dict = {}
-
-
-def _frustum_directions(view_proj, nx: int, ny: int) -> np.ndarray:
-    inv = np.linalg.inv(view_proj)
-    xs = (np.arange(nx) + 0.5) / nx * 2 - 1
-    ys = (np.arange(ny) + 0.5) / ny * 2 - 1
-    X, Y = np.meshgrid(xs, ys)
-    ndc_far = np.stack([X, Y, np.ones_like(X), np.ones_like(X)], -1).reshape(-1, 4)
-    ndc_near = ndc_far.copy()
-    ndc_near[:, 2] = -1.0
-    far = ndc_far @ inv.T
-    near = ndc_near @ inv.T
-    d = far[:, :3] / far[:, 3:4] - near[:, :3] / near[:, 3:4]
+    """Unit camera-relative world directions through a grid of pixel centres (the camera's basis
+    and frustum tangents, as frame.glsl's view_ray; no projection matrix, so no depth convention)."""
+    left, right, bottom, top = view.tangents
+    tx = left + (right - left) * (np.arange(nx) + 0.5) / nx
+    ty = bottom + (top - bottom) * (np.arange(ny) + 0.5) / ny
+    X, Y = np.meshgrid(tx, ty)
+    rot = np.asarray(view.rotation, dtype=np.float64)  # columns right, forward, up
+    d = rot[:, 1][None] + X.reshape(-1, 1) * rot[:, 0][None] + Y.reshape(-1, 1) * rot[:, 2][None]
     return d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
