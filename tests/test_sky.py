@@ -61,7 +61,9 @@ def test_tables_finite_and_transmittance_monotone(renderer):
 
 
 def test_cache_hit_on_second_construction(renderer):
-    params = scene_atmosphere(scene())
+    # Low-preset tables: the cache mechanics are the same, and a cold medium set (16 density samples
+    # for twilight) costs ~30 s of precompute on llvmpipe.
+    params = scene_atmosphere(scene(atmosphere={"quality": "low"}))
     first = AtmosphereTables(renderer.ctx, params)  # computed (cold module cache) or loaded: saved either way
     first.release()
     again = AtmosphereTables(renderer.ctx, params)
