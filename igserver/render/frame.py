@@ -198,7 +198,7 @@ def common_uniforms(frame: FrameContext) -> dict:
         "u_halo_color": _vec3(light.halo),
         "u_halo_exponent": light.halo_exponent,
         "u_sun_disk_cos": math.cos(SUN_ANGULAR_RADIUS),
-        "u_pixel_angle": pixel_angle(scene.camera),
+        "u_view_pixel_angle": pixel_angle(scene.camera),
         "u_sun_disk_luminance": _vec3(light.sun_disk_luminance),
         "u_adaptation_luminance": float(frame.meter_luminance),
         "u_fog_color": _vec3(light.horizon),

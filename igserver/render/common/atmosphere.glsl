@@ -372,12 +372,12 @@ bool dir_visible(vec3 dir) {
 
 // The sun's disk profile, mean 1 over the disk's solid angle: linear limb darkening I(mu) =
 // I0 (1 - u (1 - mu)), u = 0.6 (mean I0 (1 - u/3)). When the disk is smaller than a pixel's
-// footprint (u_pixel_angle, rad per pixel) its energy is spread over a tent of radius 1.5 px
+// footprint (u_view_pixel_angle, rad per pixel) its energy is spread over a tent of radius 1.5 px
 // instead: a point-sampled disk would flicker on and off between pixel centres as the sun moves.
-uniform float u_pixel_angle;
+uniform float u_view_pixel_angle;
 float sun_disk_profile(vec3 dir) {
     float radius = acos(clamp(u_sun_disk_cos, -1.0, 1.0));
-    float footprint = 1.5 * u_pixel_angle;
+    float footprint = 1.5 * u_view_pixel_angle;
     float theta = atan(length(cross(dir, u_sun_dir)), dot(dir, u_sun_dir));
     if (footprint > radius) {
         float x = theta / footprint;

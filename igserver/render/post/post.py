@@ -39,7 +39,7 @@ def halo_uniforms(frame) -> dict:
     # beta I exp(-beta D) / (10 D theta_px) cd/m^2 (the airlight integral near its peak, HG forward
     # lobe ~0.1 sr^-1 at a few degrees); below 1 % of display white after exposure it is invisible
     # (a fire by day, a lamp in clear air), and 64 samples a pixel are saved.
-    theta_px = max(float(frame.uniforms.get("u_pixel_angle", 1e-3)), 1e-5)
+    theta_px = max(float(frame.uniforms.get("u_view_pixel_angle", 1e-3)), 1e-5)
     lights = []
     for light in frame.lights:
         d = max(float(np.linalg.norm(frame.view.relative(light.position))), 1.0)
