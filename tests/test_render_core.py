@@ -204,7 +204,8 @@ def test_sky_brightness_orders_by_sun_elevation(renderer):
         _render(renderer, {**look_up, "time": {"sun_override": {"elevation": elevation, "azimuth": 270.0}}})
         rgb = renderer.read_hdr()[..., :3].reshape(-1, 3).astype(np.float64)
         means.append(float(luminance(rgb).mean()))
-        blue_over_red.append(float(rgb[:, 2].mean() / rgb[:, 0].mean()))
+        # medians: the sun (in view at the zenith) keeps its energy on a pixel's footprint at tiny sizes
+        blue_over_red.append(float(np.median(rgb[:, 2]) / np.median(rgb[:, 0])))
     assert all(a > b for a, b in zip(means, means[1:])), means
     assert means[-1] > 0.0
     assert blue_over_red[0] > 1.2 and blue_over_red[1] > 1.2, blue_over_red  # the day sky is blue

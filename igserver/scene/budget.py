@@ -38,9 +38,9 @@ TABLE_BUDGET = 1.0e9
 # steps, octaves, resolution, scale (the march runs at 1/scale of the frame's resolution)
 VOLUME_PRESETS = {"low": (32, 2, 16, 4), "medium": (48, 3, 32, 2), "high": (96, 4, 48, 1)}
 TABLE_PRESETS = {  # (scattering texels, density_samples)
-    "low": (8 * 8 * 32 * 8, 6),
-    "medium": (8 * 32 * 64 * 16, 8),
-    "high": (8 * 32 * 128 * 32, 8),
+    "low": (8 * 16 * 32 * 8, 6),
+    "medium": (8 * 32 * 64 * 16, 16),
+    "high": (8 * 64 * 128 * 32, 16),
 }
 
 

@@ -389,10 +389,14 @@ float sun_disk_profile(vec3 dir) {
     return (1.0 - 0.6 * (1.0 - sqrt(max(1.0 - x * x, 0.0)))) / 0.8;
 }
 
-// Luminance of the sun's disk, zero outside it; u_sun_disk_luminance is the disk's mean luminance
-// after the clear air AND the fog at the camera.
+// Luminance of the sun's disk, zero outside it (limb-darkened, point-sampled: reflections and the
+// gradient tier); u_sun_disk_luminance is the disk's mean luminance after the clear air AND the fog
+// at the camera. The sky pass draws the disk with sun_disk_profile() (pixel footprint).
 vec3 sun_disk(vec3 dir) {
-    return u_sun_disk_luminance * sun_disk_profile(dir);
+    float c = dot(dir, u_sun_dir);
+    if (c < u_sun_disk_cos) return vec3(0.0);
+    float r = sqrt(max(1.0 - c * c, 0.0)) / sqrt(max(1.0 - u_sun_disk_cos * u_sun_disk_cos, 1e-12));
+    return u_sun_disk_luminance * (1.0 - 0.6 * (1.0 - sqrt(max(1.0 - r * r, 0.0)))) / 0.8;
 }
 
 // Radiance leaving a surface at camera-relative point rel (m), as seen by the camera.

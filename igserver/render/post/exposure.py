@@ -42,6 +42,7 @@ TAU_DARK = 4.0  # s, adapting to less light
 GROUND_REFLECTANCE = 0.15
 EV_MIN, EV_MAX = -16.0, 24.0
 LUMA = np.array([0.2126, 0.7152, 0.0722])
+MAX_OVER_MEAN_EV = 1.0  # the display meter may expose at most this much more than the average meter
 MAX_STREAM_DT = 1.0  # s: frames further apart in sim_time are not one continuous view
 
 
@@ -97,7 +98,10 @@ def display_metered_ev100(samples: np.ndarray) -> tuple[float, float]:
             lo = mid
         else:
             hi = mid
-    exposure = 2.0 ** (0.5 * (lo + hi))
+    # Never more than MAX_OVER_MEAN_EV above the plain average meter (exposure = key / M): a view
+    # that is mostly black with a few bright things (space with the sun, a lamp at night) would
+    # otherwise be lifted until its black reads grey.
+    exposure = min(2.0 ** (0.5 * (lo + hi)), key / m * 2.0 ** MAX_OVER_MEAN_EV)
     return float(np.clip(math.log2(1.0 / (1.2 * exposure)), EV_MIN, EV_MAX)), m
 
 
