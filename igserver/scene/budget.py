@@ -33,7 +33,9 @@ TABLE_BUDGET = 1.0e9
 
 # Mirrors of the renderer's presets (igserver.render.volumes.volumes.PRESETS and
 # igserver.render.sky.atmosphere_model.PRESETS); a test keeps them equal.
-VOLUME_PRESETS = {"low": (32, 2, 16), "medium": (48, 3, 32), "high": (128, 4, 64)}  # steps, octaves, resolution
+VOLUME_PRESETS = {"low": (32, 2, 16), "medium": (48, 3, 32), "high": (96, 4, 48)}  # steps, octaves, resolution
+# The auto preset may climb to the highest level (igserver.render.presets): it is budgeted as that.
+AUTO_BUDGETED_AS = "high"
 TABLE_PRESETS = {  # (scattering texels, density_samples)
     "low": (8 * 8 * 32 * 8, 6),
     "medium": (8 * 32 * 64 * 16, 8),
@@ -69,9 +71,13 @@ def volume_count(scene) -> int:
     return sum(2 if effect.type == "fire" and effect.emits_smoke else 1 for effect in scene.effects)
 
 
+def volume_preset(scene) -> str:
+    return AUTO_BUDGETED_AS if scene.quality.preset == "auto" else scene.quality.preset
+
+
 def estimate(scene) -> Cost:
     pixels = scene.camera.width * scene.camera.height
-    steps, octaves, resolution = VOLUME_PRESETS[scene.quality.preset]
+    steps, octaves, resolution = VOLUME_PRESETS[volume_preset(scene)]
     volumes = volume_count(scene)
     frame = pixels * BASE_PER_PIXEL + volumes * (pixels * steps + 4 * resolution**3 * octaves)
     texels, density = TABLE_PRESETS[scene.atmosphere.quality]
@@ -85,7 +91,7 @@ def over_budget(scene) -> list[tuple[tuple, str]]:
     problems = []
     if cost.frame > cost.frame_budget:
         share = cost.frame / cost.frame_budget
-        if cost.volumes and cost.volumes * cost.pixels * VOLUME_PRESETS[scene.quality.preset][0] > cost.frame / 2:
+        if cost.volumes and cost.volumes * cost.pixels * VOLUME_PRESETS[volume_preset(scene)][0] > cost.frame / 2:
             where = ("effects",)
             lower = ("use fewer effects (a fire with emits_smoke counts twice), a lower quality.preset or a "
                      "smaller camera.width/height")
