@@ -29,9 +29,16 @@ struct Material {
     float roughness;  // perceptual, 0 mirror .. 1 rough
 };
 
-vec3 brdf_cos(Material m, vec3 n, vec3 v, vec3 l) {
+// The two lobes separately (both times N.L): the paper's shading (common/lights.glsl) weights the
+// diffuse and the specular light differently inside a shadow.
+struct BrdfTerms {
+    vec3 diffuse;
+    vec3 specular;
+};
+
+BrdfTerms brdf_terms(Material m, vec3 n, vec3 v, vec3 l) {
     float n_dot_l = dot(n, l);
-    if (n_dot_l <= 0.0) return vec3(0.0);
+    if (n_dot_l <= 0.0) return BrdfTerms(vec3(0.0), vec3(0.0));
     float n_dot_v = max(dot(n, v), 1e-4);
     vec3 h = normalize(v + l);
     float alpha = max(m.roughness * m.roughness, 2e-3);
@@ -39,5 +46,23 @@ vec3 brdf_cos(Material m, vec3 n, vec3 v, vec3 l) {
     vec3 f = fresnel_schlick(max(dot(v, h), 0.0), f0);
     vec3 specular = f * ggx_distribution(max(dot(n, h), 0.0), alpha) * smith_visibility(n_dot_v, n_dot_l, alpha);
     vec3 diffuse = (1.0 - f) * (1.0 - m.metallic) * m.base_color / PI;
-    return (diffuse + specular) * n_dot_l;
+    return BrdfTerms(diffuse * n_dot_l, specular * n_dot_l);
+}
+
+vec3 brdf_cos(Material m, vec3 n, vec3 v, vec3 l) {
+    BrdfTerms t = brdf_terms(m, n, v, l);
+    return t.diffuse + t.specular;
+}
+
+// Directional albedo of the specular lobe under uniform light (split-sum environment BRDF,
+// Karis' analytic fit "EnvBRDFApprox"): what a uniform sky reflects specularly. It stays below
+// F0 + (1 - F0) * 0.04ish at normal view and below 1 everywhere, so ambient light cannot add energy.
+vec3 specular_albedo(Material m, float n_dot_v) {
+    const vec4 c0 = vec4(-1.0, -0.0275, -0.572, 0.022);
+    const vec4 c1 = vec4(1.0, 0.0425, 1.04, -0.04);
+    vec4 r = m.roughness * c0 + c1;
+    float a004 = min(r.x * r.x, exp2(-9.28 * max(n_dot_v, 0.0))) * r.x + r.y;
+    vec2 ab = vec2(-1.04, 1.04) * a004 + r.zw;
+    vec3 f0 = mix(vec3(0.04), m.base_color, m.metallic);
+    return clamp(f0 * ab.x + ab.y, 0.0, 1.0);
 }

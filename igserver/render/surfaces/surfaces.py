@@ -1,35 +1,72 @@
-"""Surfaces pass: the ground plane (when there is no sea) and the entities' meshes."""
+"""Surfaces pass: shadow maps, the ground plane (when there is no sea) and the entities' models.
+
+Per frame: the visible entities become instances (one camera-relative matrix per entity and glTF
+node, articulated parts posed by name); the key light (sun, or moon when brighter) and the
+brightest spot light render depth-only shadow maps of the casters, but only when something casts
+and the light is up (FrameGraph philosophy: no casters, no shadow pass); then the ground plane and
+every primitive are drawn once, instanced, opaque and masked first, blended last.
+"""
 
 from __future__ import annotations
 
-import math
+from dataclasses import dataclass, field
 
 import moderngl
 import numpy as np
 
-from ...scene.model import Scene
+from ...scene.model import Entity, Scene
 from ..camera import CameraView, body_to_world, gl_matrix
 from ..passes import RenderPass
 from ..shaders import set_uniforms
-from .models import MODELS, unit_cube
+from .gpu_models import INSTANCE_FLOATS, SAMPLER_UNITS, GpuModel, ModelCache
+from .shadow_fit import ShadowProjection, fit_directional, fit_spot
+
+SHADOW_UNIT_KEY = 10   # texture units of the shadow maps (materials use 0..4, the sky 12..15)
+SHADOW_UNIT_SPOT = 11
+SPOT_SHADOW_RESOLUTION = 1024
+SUN_LIGHT, MOON_LIGHT = -1, -2
+# Slope-scaled depth offset in the shadow pass (factor x max depth slope + units x depth ulp):
+# removes acne on surfaces at a grazing light without a large constant bias (peter-panning).
+POLYGON_OFFSET = (2.0, 4.0)
 
 
-def entity_parts(scene: Scene, view: CameraView):
-    """Yield (camera-relative model matrix, normal matrix, colour, metallic, roughness) per box."""
-    for entity in scene.entities:
-        rot = body_to_world(entity.heading, entity.pitch, entity.roll)
-        scale = np.asarray(entity.scale)
-        origin = view.relative(entity.position)  # float64 subtraction
-        radius = float(np.linalg.norm(scale)) * 2.0
-        if not view.sphere_visible(entity.position, radius):
-            continue
-        for centre, half, shade in MODELS[entity.model]:
-            model = np.eye(4)
-            model[:3, :3] = rot @ np.diag(scale * np.asarray(half))
-            model[:3, 3] = origin + rot @ (scale * np.asarray(centre))
-            normal = np.linalg.inv(model[:3, :3]).T
-            colour = np.clip(np.asarray(entity.color) * shade, 0.0, 1.0)
-            yield model, normal, colour, entity.metallic, entity.roughness
+@dataclass
+class Batch:
+    """Instances of one model, per use: 'view' (in the camera frustum) and 'shadow' (casters)."""
+    model: GpuModel
+    rows: dict[str, list[np.ndarray]] = field(default_factory=lambda: {"view": [], "shadow": []})
+
+
+def part_poses(entity: Entity) -> dict[str, np.ndarray]:
+    poses = {}
+    for name, pose in entity.parts.items():
+        m = np.eye(4)
+        m[:3, :3] = body_to_world(pose.heading, pose.pitch, pose.roll)
+        m[:3, 3] = pose.offset
+        poses[name] = m
+    return poses
+
+
+def instance_rows(entity: Entity, model: GpuModel, view: CameraView) -> tuple[np.ndarray, np.ndarray, float]:
+    """(per-primitive instance rows (p, 24) float32, world bounds centre, radius) of one entity."""
+    data = model.model
+    world = np.eye(4)
+    scale = np.asarray(entity.scale, float)
+    world[:3, :3] = body_to_world(entity.heading, entity.pitch, entity.roll) @ np.diag(scale)
+    world[:3, 3] = view.relative(entity.position)  # float64 subtraction: camera-relative
+    nodes = data.node_matrices(part_poses(entity))
+    is_box = data.name == "box"
+    tint = (*entity.color, entity.metallic) if is_box else (1.0, 1.0, 1.0, 1.0)
+    extra = (entity.roughness if is_box else 1.0, 0.0, 0.0, 0.0)
+    rows = np.empty((len(model.primitives), INSTANCE_FLOATS), np.float32)
+    for i, prim in enumerate(model.primitives):
+        m = world @ nodes[prim.node]
+        rows[i, :16] = m.T.reshape(-1)  # column-major
+        rows[i, 16:20] = tint
+        rows[i, 20:] = extra
+    centre = np.asarray(entity.position, float) + world[:3, :3] @ data.bounds_center
+    radius = data.bounds_radius * float(np.max(scale)) * (1.25 if entity.parts else 1.0)
+    return rows, centre, radius
 
 
 class SurfacesPass(RenderPass):
@@ -37,19 +74,154 @@ class SurfacesPass(RenderPass):
 
     def __init__(self, ctx, programs):
         super().__init__(ctx, programs)
-        self._cube = None
+        self.models = ModelCache(ctx)
+        self._shadow_maps: dict[str, tuple[moderngl.Texture, moderngl.Framebuffer]] = {}
+        self.last_shadow_passes: list[str] = []  # which shadow maps the last frame drew
+        self._main_depth_func = "<"
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
-        return (scene.ground.enabled and not scene.ocean.enabled) or bool(scene.entities)
+        return (scene.ground.enabled and not scene.ocean.enabled) or any(e.visible for e in scene.entities)
+
+    # --- instances --------------------------------------------------------------------------
+    def _batches(self, scene: Scene, view: CameraView) -> dict[str, Batch]:
+        batches: dict[str, Batch] = {}
+        shadow_range = scene.shadows.distance
+        for entity in scene.entities:
+            if not entity.visible:
+                continue
+            model = self.models.get(entity.model)
+            if model is None or not model.primitives:
+                continue
+            rows, centre, radius = instance_rows(entity, model, view)
+            batch = batches.setdefault(entity.model, Batch(model))
+            if view.sphere_visible(centre, radius):
+                batch.rows["view"].append(rows)
+            if float(np.linalg.norm(view.relative(centre))) - radius < shadow_range:
+                batch.rows["shadow"].append(rows)
+                batch.rows.setdefault("bounds", []).append(np.array([*centre, radius]))
+        return batches
+
+    # --- shadows ----------------------------------------------------------------------------
+    def _shadow_target(self, key: str, size: int):
+        held = self._shadow_maps.get(key)
+        if held is None or held[0].size != (size, size):
+            if held is not None:
+                held[1].release()
+                held[0].release()
+            tex = self.ctx.depth_texture((size, size))
+            tex.compare_func = "<="
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)  # hardware 2x2 PCF per tap
+            tex.repeat_x = tex.repeat_y = False
+            self._shadow_maps[key] = (tex, self.ctx.framebuffer(depth_attachment=tex))
+        return self._shadow_maps[key]
+
+    def _render_shadow_map(self, key: str, size: int, projection: ShadowProjection, batches) -> moderngl.Texture:
+        tex, fbo = self._shadow_target(key, size)
+        fbo.use()
+        fbo.clear(depth=1.0)
+        program = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl", {"SHADOW_PASS": 1})
+        program["u_light_view_proj"].write(gl_matrix(projection.view_proj))
+        self._set_samplers(program)
+        self.ctx.enable(moderngl.DEPTH_TEST)
+        self.ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
+        # The shadow map is ours: conventional depth (near = 0), whatever the main view uses. The
+        # main pass's function is restored from frame.resources["depth_func"] when the renderer
+        # publishes one (reversed-Z), else GL's default "<".
+        self.ctx.depth_func = "<"
+        self.ctx.polygon_offset = POLYGON_OFFSET
+        try:
+            self._draw_batches(program, batches, "shadow", blended=None)
+        finally:
+            self.ctx.polygon_offset = (0.0, 0.0)
+            self.ctx.depth_func = self._main_depth_func
+        return tex
+
+    def _shadows(self, frame, batches, scene: Scene) -> dict:
+        """Render the shadow maps this frame needs; return the receivers' uniforms."""
+        uniforms = {"u_key_shadow_light": 0, "u_spot_shadow_light": -1,
+                    "u_shadow_density": scene.shadows.density, "u_shadow_color": tuple(scene.shadows.color),
+                    "u_shadow_softness": scene.shadows.softness,
+                    "u_shadow_map_size": float(scene.shadows.resolution),
+                    "u_key_shadow_map": SHADOW_UNIT_KEY, "u_spot_shadow_map": SHADOW_UNIT_SPOT}
+        self.last_shadow_passes = []
+        bounds = [b for batch in batches.values() for b in batch.rows.get("bounds", [])]
+        if not scene.shadows.enabled or not bounds:
+            return uniforms
+        bounds = np.asarray(bounds)
+        view = frame.view
+        key = self._key_light(frame)
+        if key is not None:
+            which, direction = key
+            projection = fit_directional(bounds[:, :3], bounds[:, 3], direction, view.position,
+                                         scene.shadows.resolution)
+            tex = self._render_shadow_map("key", scene.shadows.resolution, projection, batches)
+            tex.use(location=SHADOW_UNIT_KEY)
+            uniforms.update({"u_key_shadow_light": which, "u_key_shadow_texel": projection.texel})
+            uniforms["u_key_shadow_matrix"] = gl_matrix(projection.map_matrix())
+            self.last_shadow_passes.append("sun" if which == SUN_LIGHT else "moon")
+        spot = self._shadow_spot(frame)
+        if spot is not None:
+            index, light = spot
+            projection = fit_spot(view.relative(light.position), light.spot_dir, light.cos_outer, light.range,
+                                  SPOT_SHADOW_RESOLUTION)
+            tex = self._render_shadow_map("spot", SPOT_SHADOW_RESOLUTION, projection, batches)
+            tex.use(location=SHADOW_UNIT_SPOT)
+            uniforms.update({"u_spot_shadow_light": index, "u_spot_shadow_texel": projection.texel,
+                             "u_spot_shadow_matrix": gl_matrix(projection.map_matrix())})
+            self.last_shadow_passes.append("spot")
+        return uniforms
+
+    @staticmethod
+    def _key_light(frame):
+        """The directional light worth a shadow map: the sun by day, the moon on a moonlit night."""
+        sun = float(np.max(frame.light.sun_illuminance))
+        moon = float(np.max(frame.light.moon_illuminance))
+        if sun > 0.0 and sun >= moon and frame.celestial.sun_elevation > -1.0:
+            return SUN_LIGHT, frame.celestial.sun_dir
+        if moon > 0.0 and frame.celestial.moon_elevation > -1.0:
+            return MOON_LIGHT, frame.celestial.moon_dir
+        return None
+
+    @staticmethod
+    def _shadow_spot(frame):
+        """The brightest spot light (lights arrive brightest-at-the-camera first)."""
+        for index, light in enumerate(frame.lights):
+            if light.spot_dir is not None:
+                return index, light
+        return None
+
+    # --- drawing ----------------------------------------------------------------------------
+    @staticmethod
+    def _set_samplers(program) -> None:
+        set_uniforms(program, SAMPLER_UNITS)
+
+    def _draw_batches(self, program, batches: dict[str, Batch], use: str, blended: bool | None) -> None:
+        for batch in batches.values():
+            rows = batch.rows[use]
+            if not rows:
+                continue
+            stacked = np.stack(rows)  # (instances, primitives, 24)
+            for p, prim in enumerate(batch.model.primitives):
+                is_blend = prim.material.data.alpha_mode == 2
+                if blended is not None and is_blend != blended:
+                    continue
+                set_uniforms(program, prim.material.uniforms)
+                prim.material.bind()
+                prim.draw(program, use, stacked[:, p, :])
 
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
+        batches = self._batches(scene, view)
+        self._main_depth_func = frame.resources.get("depth_func", "<")
+        shadow_uniforms = self._shadows(frame, batches, scene)
         targets.scene_fbo.use()
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
         if scene.ground.enabled and not scene.ocean.enabled:
-            program = self.programs.program("common/fullscreen.vert.glsl", "surfaces/plane.glsl")
+            program = self.programs.program("common/fullscreen.vert.glsl", "surfaces/plane.glsl",
+                                            {"SURFACE_SHADOWS": 1})
             set_uniforms(program, frame.uniforms)
+            set_uniforms(program, shadow_uniforms)
             set_uniforms(program, {
                 "u_plane_height": scene.ground.level - float(view.position[2]),
                 "u_far": view.far,
@@ -57,18 +229,22 @@ class SurfacesPass(RenderPass):
                 "u_roughness": scene.ground.roughness,
             })
             self.fullscreen(program)
-        if scene.entities:
-            self._draw_entities(frame)
-
-    def _draw_entities(self, frame) -> None:
-        program = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl")
+        if not any(batch.rows["view"] for batch in batches.values()):
+            return
+        program = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl", {"SURFACE_SHADOWS": 1})
         set_uniforms(program, frame.uniforms)
-        if self._cube is None:
-            vbo = self.ctx.buffer(unit_cube().tobytes())
-            self._cube = self.ctx.vertex_array(program, [(vbo, "3f 3f", "in_position", "in_normal")])
-        for model, normal, colour, metallic, roughness in entity_parts(frame.scene, frame.view):
-            program["u_model"].write(gl_matrix(model))
-            program["u_normal_matrix"].write(gl_matrix(normal))
-            set_uniforms(program, {"u_base_color": tuple(float(c) for c in colour),
-                                   "u_metallic": metallic, "u_roughness": roughness})
-            self._cube.render(moderngl.TRIANGLES)
+        set_uniforms(program, shadow_uniforms)
+        self._set_samplers(program)
+        self._draw_batches(program, batches, "view", blended=False)
+        if any(p.material.data.alpha_mode == 2 for b in batches.values() if b.rows["view"] for p in b.model.primitives):
+            # Blended surfaces over the opaque ones: colour only, depth tested but not written.
+            targets.color_fbo.use()
+            self.ctx.enable(moderngl.BLEND)
+            self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+            self.ctx.depth_mask = False
+            try:
+                self._draw_batches(program, batches, "view", blended=True)
+            finally:
+                self.ctx.depth_mask = True
+                self.ctx.disable(moderngl.BLEND)
+                targets.scene_fbo.use()
