@@ -24,6 +24,7 @@ from .shadow_fit import ShadowProjection, fit_directional, fit_spot
 SHADOW_UNIT_KEY = 10   # texture units of the shadow maps (materials use 0..4, the sky 12..15)
 SHADOW_UNIT_SPOT = 11
 SPOT_SHADOW_RESOLUTION = 1024
+DEFAULT_SHADOW_TAPS = 8  # chosen from `igserver quality surfaces` (error vs ms), see README
 SUN_LIGHT, MOON_LIGHT = -1, -2
 # Slope-scaled depth offset in the shadow pass (factor x max depth slope + units x depth ulp):
 # removes acne on surfaces at a grazing light without a large constant bias (peter-panning).
@@ -78,6 +79,7 @@ class SurfacesPass(RenderPass):
         self._shadow_maps: dict[str, tuple[moderngl.Texture, moderngl.Framebuffer]] = {}
         self.last_shadow_passes: list[str] = []  # which shadow maps the last frame drew
         self._main_depth_func = "<"
+        self.shadow_taps = DEFAULT_SHADOW_TAPS  # PCF taps per lookup (quality knob: igserver quality surfaces)
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
         return (scene.ground.enabled and not scene.ocean.enabled) or any(e.visible for e in scene.entities)
@@ -141,7 +143,6 @@ class SurfacesPass(RenderPass):
         uniforms = {"u_key_shadow_light": 0, "u_spot_shadow_light": -1,
                     "u_shadow_density": scene.shadows.density, "u_shadow_color": tuple(scene.shadows.color),
                     "u_shadow_softness": scene.shadows.softness,
-                    "u_shadow_map_size": float(scene.shadows.resolution),
                     "u_key_shadow_map": SHADOW_UNIT_KEY, "u_spot_shadow_map": SHADOW_UNIT_SPOT}
         self.last_shadow_passes = []
         bounds = [b for batch in batches.values() for b in batch.rows.get("bounds", [])]
@@ -209,6 +210,9 @@ class SurfacesPass(RenderPass):
                 prim.material.bind()
                 prim.draw(program, use, stacked[:, p, :])
 
+    def _receiver_defines(self) -> dict:
+        return {"SURFACE_SHADOWS": 1, "SHADOW_TAPS": self.shadow_taps}
+
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
         batches = self._batches(scene, view)
@@ -219,7 +223,7 @@ class SurfacesPass(RenderPass):
         self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
         if scene.ground.enabled and not scene.ocean.enabled:
             program = self.programs.program("common/fullscreen.vert.glsl", "surfaces/plane.glsl",
-                                            {"SURFACE_SHADOWS": 1})
+                                            self._receiver_defines())
             set_uniforms(program, frame.uniforms)
             set_uniforms(program, shadow_uniforms)
             set_uniforms(program, {
@@ -231,7 +235,7 @@ class SurfacesPass(RenderPass):
             self.fullscreen(program)
         if not any(batch.rows["view"] for batch in batches.values()):
             return
-        program = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl", {"SURFACE_SHADOWS": 1})
+        program = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl", self._receiver_defines())
         set_uniforms(program, frame.uniforms)
         set_uniforms(program, shadow_uniforms)
         self._set_samplers(program)
