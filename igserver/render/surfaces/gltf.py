@@ -297,8 +297,6 @@ def _check_nodes(name: str, nodes: list, doc: dict) -> frozenset[str]:
 
 
 def _check_images(name: str, path: Path, doc: dict, views: list, buffers: list, bin_chunk) -> int:
-    from PIL import Image  # header only: Image.open does not decode pixels
-
     total = 0
     for i, image in enumerate(_items(doc, "images", name, 256)):
         if "bufferView" in image:
@@ -315,11 +313,7 @@ def _check_images(name: str, path: Path, doc: dict, views: list, buffers: list, 
             raw = _data_uri(name, uri) if uri.startswith("data:") else _external_file(name, path, uri).read_bytes()
         else:
             raise _fail(name, f"images[{i}] has neither bufferView nor uri")
-        try:
-            with Image.open(io.BytesIO(raw)) as img:
-                width, height = img.size
-        except Exception:  # noqa: BLE001 - PIL raises many kinds for a bad header
-            raise _fail(name, f"images[{i}] is not a readable PNG/JPEG") from None
+        width, height = _image_size(name, i, raw)
         if width > MAX_TEXTURE_SIDE or height > MAX_TEXTURE_SIDE:
             raise _fail(name, f"images[{i}] is {width}x{height}, larger than {MAX_TEXTURE_SIDE} px a side")
         total += width * height
@@ -333,3 +327,18 @@ def _buffer_bytes(name: str, path: Path, buffer: dict) -> bytes:
     if not isinstance(uri, str):
         raise _fail(name, "image buffer has no data")
     return _data_uri(name, uri) if uri.startswith("data:") else _external_file(name, path, uri).read_bytes()
+
+
+def _image_size(name: str, i: int, raw: bytes) -> tuple[int, int]:
+    """Width and height from the image header (PNG read directly, others through PIL's lazy open)."""
+    from PIL import Image
+
+    if raw[:8] == b"\x89PNG\r\n\x1a\n" and len(raw) >= 24 and raw[12:16] == b"IHDR":
+        return struct.unpack(">II", raw[16:24])
+    try:
+        with Image.open(io.BytesIO(raw)) as img:
+            return img.size
+    except Image.DecompressionBombError:
+        raise _fail(name, f"images[{i}] is larger than {MAX_TEXTURE_SIDE} px a side") from None
+    except Exception:  # noqa: BLE001 - PIL raises many kinds for a bad header
+        raise _fail(name, f"images[{i}] is not a readable PNG/JPEG") from None
