@@ -68,7 +68,7 @@ def normal_from_height(height: np.ndarray, strength: float) -> np.ndarray:
 
 
 def material(name: str, seed: int, kind: str, color, metallic: float = 0.0, roughness: float = 0.6,
-             emissive=None):
+             emissive=None, seams: float = 1.0):
     """A trimesh PBRMaterial with base colour, metallic-roughness, normal and occlusion textures."""
     from trimesh.visual.material import PBRMaterial
 
@@ -83,8 +83,9 @@ def material(name: str, seed: int, kind: str, color, metallic: float = 0.0, roug
         base = base * (1 - rust[..., None]) + np.array([0.18, 0.07, 0.03]) * rust[..., None]
         rough = roughness + 0.15 * (n1 - 0.5) + 0.35 * rust
         metal = metallic * (1 - rust)
-        seam = np.exp(-((y * 4 % 1.0 - 0.5) ** 2) / 0.0015) + np.exp(-((x * 2 % 1.0 - 0.5) ** 2) / 0.0015)
-        height = 0.3 * n2 - 0.6 * np.clip(seam, 0, 1)
+        # welded plate seams: one horizontal and one vertical per texture repeat
+        seam = np.exp(-((y % 1.0 - 0.5) ** 2) / 0.0004) + np.exp(-((x % 1.0 - 0.5) ** 2) / 0.0004)
+        height = 0.3 * n2 - 0.6 * seams * np.clip(seam, 0, 1)
         strength = 4.0
     elif kind == "metal":  # bare or galvanised steel: brushed streaks
         streak = value_noise(rng, 64)[:, :1] * np.ones((1, TEX))
@@ -122,9 +123,8 @@ def material(name: str, seed: int, kind: str, color, metallic: float = 0.0, roug
     normal_img = _jpeg(normal_from_height(height, strength))
     kwargs = dict(name=name, baseColorTexture=base_img, metallicRoughnessTexture=mr_img,
                   normalTexture=normal_img, occlusionTexture=mr_img, metallicFactor=1.0, roughnessFactor=1.0)
-    if emissive is not None:
+    if emissive is not None:  # a uniformly lit panel (lit windows, a lamp): factor only
         kwargs["emissiveFactor"] = list(emissive)
-        kwargs["emissiveTexture"] = base_img
     return PBRMaterial(**kwargs)
 
 
@@ -244,8 +244,8 @@ def _scene(parts: list[tuple[str, object, np.ndarray | None]]):
 def patrol_boat():
     hull_paint = material("hull_paint", 11, "paint", (0.16, 0.19, 0.22), metallic=0.0, roughness=0.45)
     boot = material("boot_topping", 12, "paint", (0.05, 0.05, 0.05), roughness=0.6)
-    deck = material("deck", 13, "paint", (0.09, 0.10, 0.10), roughness=0.85)
-    house = material("superstructure", 14, "paint", (0.55, 0.57, 0.58), roughness=0.4)
+    deck = material("deck", 13, "paint", (0.09, 0.10, 0.10), roughness=0.85, seams=0.5)
+    house = material("superstructure", 14, "paint", (0.55, 0.57, 0.58), roughness=0.4, seams=0.3)
     glass = material("bridge_windows", 15, "glass", (0.02, 0.025, 0.03), roughness=0.08,
                      emissive=(0.35, 0.3, 0.2))
     steel = material("mast_steel", 16, "metal", (0.56, 0.57, 0.58), metallic=1.0, roughness=0.35)
