@@ -24,7 +24,7 @@ INSTANCE_FLOATS = 24  # 16 matrix + 4 tint/metallic + 4 (roughness, unused x3)
 INSTANCE_FORMAT = "4f 4f 4f 4f 4f 4f/i"
 INSTANCE_ATTRIBUTES = ("in_model0", "in_model1", "in_model2", "in_model3", "in_tint", "in_extra")
 GL_SRGB8_ALPHA8 = 0x8C43
-ANISOTROPY = 8.0
+ANISOTROPY = 1.0
 
 
 class Textures:

@@ -44,11 +44,16 @@ mat3 cotangent_frame(vec3 n, vec3 p, vec2 uv) {
 }
 
 void main() {
+#ifdef SHADOW_PASS
+    // Depth only. Opaque materials use the variant without ALPHA_TEST: an empty fragment shader
+    // keeps early depth testing (a discard anywhere in the shader turns it off).
+#ifdef ALPHA_TEST
+    float alpha = texture(u_base_tex, v_uv).a * u_base_factor.a;
+    if (alpha < (u_alpha_mode == 1 ? u_alpha_cutoff : 0.5)) discard;  // blended surfaces cast where mostly opaque
+#endif
+#else
     vec4 base = texture(u_base_tex, v_uv) * u_base_factor * vec4(v_tint.rgb, 1.0);
     if (u_alpha_mode == 1 && base.a < u_alpha_cutoff) discard;
-#ifdef SHADOW_PASS
-    if (u_alpha_mode == 2 && base.a < 0.5) discard;  // blended surfaces cast where mostly opaque
-#else
     vec3 n = normalize(v_normal);
     vec3 v = normalize(-v_rel);
     if (!gl_FrontFacing) n = -n;  // double-sided (and backfaces of thin single-sided parts)

@@ -121,9 +121,12 @@ class SurfacesPass(RenderPass):
         tex, fbo = self._shadow_target(key, size)
         fbo.use()
         fbo.clear(depth=1.0)
-        program = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl", {"SHADOW_PASS": 1})
-        program["u_light_view_proj"].write(gl_matrix(projection.view_proj))
-        self._set_samplers(program)
+        opaque = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl", {"SHADOW_PASS": 1})
+        tested = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl",
+                                       {"SHADOW_PASS": 1, "ALPHA_TEST": 1})
+        for program in (opaque, tested):
+            program["u_light_view_proj"].write(gl_matrix(projection.view_proj))
+            self._set_samplers(program)
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
         # The shadow map is ours: conventional depth (near = 0), whatever the main view uses. The
@@ -132,7 +135,8 @@ class SurfacesPass(RenderPass):
         self.ctx.depth_func = "<"
         self.ctx.polygon_offset = POLYGON_OFFSET
         try:
-            self._draw_batches(program, batches, "shadow", blended=None)
+            self._draw_batches(opaque, batches, "shadow", alpha_tested=False)
+            self._draw_batches(tested, batches, "shadow", alpha_tested=True)
         finally:
             self.ctx.polygon_offset = (0.0, 0.0)
             self.ctx.depth_func = self._main_depth_func
@@ -196,15 +200,20 @@ class SurfacesPass(RenderPass):
     def _set_samplers(program) -> None:
         set_uniforms(program, SAMPLER_UNITS)
 
-    def _draw_batches(self, program, batches: dict[str, Batch], use: str, blended: bool | None) -> None:
+    def _draw_batches(self, program, batches: dict[str, Batch], use: str, blended: bool | None = None,
+                      alpha_tested: bool | None = None) -> None:
+        """Draw the ``use`` instances of every primitive; ``blended`` / ``alpha_tested`` select
+        primitives by alpha mode (BLEND; MASK or BLEND) when not None."""
         for batch in batches.values():
             rows = batch.rows[use]
             if not rows:
                 continue
             stacked = np.stack(rows)  # (instances, primitives, 24)
             for p, prim in enumerate(batch.model.primitives):
-                is_blend = prim.material.data.alpha_mode == 2
-                if blended is not None and is_blend != blended:
+                mode = prim.material.data.alpha_mode
+                if blended is not None and (mode == 2) != blended:
+                    continue
+                if alpha_tested is not None and (mode != 0) != alpha_tested:
                     continue
                 set_uniforms(program, prim.material.uniforms)
                 prim.material.bind()
