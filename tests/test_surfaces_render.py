@@ -53,11 +53,12 @@ def test_white_furnace_reflects_at_most_the_incident_energy():
     rows = study.furnace(roughnesses=(0.02, 0.1, 0.5, 1.0), metallics=(0.0, 0.5, 1.0),
                          view_degrees=(0, 60, 80, 89), samples=2**14)
     worst = max(r["max_albedo"] for r in rows)
-    # Energy conservation: albedo <= 1. Tolerance = Monte Carlo error of 2^14 stratified importance
-    # samples (~0.3 % 1-sigma for the narrow lobes); a mirror metal's true albedo is exactly 1.
-    assert worst <= 1.01, max(rows, key=lambda r: r["max_albedo"])
-    # and not trivially dark: a white rough dielectric reflects most light (albedo > 0.85)
-    assert min(r["max_albedo"] for r in rows if r["metallic"] == 0.0) > 0.85
+    # Energy conservation: albedo <= 1. The diffuse lobe takes exactly what the specular lobe leaves
+    # up to the bilinear interpolation of a 16 x 16 table, worst for a near-mirror seen at 89 deg
+    # (~1 %), plus the Monte Carlo error of 2^14 stratified samples (~0.3 %): 2 % in all.
+    assert worst <= 1.02, max(rows, key=lambda r: r["max_albedo"])
+    # and not trivially dark: a white dielectric reflects nearly all light at every roughness
+    assert min(r["max_albedo"] for r in rows if r["metallic"] == 0.0) > 0.95
 
 
 @pytest.fixture()
@@ -208,3 +209,53 @@ def test_parts_turn_and_hidden_entities_vanish(renderer):
     hidden = frame(visible=False)
     renderer.render(_scene(base))
     np.testing.assert_array_equal(hidden, renderer.read_hdr())
+
+
+def test_key_light_map_does_not_move_with_the_camera():
+    """Texel stability: the world -> shadow-map transform must not change when only the camera moves
+    (the fit depends on the casters; the camera offset is folded in exactly)."""
+    from igserver.render.surfaces.shadow_fit import fit_directional
+
+    centers = np.array([[10.0, 20.0, 3.0], [-40.0, 5.0, 1.0], [1e6 + 3.0, 2.0, 0.0]])[:2]
+    radii = np.array([5.0, 20.0])
+    sun = np.array([0.3, -0.5, 0.81])
+    sun /= np.linalg.norm(sun)
+    world_maps = []
+    for camera in ([0.0, -50.0, 5.0], [13.7, -41.2, 8.3], [-250.0, 300.0, 50.0]):
+        fit = fit_directional(centers, radii, sun, np.array(camera), 1024)
+        to_relative = np.eye(4)
+        to_relative[:3, 3] = -np.asarray(camera)
+        world_maps.append(fit.map_matrix() @ to_relative)
+    for m in world_maps[1:]:
+        np.testing.assert_allclose(m, world_maps[0], rtol=0, atol=1e-9)
+
+
+def test_grazing_sun_has_neither_acne_nor_peter_panning(renderer):
+    # Sun 8 deg above the horizon from the east: the box's shadow is 28 m long; the open ground
+    # (lit) must be uniformly lit (no self-shadowing acne) and the shadow must start at the box's
+    # foot (no gap: peter-panning).
+    scene = _scene({
+        "camera": {"position": [-12, -20, 6], "heading": 20, "pitch": -14, "fov_y": 60, "width": 128, "height": 72,
+                   "exposure_ev": 12},
+        "time": {"utc": "2026-06-15T10:00:00Z", "sun_override": {"elevation": 8, "azimuth": 90}},
+        "ground": {"enabled": True, "level": 0.0, "color": [0.4, 0.4, 0.4]},
+        "entities": [{"id": "box", "model": "box", "position": [0, 0, 0], "scale": [2, 6, 4]}],
+    })
+    from igserver.render.frame import build_frame
+
+    frame = build_frame(renderer.ctx, scene)
+    sky = float(np.dot(LUMA, frame.light.sky_ambient))
+    sun = float(np.dot(LUMA, frame.light.sun_illuminance)) * math.sin(math.radians(8)) / math.pi
+    expected = sky / (sky + sun)  # shadowed / lit diffuse ground, from the frame's light inputs
+    renderer.render(scene)
+    hdr = renderer.read_hdr()
+    open_ground = [_lum(hdr, *_pixel(scene, [x, y, 0.0]), r=0) for x in (-10.0, -4.0, 2.0, 6.0) for y in (-9.0, -7.0)]
+    # no acne: no sample of the open ground is even half as dark as the shadow (view-angle and
+    # aerial-perspective differences between the samples are a few per cent)
+    assert min(open_ground) > (expected + 0.5 * (1.0 - expected)) * max(open_ground), (open_ground, expected)
+    lit = float(np.mean(open_ground))
+    foot = _lum(hdr, *_pixel(scene, [-1.3, 0.0, 0.0]), r=0)   # 0.3 m west of the box's west face
+    far = _lum(hdr, *_pixel(scene, [-8.0, 0.0, 0.0]), r=0)    # well inside the shadow
+    assert far / lit < expected + 0.05, (far, lit, expected)
+    # the shadow reaches the foot of the box: as dark there as far inside (5 % of the contrast)
+    assert foot / lit < expected + 0.05 * (1.0 - expected) + 0.05, (foot, lit, expected)

@@ -32,18 +32,48 @@ MIN_ALPHA = 2e-3  # as in common/brdf.glsl
 
 
 # --- the BRDF in float64 (the same formula as common/brdf.glsl) ------------------------------------
-def specular_albedo(base, metallic, roughness, n_dot_v):
-    """Karis' EnvBRDFApprox, as in common/brdf.glsl (per channel, clamped to [0,1])."""
-    r = np.asarray(roughness, np.float64)[..., None]
-    c0 = np.array([-1.0, -0.0275, -0.572, 0.022])
-    c1 = np.array([1.0, 0.0425, 1.04, -0.04])
-    rr = r * c0 + c1
-    a004 = np.minimum(rr[..., 0] ** 2, np.exp2(-9.28 * np.maximum(n_dot_v, 0.0))) * rr[..., 0] + rr[..., 1]
-    a = -1.04 * a004 + rr[..., 2]
-    b = 1.04 * a004 + rr[..., 3]
-    metallic = np.asarray(metallic, np.float64)[..., None]
-    f0 = 0.04 * (1.0 - metallic) + np.asarray(base, np.float64) * metallic
-    return np.clip(f0 * np.asarray(a)[..., None] + np.asarray(b)[..., None], 0.0, 1.0)
+_TABLES: dict | None = None
+
+
+def _tables() -> dict:
+    global _TABLES
+    if _TABLES is None:
+        from .brdf_tables import read_tables
+
+        _TABLES = read_tables()
+    return _TABLES
+
+
+def _bilinear(table: np.ndarray, mu, roughness):
+    """Bilinear lookup exactly as common/brdf.glsl's brdf_table (rows roughness, columns N.V)."""
+    n = table.shape[0]
+    x = np.sqrt(np.clip(np.asarray(mu, np.float64), 0.0, 1.0)) * (n - 1)
+    y = np.clip(np.asarray(roughness, np.float64), 0.0, 1.0) * (n - 1)
+    i0 = np.minimum(np.floor(x), n - 2).astype(int)
+    j0 = np.minimum(np.floor(y), n - 2).astype(int)
+    fx, fy = x - i0, y - j0
+    top = table[j0, i0] * (1 - fx) + table[j0, i0 + 1] * fx
+    bottom = table[j0 + 1, i0] * (1 - fx) + table[j0 + 1, i0 + 1] * fx
+    return top * (1 - fy) + bottom * fy
+
+
+def specular_albedo(f0, roughness, mu):
+    """E_s = F0 A + B from the tables (per channel: f0 (..., 3))."""
+    t = _tables()
+    a = _bilinear(t["A"], mu, roughness)[..., None]
+    b = _bilinear(t["B"], mu, roughness)[..., None]
+    return np.asarray(f0) * a + b
+
+
+def average_albedo(f0, roughness):
+    t = _tables()
+    n = t["A_AVG"].size
+    y = np.clip(np.asarray(roughness, np.float64), 0.0, 1.0) * (n - 1)
+    j0 = np.minimum(np.floor(y), n - 2).astype(int)
+    fy = y - j0
+    a = (t["A_AVG"][j0] * (1 - fy) + t["A_AVG"][j0 + 1] * fy)[..., None]
+    b = (t["B_AVG"][j0] * (1 - fy) + t["B_AVG"][j0 + 1] * fy)[..., None]
+    return np.asarray(f0) * a + b
 
 
 def brdf_terms(base, metallic, roughness, n_dot_v, n_dot_l, n_dot_h, v_dot_h):
@@ -65,11 +95,14 @@ def brdf_terms(base, metallic, roughness, n_dot_v, n_dot_l, n_dot_h, v_dot_h):
     lit = (np.asarray(n_dot_l) > 0.0)[..., None]
     cos_l = np.asarray(n_dot_l)[..., None]
     spec = np.where(lit, f * (ggx * vis)[..., None] * cos_l, 0.0)
-    m_l = np.clip(1.0 - np.asarray(n_dot_l, np.float64), 0.0, 1.0)[..., None]
-    f_l = f0 + (1.0 - f0) * m_l**5
-    m_v = np.clip(1.0 - np.asarray(n_dot_v, np.float64), 0.0, 1.0)[..., None]
-    f_v = f0 + (1.0 - f0) * m_v**5
-    diffuse = (1.0 - f_v) * (1.0 - f_l) * (1.0 - metallic_b) * base / math.pi
+    if np.all(np.asarray(metallic) >= 1.0):
+        diffuse = np.zeros_like(spec)
+    else:
+        f0_full = np.broadcast_to(f0, np.broadcast_shapes(np.shape(f0), spec.shape))
+        e_v = specular_albedo(f0_full, roughness, n_dot_v)
+        e_l = specular_albedo(f0_full, roughness, np.maximum(n_dot_l, 0.0))
+        e_avg = average_albedo(f0_full, roughness)
+        diffuse = (1.0 - e_v) * (1.0 - e_l) / np.maximum(1.0 - e_avg, 1e-6) * (1.0 - metallic_b) * base / math.pi
     return np.where(lit, diffuse * cos_l, 0.0), spec
 
 
@@ -87,27 +120,38 @@ def _angles_to_dots(theta_v, theta_l, phi):
     return v[..., 2], l[..., 2], h[..., 2], np.sum(v * h, -1)
 
 
+def ggx_half_vectors(roughness: float, samples: int, seed: int = 1234) -> tuple[np.ndarray, np.ndarray]:
+    """Stratified half vectors from the GGX distribution and their pdf D(h) cos(theta_h)."""
+    rng = np.random.default_rng(seed)
+    k = int(math.isqrt(samples))
+    u1 = ((np.arange(k)[:, None] + rng.random((k, k))) / k).reshape(-1)
+    u2 = ((np.arange(k)[None, :] + rng.random((k, k))) / k).reshape(-1)
+    alpha = max(roughness**2, MIN_ALPHA)
+    cos_h = np.sqrt((1.0 - u1) / (1.0 + (alpha**2 - 1.0) * u1))
+    sin_h = np.sqrt(np.maximum(1.0 - cos_h**2, 0.0))
+    phi = 2 * math.pi * u2
+    h = np.stack([sin_h * np.cos(phi), sin_h * np.sin(phi), cos_h], -1)
+    a2 = alpha**2
+    d = cos_h**2 * (a2 - 1.0) + 1.0
+    return h, (a2 / (math.pi * d * d)) * cos_h
+
+
 def directional_albedo(roughness: float, metallic: float, theta_v: float, samples: int = 2**18,
                        base=(1.0, 1.0, 1.0)) -> float:
     """Integral of brdf_cos over the light hemisphere (max over channels), importance sampled."""
     rng = np.random.default_rng(1234)
     k = int(math.isqrt(samples))
-    u1 = (np.arange(k)[:, None] + rng.random((k, k))) / k  # stratified
-    u2 = (np.arange(k)[None, :] + rng.random((k, k))) / k
-    u1, u2 = u1.reshape(-1), u2.reshape(-1)
+    u1 = ((np.arange(k)[:, None] + rng.random((k, k))) / k).reshape(-1)
+    u2 = ((np.arange(k)[None, :] + rng.random((k, k))) / k).reshape(-1)
+    phi = 2 * math.pi * u2
     base = np.asarray(base, float)
     v = np.array([math.sin(theta_v), 0.0, math.cos(theta_v)])
-    alpha = max(roughness**2, MIN_ALPHA)
-    # specular lobe: half vectors from the GGX distribution, pdf_h = D cos(theta_h)
-    cos_h = np.sqrt((1.0 - u1) / (1.0 + (alpha**2 - 1.0) * u1))
-    sin_h = np.sqrt(np.maximum(1.0 - cos_h**2, 0.0))
-    phi = 2 * math.pi * u2
-    h = np.stack([sin_h * np.cos(phi), sin_h * np.sin(phi), cos_h], -1)
+    # specular lobe: half vectors from the GGX distribution
+    h, pdf_h = ggx_half_vectors(roughness, samples)
+    cos_h = h[:, 2]
     v_dot_h = h @ v
     l = 2.0 * v_dot_h[:, None] * h - v
-    a2 = alpha**2
-    d = cos_h**2 * (a2 - 1.0) + 1.0
-    pdf_l = (a2 / (math.pi * d * d)) * cos_h / np.maximum(4.0 * v_dot_h, 1e-12)
+    pdf_l = pdf_h / np.maximum(4.0 * v_dot_h, 1e-12)
     _, spec = brdf_terms(base, metallic, roughness, v[2], l[:, 2], cos_h, v_dot_h)
     spec = spec / pdf_l[:, None]
     # diffuse lobe: cosine-weighted light directions, pdf = cos / pi
@@ -230,6 +274,7 @@ def run(argv: list[str]) -> int:
     lines += ["## Shader BRDF vs float64 numpy", "", "```", json.dumps(errs, indent=1), "```", ""]
 
     surfaces = renderer.graph.passes["surfaces"]
+    default_taps = surfaces.shadow_taps
     base = shadow_scene(width, height)
 
     def render(resolution: int, taps: int) -> tuple[np.ndarray, float]:
@@ -253,7 +298,7 @@ def run(argv: list[str]) -> int:
             table.append({"resolution": res, "taps": taps, "rel_rmse": rmse, "ms": ms})
             lines.append(f"| {res} | {taps} | {rmse:.4f} | {ms:.1f} |")
             print(lines[-1], flush=True)
-    surfaces.shadow_taps = 8
+    surfaces.shadow_taps = default_taps
     lines += ["", f"Renderer: {renderer.caps.renderer}. Times are wall time around ctx.finish() (llvmpipe has no"
               " usable timer queries); on a shared machine they are inflated.", ""]
     args.out.parent.mkdir(parents=True, exist_ok=True)

@@ -281,7 +281,7 @@ class Shadows(Strict):
     density: float = Field(1.0, ge=0.0, le=1.0, description="d_sh: 1 = a shadow removes the light, 0 = no shadow")
     color: UnitColor = Field((0.0, 0.0, 0.0), description="c_sh: linear colour a full shadow leaves of the diffuse light")
     softness: float = Field(0.1, ge=0.0, le=5.0, description="m, radius of the soft shadow edge (PCF filter on the receiver)")
-    resolution: Literal[512, 1024, 2048, 4096] = Field(2048, description="px, side of the sun/moon shadow map")
+    resolution: Literal[512, 1024, 2048, 4096] = Field(1024, description="px, side of the sun/moon shadow map")
     distance: float = Field(400.0, ge=10.0, le=5000.0, description="m, casters farther from the camera cast no shadow")
 
 

@@ -1,11 +1,13 @@
 // The one BRDF of the project (DESIGN 4.4, seed 002): metallic-roughness Cook-Torrance.
 //   Rs = D G F / (4 (N.V)(N.L)),  D = GGX/Trowbridge-Reitz,  G = height-correlated Smith,
 //   F = Schlick with F0 = 0.04 for dielectrics and base colour for metals.
-//   Rd = (1 - F(N.V)) (1 - F(N.L)) (1 - metallic) base / pi  (Shirley's coupling): light entering
-//   the surface has lost its Fresnel reflection on the way in, and again on the way out. The
-//   specular lobe's directional albedo never exceeds F(N.V) (measured), so the total reflected
-//   energy stays <= 1 at every view angle (`igserver quality surfaces`, white furnace); the common
-//   weighting of Rd by (1 - F(V.H)) instead reflects up to 1.8x the incident energy at grazing views.
+//   Rd = (1 - E_s(N.V)) (1 - E_s(N.L)) / (1 - E_avg) (1 - metallic) base / pi  (Kelemen and
+//   Szirmay-Kalos 2001): E_s is the specular lobe's own directional albedo (tabulated from this BRDF,
+//   common/brdf_tables.glsl) and E_avg its hemispherical mean, so the diffuse lobe takes exactly the
+//   energy the specular lobe leaves, at every view angle, and stays reciprocal: the white furnace
+//   reflects <= 1 (`igserver quality surfaces`). The common weighting of Rd by (1 - F(V.H)) reflects
+//   up to 1.8x the incident energy at grazing views; (1 - F(N.V))(1 - F(N.L)) darkens rough ground
+//   seen or lit at grazing angles by half.
 // Returns the BRDF times N.L, so a light contributes  E_light * brdf_cos(...).
 
 struct Material {
@@ -39,16 +41,36 @@ vec3 fresnel_schlick(float cos_theta, vec3 f0) {
     return f0 + (1.0 - f0) * (m2 * m2 * m);
 }
 
-// Directional albedo of the specular lobe (split-sum environment BRDF, Karis' analytic fit
-// "EnvBRDFApprox"): what the specular lobe reflects of uniform light from the view direction.
+#include "common/brdf_tables.glsl"
+
+// Directional albedo of the specular lobe, E_s = F0 A + B (common/brdf_tables.glsl: integrated
+// from this very BRDF in float64), bilinear in (sqrt(N.V), roughness); returns (A, B).
+vec2 brdf_table(float mu, float roughness) {
+    float x = sqrt(clamp(mu, 0.0, 1.0)) * float(BRDF_TABLE_N - 1);
+    float y = clamp(roughness, 0.0, 1.0) * float(BRDF_TABLE_N - 1);
+    int i0 = min(int(x), BRDF_TABLE_N - 2);
+    int j0 = min(int(y), BRDF_TABLE_N - 2);
+    float fx = x - float(i0), fy = y - float(j0);
+    int k = j0 * BRDF_TABLE_N + i0;
+    vec2 c00 = vec2(BRDF_TABLE_A[k], BRDF_TABLE_B[k]);
+    vec2 c10 = vec2(BRDF_TABLE_A[k + 1], BRDF_TABLE_B[k + 1]);
+    vec2 c01 = vec2(BRDF_TABLE_A[k + BRDF_TABLE_N], BRDF_TABLE_B[k + BRDF_TABLE_N]);
+    vec2 c11 = vec2(BRDF_TABLE_A[k + BRDF_TABLE_N + 1], BRDF_TABLE_B[k + BRDF_TABLE_N + 1]);
+    return mix(mix(c00, c10, fx), mix(c01, c11, fx), fy);
+}
+
+// Its cosine-weighted hemispherical mean E_avg = F0 A_avg + B_avg; returns (A_avg, B_avg).
+vec2 brdf_table_average(float roughness) {
+    float y = clamp(roughness, 0.0, 1.0) * float(BRDF_TABLE_N - 1);
+    int j0 = min(int(y), BRDF_TABLE_N - 2);
+    float fy = y - float(j0);
+    return mix(vec2(BRDF_TABLE_A_AVG[j0], BRDF_TABLE_B_AVG[j0]),
+               vec2(BRDF_TABLE_A_AVG[j0 + 1], BRDF_TABLE_B_AVG[j0 + 1]), fy);
+}
+
 vec3 specular_albedo(Material m, float n_dot_v) {
-    const vec4 c0 = vec4(-1.0, -0.0275, -0.572, 0.022);
-    const vec4 c1 = vec4(1.0, 0.0425, 1.04, -0.04);
-    vec4 r = m.roughness * c0 + c1;
-    float a004 = min(r.x * r.x, exp2(-9.28 * max(n_dot_v, 0.0))) * r.x + r.y;
-    vec2 ab = vec2(-1.04, 1.04) * a004 + r.zw;
-    vec3 f0 = mix(vec3(0.04), m.base_color, m.metallic);
-    return clamp(f0 * ab.x + ab.y, 0.0, 1.0);
+    vec2 ab = brdf_table(n_dot_v, m.roughness);
+    return mix(vec3(0.04), m.base_color, m.metallic) * ab.x + ab.y;
 }
 
 // The two lobes separately (both times N.L): the paper's shading (common/lights.glsl) weights the
@@ -67,7 +89,11 @@ BrdfTerms brdf_terms(Material m, vec3 n, vec3 v, vec3 l) {
     vec3 f0 = mix(vec3(0.04), m.base_color, m.metallic);
     vec3 f = fresnel_schlick(max(dot(v, h), 0.0), f0);
     vec3 specular = f * ggx_distribution(n, h, max(dot(n, h), 0.0), alpha) * smith_visibility(n_dot_v, n_dot_l, alpha);
-    vec3 diffuse = (1.0 - fresnel_schlick(n_dot_v, f0)) * (1.0 - fresnel_schlick(n_dot_l, f0))
+    vec2 ab_v = brdf_table(n_dot_v, m.roughness);
+    vec2 ab_l = brdf_table(n_dot_l, m.roughness);
+    vec2 ab_avg = brdf_table_average(m.roughness);
+    vec3 e_avg = f0 * ab_avg.x + ab_avg.y;
+    vec3 diffuse = (1.0 - (f0 * ab_v.x + ab_v.y)) * (1.0 - (f0 * ab_l.x + ab_l.y)) / max(1.0 - e_avg, vec3(1e-6))
                  * (1.0 - m.metallic) * m.base_color / PI;
     return BrdfTerms(diffuse * n_dot_l, specular * n_dot_l);
 }

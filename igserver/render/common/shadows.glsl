@@ -9,7 +9,7 @@
 // polygon offset, and the lookup moves the point along its normal by a fraction of a texel that
 // grows with the angle to the light (normal offset), so no large constant depth bias is needed.
 #ifndef SHADOW_TAPS
-#define SHADOW_TAPS 12
+#define SHADOW_TAPS 4
 #endif
 uniform sampler2DShadow u_key_shadow_map;
 uniform mat4 u_key_shadow_matrix;
