@@ -51,22 +51,47 @@ def test_auto_exposure_keeps_every_time_of_day_visible(renderer):
         assert 5 < luminance(rgba).mean() < 250, elevation
 
 
+def _sun_pixel_expected_and_found(renderer, scene, elevation: float, azimuth: float):
+    """Where the direction (elevation, azimuth) projects (pixel coordinates, x right, y down) and where
+    the rendered HDR radiance peaks (the centre of the pixel holding the maximum)."""
+    renderer.render(scene)
+    hdr = renderer.read_hdr()
+    assert np.isfinite(hdr).all()
+    view = make_view(scene.camera)
+    el, az = np.radians(elevation), np.radians(azimuth)
+    sun = np.array([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el), 0.0])  # ENU, heading from north
+    clip = view.view_proj @ sun
+    expect = ((clip[0] / clip[3] * 0.5 + 0.5) * scene.camera.width,
+              (1 - (clip[1] / clip[3] * 0.5 + 0.5)) * scene.camera.height)
+    lum = luminance(hdr)
+    y, x = np.unravel_index(np.argmax(lum), lum.shape)
+    return np.array(expect), np.array([x + 0.5, y + 0.5])
+
+
+# The disk (0.27 deg radius: 0.65 px at 96 px per 40 deg) is brightest at its centre (limb darkening), so
+# the peak is the pixel containing the centre: within half a pixel; 1 px allows the centre on an edge.
+SUN_PIXEL_TOLERANCE = 1.0
+
+
 def test_sun_is_where_the_ephemeris_puts_it(renderer):
     scene = tiny({"ground": {"enabled": False}, "time": {"utc": "2026-06-21T08:00:00Z"}}, 96, 96)
     state = celestial_state(scene.time.utc, scene.location.lat, scene.location.lon)
     scene = scene.model_copy(update={"camera": scene.camera.model_copy(update={
         "heading": state.sun_azimuth - 8.0, "pitch": state.sun_elevation - 5.0, "fov_y": 40.0})})
-    rgba = renderer.render(scene).rgba
-    view = make_view(scene.camera)
-    el, az = np.radians(state.sun_elevation), np.radians(state.sun_azimuth)
-    sun = np.array([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el), 0.0])
-    clip = view.view_proj @ sun
-    expect_x = (clip[0] / clip[3] * 0.5 + 0.5) * 96
-    expect_y = (1 - (clip[1] / clip[3] * 0.5 + 0.5)) * 96
-    lum = luminance(rgba)
-    y, x = np.unravel_index(np.argmax(lum), lum.shape)
-    assert abs(x + 0.5 - expect_x) < 3 and abs(y + 0.5 - expect_y) < 3
-    assert expect_x > 48 and expect_y < 48  # sun right of and above the view axis, as placed
+    expect, found = _sun_pixel_expected_and_found(renderer, scene, state.sun_elevation, state.sun_azimuth)
+    assert np.all(np.abs(found - expect) <= SUN_PIXEL_TOLERANCE), (expect, found)
+    assert expect[0] > 48 and expect[1] < 48  # sun right of and above the view axis, as placed
+
+
+@pytest.mark.parametrize("azimuth, elevation", [(250.0, 12.0), (35.0, 3.0), (160.0, 30.0)])
+def test_sun_override_puts_the_disk_where_its_direction_points(renderer, azimuth, elevation):
+    """``time.sun_override`` (elevation, azimuth: degrees, azimuth clockwise from north) pins the disk's
+    pixel: camera 8 deg left of and 4 deg below the sun, so the disk is right of and above the centre."""
+    scene = tiny({"ground": {"enabled": False}, "time": {"sun_override": {"elevation": elevation, "azimuth": azimuth}},
+                  "camera": {"heading": azimuth - 8.0, "pitch": elevation - 4.0, "fov_y": 40.0}}, 96, 96)
+    expect, found = _sun_pixel_expected_and_found(renderer, scene, elevation, azimuth)
+    assert expect[0] > 48 and expect[1] < 48
+    assert np.all(np.abs(found - expect) <= SUN_PIXEL_TOLERANCE), (expect, found)
 
 
 def test_far_from_origin_renders_like_the_origin(renderer):

@@ -16,13 +16,12 @@ from igserver.scene.model import Scene
 W, H = 64, 36
 
 
-@pytest.fixture(scope="module")
-def renderer(tmp_path_factory):
+@pytest.fixture(scope="module", autouse=True)
+def fresh_table_cache(tmp_path_factory):
+    """Tables computed (and cached) in this module's own directory: the cache test starts cold."""
     mp = pytest.MonkeyPatch()
     mp.setenv("IGSERVER_CACHE", str(tmp_path_factory.mktemp("igcache")))
-    r = Renderer()
-    yield r
-    r.release()
+    yield
     mp.undo()
 
 
@@ -63,7 +62,8 @@ def test_tables_finite_and_transmittance_monotone(renderer):
 
 def test_cache_hit_on_second_construction(renderer):
     params = scene_atmosphere(scene())
-    renderer.render(scene())
+    first = AtmosphereTables(renderer.ctx, params)  # computed (cold module cache) or loaded: saved either way
+    first.release()
     again = AtmosphereTables(renderer.ctx, params)
     try:
         assert again.from_cache and again.precompute_s == 0.0

@@ -5,26 +5,14 @@ from __future__ import annotations
 import asyncio
 import logging
 import time
-from dataclasses import dataclass, field
 
 from ..scene.model import Scene
-from .codec import Limits
 from .frames import FramePump, RenderGateway
 from .metrics import ServiceMetrics
+from .settings import ServerSettings  # noqa: F401  (re-exported: settings live in settings.py)
 from .state import StateStore
 
 log = logging.getLogger("igserver.protocol")
-
-
-@dataclass(frozen=True)
-class ServerSettings:
-    max_fps: float = 60.0  # stream render rate cap
-    keepalive_s: float = 1.0  # a static scene is re-rendered (and re-sent to MJPEG viewers) this often
-    jpeg_quality: int = 85
-    limits: Limits = field(default_factory=Limits)
-    ws_initial_credits: int = 2  # frames the server may send a WebSocket client before its first ack
-    ws_max_credits: int = 16
-    timed_passes: bool = True  # per-pass times for /metrics
 
 
 class IGRuntime:

@@ -14,7 +14,7 @@ from typing import Any, Callable
 from pydantic import ValidationError
 
 from ..scene.model import Effect, Scene
-from ..scene.patch import apply_patch
+from ..scene.patch import apply_patch, validate_wire
 from .problems import ProblemError, from_validation_error
 
 
@@ -81,7 +81,7 @@ class StateStore:
         if not isinstance(tree, dict):
             raise ProblemError("validation", "a state message must be a map", [{"pointer": "#", "detail": "expected a map"}])
         try:
-            return Scene.model_validate(tree)
+            return validate_wire(tree)
         except ValidationError as exc:
             raise from_validation_error(exc, prefix) from None
 
@@ -89,7 +89,7 @@ class StateStore:
         if not isinstance(tree, dict):
             raise ProblemError("validation", "a patch must be a map", [{"pointer": "#", "detail": "expected a map"}])
         try:
-            return apply_patch(self._scene, tree)
+            return apply_patch(self._scene, tree, strict=True)
         except ValidationError as exc:
             raise from_validation_error(exc, prefix) from None
 

@@ -104,9 +104,14 @@ class Time(Strict):
     def _aware(cls, value: datetime) -> datetime:
         if value.tzinfo is None:
             value = value.replace(tzinfo=timezone.utc)
+        # check the year after conversion: 1800-01-01T00:00+23:59 is 1799 in UTC
+        try:
+            value = value.astimezone(timezone.utc)
+        except OverflowError:
+            raise ValueError("utc year must be within 1800..2200") from None
         if not (1800 <= value.year <= 2200):
             raise ValueError("utc year must be within 1800..2200")
-        return value.astimezone(timezone.utc)
+        return value
 
 
 class Location(Strict):
@@ -129,8 +134,22 @@ class Atmosphere(Strict):
 
 
 class Precipitation(Strict):
-    type: Literal["none", "rain", "snow"] = "none"
-    rate: float = Field(0.0, ge=0.0, le=200.0, description="mm/h")
+    """Rain or snow (DESIGN §4.5; drawn by render/precip, physics in igserver/weather.py)."""
+
+    type: Literal["none", "rain", "snow"] = Field("none", description="what falls; none = no particle pass")
+    rate: float = Field(
+        0.0, ge=0.0, le=200.0, description="mm/h, liquid-water-equivalent rate (snow too); 0 = nothing falls"
+    )
+    lowers_visibility: bool = Field(
+        True,
+        description="add the rain/snow extinction to atmosphere.visibility (then the visibility of the air "
+        "alone); false = the host's visibility already includes the precipitation",
+    )
+    streak_time: float = Field(
+        1.0 / 60.0, ge=1e-3, le=0.1,
+        description="s, exposure of a streak: each particle is drawn from its position this long ago to now "
+        "(independent of frame rate and camera motion)",
+    )
 
 
 class Weather(Strict):

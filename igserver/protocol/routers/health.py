@@ -4,10 +4,9 @@ from __future__ import annotations
 
 import time
 
-from fastapi import APIRouter
+from fastapi import APIRouter, Request, Response
 from fastapi.responses import JSONResponse, PlainTextResponse
 
-from .. import metrics as metrics_module
 from ..dependencies import Runtime
 from ..models import Health, Ready
 from ..problems import PROBLEM_BASE, PROBLEM_KINDS, ProblemError
@@ -43,9 +42,11 @@ async def ready(runtime: Runtime):
     return JSONResponse(body.model_dump(), status_code=200 if body.ready else 503)
 
 
-@router.get("/metrics", response_class=PlainTextResponse, summary="Prometheus metrics", tags=["metrics"])
-async def metrics(runtime: Runtime) -> PlainTextResponse:
-    return PlainTextResponse(runtime.metrics.exposition(), media_type=metrics_module.CONTENT_TYPE)
+@router.get("/metrics", response_class=PlainTextResponse, summary="Prometheus metrics (text 0.0.4 or OpenMetrics)",
+            tags=["metrics"], responses={200: {"content": {"application/openmetrics-text": {}}}})
+async def metrics(request: Request, runtime: Runtime) -> Response:
+    body, media_type = runtime.metrics.exposition(request.headers.get("accept"))
+    return Response(body, media_type=media_type)
 
 
 @router.get(PROBLEM_BASE + "{kind}", summary="What a problem type means", tags=["problems"])

@@ -40,6 +40,21 @@ float range_window(float d, float range) {
     return w * w;
 }
 
+// Illuminance (lux per channel) that light i casts at p on a plane facing it; l: unit, toward it.
+// Surfaces weight it by the BRDF, particles (rain, snow) by their phase function.
+vec3 light_illuminance(int i, vec3 p, out vec3 l) {
+    vec3 to_light = u_light_pos[i].xyz - p;
+    float d2 = max(dot(to_light, to_light), 1e-4);
+    float d = sqrt(d2);
+    l = to_light / d;
+    float factor = range_window(d, u_light_pos[i].w) / d2;  // cd -> lux
+    if (u_light_color[i].w > 0.5) {  // spot cone
+        float c = dot(-l, u_light_dir[i].xyz);
+        factor *= smoothstep(u_light_dir[i].w, u_light_cos_inner[i], c);
+    }
+    return u_light_color[i].rgb * factor;
+}
+
 // One light of illuminance e (lux per channel at the point, before N.L) with blocked fraction f.
 vec3 shadowed_light(Material m, vec3 n, vec3 v, vec3 l, vec3 e, float f) {
     BrdfTerms t = brdf_terms(m, n, v, l);
@@ -66,19 +81,12 @@ vec3 shade_surface_ao(Material m, vec3 p, vec3 n, vec3 v, float ao) {
     if (u_moon_dir.z > -0.1)
         radiance += shadowed_light(m, n, v, u_moon_dir, u_moon_illuminance, light_shadow(MOON_LIGHT, p, n, u_moon_dir));
     for (int i = 0; i < u_light_count; ++i) {
-        vec3 to_light = u_light_pos[i].xyz - p;
-        float d2 = max(dot(to_light, to_light), 1e-4);
-        float range = u_light_pos[i].w;
-        if (d2 >= range * range) continue;
-        float d = sqrt(d2);
-        vec3 l = to_light / d;
-        float factor = range_window(d, range) / d2;  // cd -> lux
-        if (u_light_color[i].w > 0.5) {  // spot cone
-            float c = dot(-l, u_light_dir[i].xyz);
-            factor *= smoothstep(u_light_dir[i].w, u_light_cos_inner[i], c);
-        }
-        if (factor <= 0.0 || dot(n, l) <= 0.0) continue;
-        radiance += shadowed_light(m, n, v, l, u_light_color[i].rgb * factor, light_shadow(i, p, n, l));
+        vec3 d = u_light_pos[i].xyz - p;
+        if (dot(d, d) >= u_light_pos[i].w * u_light_pos[i].w) continue;  // out of range: no cost
+        vec3 l;
+        vec3 e = light_illuminance(i, p, l);
+        if (max(e.r, max(e.g, e.b)) <= 0.0 || dot(n, l) <= 0.0) continue;
+        radiance += shadowed_light(m, n, v, l, e, light_shadow(i, p, n, l));
     }
     return radiance;
 }
