@@ -218,3 +218,15 @@ def test_render_survives_a_model_the_loader_cannot_read(renderer, monkeypatch):
     renderer.render(scene)
     assert not np.array_equal(renderer.read_hdr(), with_broken)  # loads again once readable
     assert "barrel" not in surfaces.models.problems
+
+
+def test_committed_demo_models_are_the_generator_output(tmp_path):
+    """The repository carries the generator; the shipped .glb files are exactly what it writes."""
+    from pathlib import Path
+
+    from igserver.assets import demo_models
+
+    packaged = Path(demo_models.__file__).resolve().parent / "models"
+    for name in ("crate", "barrel"):  # the cheap ones; all five use the same deterministic path
+        data = demo_models.MODELS[name]().export(file_type="glb")
+        assert data == (packaged / f"{name}.glb").read_bytes(), name
