@@ -1,13 +1,12 @@
 """Fuzz the served OpenAPI document with schemathesis, bounded in time: no 5xx, answers as documented.
 
-In the suite: 15 s, the operations that do not wait for a render (a frame of a fuzzed state can take a
+In the suite: 10 s, the operations that do not wait for a render (a frame of a fuzzed state can take a
 table precompute of tens of seconds on llvmpipe: that is the render budget's business, not the edge's).
 The longer run, over every operation (README, "Fuzzing"):
 
     .venv/bin/igserver serve --scene sky_only --port 8711 --width 64 --height 36 &
-    .venv/bin/st run http://127.0.0.1:8711/openapi.json --checks not_a_server_error,status_code_conformance,\\
-        content_type_conformance,response_headers_conformance,unsupported_method,allow_header_conformance \\
-        --exclude-path /v1/stream.mjpg --request-timeout 120 --max-time 600 -w 1
+    .venv/bin/st run http://127.0.0.1:8711/openapi.json --checks all --exclude-checks positive_data_acceptance,use_after_free \\
+        --exclude-path /v1/stream.mjpg --request-timeout 120 --max-response-time 120 --max-time 600 -w 1
 """
 
 from __future__ import annotations
@@ -24,9 +23,10 @@ from igserver.protocol.runtime import ServerSettings
 from igserver.protocol.testing import LoopbackServer
 from igserver.scene import Scene
 
-CHECKS = ("not_a_server_error,status_code_conformance,content_type_conformance,response_headers_conformance,"
-          "unsupported_method,allow_header_conformance")
-FUZZ_SECONDS = 15
+# every check but positive_data_acceptance: some valid-looking states are refused for rules a JSON Schema
+# cannot say (unique effect ids, frustum top above bottom), and that 422 is right
+EXCLUDED_CHECKS = "positive_data_acceptance"
+FUZZ_SECONDS = 10
 
 
 @pytest.fixture(scope="module")
@@ -49,7 +49,7 @@ def server(tmp_path_factory):
 def test_schemathesis_finds_no_server_error(server, tmp_path):
     st = Path(sys.executable).with_name("st")
     command = [
-        str(st), "run", f"{server.url}/openapi.json", "--checks", CHECKS,
+        str(st), "run", f"{server.url}/openapi.json", "--checks", "all", "--exclude-checks", EXCLUDED_CHECKS,
         "--exclude-path-regex", r"^/v1/(stream\.mjpg|frame|render)$",
         "--max-time", str(FUZZ_SECONDS), "-w", "1", "--phases", "examples,coverage,fuzzing",
         "--request-timeout", "30", "--generation-database", "none", "--no-color",
@@ -62,4 +62,6 @@ def test_schemathesis_finds_no_server_error(server, tmp_path):
     print(f"schemathesis: {generated} test cases")  # the count the issue's closing note asks for
     assert "not_a_server_error" not in output and "Server error" not in output, output[-4000:]
     assert result.returncode == 0, output[-4000:]
-    assert generated >= 50  # independent floor: ~15 operations, a few cases each, even on a loaded machine
+    operations = int(re.search(r"Operations:\s+(\d+) selected", output).group(1))
+    assert operations >= 12  # every route but the three that wait for frames
+    assert generated >= operations  # at least one case each (hundreds on a quiet machine: 401 in 15 s against a standalone server)

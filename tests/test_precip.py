@@ -174,3 +174,20 @@ def test_snow_in_the_picture_is_slower_and_whiter_than_rain(renderer):
         return (img[1:] * img[:-1]).sum() / (img * img).sum()
     rain_c = contribution(renderer, scene({"weather": {"precipitation": {"rate": 20.0}}}))
     assert vertical_corr(c) < vertical_corr(rain_c)
+
+
+def test_a_searchlight_lights_the_rain_in_its_beam(renderer):
+    """At night a spot light pointing straight down 8 m ahead lights the drops inside its cone
+    (the beam shows as a bright column of streaks); the rest of the rain stays dark."""
+    night = scene({
+        "time": {"sun_override": {"elevation": -30.0, "azimuth": 180.0}},
+        "camera": {"exposure_ev": 2.0},
+        "lights": [{"id": "searchlight", "type": "spot", "position": [0.0, 8.0, 16.0], "pitch": -90.0,
+                    "intensity": 2e5, "range": 200.0, "cone_inner": 8.0, "cone_outer": 12.0}],
+    })
+    c = contribution(renderer, night)
+    # The cone is ~1.3 m wide at the camera's height, 8 m away: +-5 deg, ~+-12 px about the centre
+    # column of a 40 deg (90 px) view; outside +-35 px no drop is in the beam.
+    beam = c[:, 72:88].mean()
+    outside = np.concatenate([c[:, :40], c[:, 120:]], axis=1).mean()
+    assert beam > 0.0 and beam > 10.0 * max(outside, 0.0), (beam, outside)

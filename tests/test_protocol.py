@@ -36,6 +36,8 @@ def small_scene(**extra) -> Scene:
 @pytest.fixture(scope="module")
 def server():
     with LoopbackServer(small_scene(), ServerSettings(keepalive_s=0.25)) as srv:
+        # a frozen IG clock: these tests compare states and count frames, which a running sim_time changes
+        httpx.patch(srv.url + "/v1/clock", json={"paused": True}).raise_for_status()
         yield srv
 
 

@@ -30,6 +30,8 @@ def pack(value) -> bytes:
 def server():
     scene = Scene.model_validate({"camera": {"width": W, "height": H}, "atmosphere": {"model": "gradient"}})
     with LoopbackServer(scene, ServerSettings(keepalive_s=0.25)) as srv:
+        # a frozen IG clock: these tests compare states and count frames, which a running sim_time changes
+        httpx.patch(srv.url + "/v1/clock", json={"paused": True}).raise_for_status()
         yield srv
 
 

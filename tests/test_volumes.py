@@ -266,15 +266,16 @@ def test_sixteen_effects(renderer):
     assert renderer.graph.passes["volumes"].stats["modelled"] == 18
 
 
-def test_profile_image_accepted(renderer, tmp_path, no_fire_lights):
+def test_profile_image_accepted(renderer, tmp_path, no_fire_lights, monkeypatch):
     from PIL import Image
 
     img = np.zeros((64, 32, 4), np.uint8)
     img[16:, 8:24] = (255, 80, 10, 255)  # a block of orange from the bottom to 3/4 height
-    path = tmp_path / "profile.png"
-    Image.fromarray(img).save(path)
+    (tmp_path / "profiles").mkdir()
+    Image.fromarray(img).save(tmp_path / "profiles" / "block.png")
+    monkeypatch.setenv("IGSERVER_ASSETS", str(tmp_path))  # profiles are named assets (no paths on the wire)
     _, bg = render_hdr(renderer, fire_scene(effects=[]))
-    _, hdr = render_hdr(renderer, fire_scene(effects=[{"id": "p", "diameter": 2.0, "profile": str(path)}]))
+    _, hdr = render_hdr(renderer, fire_scene(effects=[{"id": "p", "diameter": 2.0, "profile": "block"}]))
     covered = np.abs(hdr - bg).sum(-1) > 1e-2
     assert covered.mean() > 0.01 and np.all(np.isfinite(hdr))
     assert hdr[covered][:, 0].mean() > 2.0 * hdr[covered][:, 2].mean()

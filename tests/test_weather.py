@@ -140,6 +140,12 @@ def test_particle_count_follows_the_rate_and_the_cap_bounds_the_cost():
     settings = PrecipSettings()
     counts = [particle_count("rain", r, settings) for r in (0.5, 2.0, 10.0, 50.0)]
     assert counts == sorted(counts) and counts[0] < counts[-1] / 4
+    # Snow too, over the whole accepted range (Gunn-Marshall alone would turn over beyond its data).
+    rates = np.geomspace(0.01, 200.0, 40)
+    snow = [visible_number_density("snow", r) for r in rates]
+    assert all(b > a for a, b in zip(snow, snow[1:]))
+    beta = [precipitation_extinction("snow", r) for r in rates]
+    assert all(b > a for a, b in zip(beta, beta[1:]))
     # Drawn streaks = rate-proportional number density x visible volume: follow the rate until the cap.
     pool = ParticlePool()
     streaks = []
@@ -215,3 +221,43 @@ def test_tiles_cover_the_view_out_to_the_fade_and_lod_thins_far_tiles():
     assert np.all(np.linalg.norm(centres, axis=1) < settings.fade("rain") + settings.tile_size)
     levels = tile_levels(tiles, settings.tile_size, settings.lod_distance)
     assert levels.min() == 0 and levels.max() >= 2
+
+
+def test_streak_is_the_exposure_not_the_frame_interval():
+    """Any frame rate: the streak of a drop of diameter D is (wind, -v(D)) x streak_time, whatever
+    time passed since the previous frame (the particles carry no state between frames)."""
+    settings, pool = PrecipSettings(), ParticlePool()
+    for T in (0.005, 1 / 60, 0.1):
+        scene = tiny({"weather": {"wind_speed": 3.0, "wind_direction": 270.0,
+                                  "precipitation": {"type": "rain", "rate": 5.0, "streak_time": T}},
+                      "time": {"sim_time": 77.0}})
+        frame = particle_frame(scene, make_view(scene.camera), settings, pool)
+        d_mm = frame.diameters * 1e3
+        np.testing.assert_allclose(frame.streaks[:, 0], 3.0 * T, rtol=1e-12)
+        np.testing.assert_allclose(frame.streaks[:, 2], -fall_speed("rain", d_mm) * T, rtol=1e-9)
+
+
+@pytest.mark.parametrize("bad, path", [
+    ({"rate": -1.0}, "weather.precipitation.rate"), ({"rate": 201.0}, "weather.precipitation.rate"),
+    ({"type": "hail"}, "weather.precipitation.type"), ({"streak_time": 0.0}, "weather.precipitation.streak_time"),
+    ({"streak_time": float("nan")}, "weather.precipitation.streak_time"),
+])
+def test_bad_precipitation_is_rejected_naming_the_field(bad, path):
+    from pydantic import ValidationError
+
+    from igserver.scene import Scene
+    with pytest.raises(ValidationError) as err:
+        Scene.model_validate({"weather": {"precipitation": bad}})
+    assert path in {".".join(str(p) for p in e["loc"]) for e in err.value.errors()}
+
+
+@pytest.mark.parametrize("kind", ["rain", "snow"])
+@pytest.mark.parametrize("rate", [1e-30, 1e-6, 200.0])
+def test_extreme_rates_stay_finite(kind, rate):
+    scene = tiny({"weather": {"wind_speed": 80.0, "precipitation": {"type": kind, "rate": rate}},
+                  "time": {"sim_time": 1e12}})
+    frame = particle_frame(scene, make_view(scene.camera), PrecipSettings(), ParticlePool())
+    for array in (frame.positions, frame.streaks, frame.diameters):
+        assert np.all(np.isfinite(array))
+    assert frame.streak_count <= PrecipSettings().max_streaks
+    assert math.isfinite(effective_visibility(scene)) and effective_visibility(scene) >= 50.0

@@ -5,6 +5,7 @@ Routes (details in OpenAPI at /docs and /openapi.json):
   GET|PUT|PATCH /v1/state
   GET /v1/frame, POST /v1/render, GET /v1/stream.mjpg, WS /v1/ws
   GET|POST /v1/effects, GET|PATCH|DELETE /v1/effects/{id}
+  GET|PATCH /v1/clock
   GET /  (viewer page)
 """
 
@@ -27,7 +28,7 @@ from ..scene.model import Scene
 from .codec import MSGPACK, PROBLEM_JSON, PROBLEM_MSGPACK, encode, negotiate
 from .openapi import complete_schema
 from .problems import ProblemError, json_pointer
-from .routers import docs, effects, frames, health, state, viewer, ws
+from .routers import clock, docs, effects, frames, health, state, viewer, ws
 from .runtime import IGRuntime
 from .security import EdgeGuard
 from .settings import ServerSettings
@@ -130,7 +131,7 @@ def create_app(
     )
     app.state.runtime = runtime
     _install_error_handlers(app)
-    for module in (health, state, frames, ws, effects, viewer, docs):
+    for module in (health, state, frames, ws, effects, clock, viewer, docs):
         app.include_router(module.router)
     app.add_middleware(EdgeGuard, settings=runtime.settings)
 

@@ -28,11 +28,11 @@ class Limits(BaseModel, frozen=True):
     """Bounds on a message body, checked before the scene model sees it (settings: IGSERVER_LIMITS__*)."""
 
     # a full scene with every list at its maximum is ~150 KiB
-    max_body_bytes: int = Field(1 << 20, ge=1024, description="body bytes")
-    max_depth: int = Field(16, ge=4, le=64, description="nesting depth of maps and arrays")
-    max_string: int = Field(4096, ge=64, description="string length")
-    max_array: int = Field(1024, ge=16, description="array length")
-    max_map: int = Field(256, ge=16, description="keys in one map")
+    max_body_bytes: int = Field(1 << 20, ge=1, description="body bytes")
+    max_depth: int = Field(16, ge=1, le=64, description="nesting depth of maps and arrays")
+    max_string: int = Field(4096, ge=1, description="string length")
+    max_array: int = Field(1024, ge=1, description="array length")
+    max_map: int = Field(256, ge=1, description="keys in one map")
 
 
 DEFAULT_LIMITS = Limits()

@@ -57,6 +57,14 @@ class ServerSettings(BaseSettings):
     ws_initial_credits: int = Field(2, ge=0, le=1024, description="frames a WebSocket client gets before its first ack")
     ws_max_credits: int = Field(16, ge=1, le=1024, description="most credits a WebSocket client may hold")
     timed_passes: bool = Field(True, description="time each render pass for /metrics")
+    animation_fps: float = Field(
+        30.0, gt=0, le=1000, description="stream render rate while the IG clock runs (sim_time animates the scene)")
+    render_timeout_s: float = Field(
+        30.0, gt=0, le=3600,
+        description="a render silent this long (s; no frame, no progress) is abandoned and its state falls back")
+    watchdog_interval_s: float = Field(0.5, gt=0, le=60, description="how often the render process's liveness is checked (s)")
+    max_raw_frame_bytes: int = Field(
+        32 * 2**20, ge=0, description="raw (RGBA) frames above this are refused (413): ask for jpeg or png")
 
     @field_validator("allowed_hosts", "allowed_origins", mode="before")
     @classmethod

@@ -2,9 +2,11 @@
 rain/snow particles against run time (DESIGN §6).
 
 Knobs: drops per streak m (the particle count per cube is the visible drops in it over m, so the
-drawn count goes like 1/m) x cube (tile) size L. Reference: the same frame with m = 2 and 8 m cubes
-and no cost cap: 32x the default particle count; the default's particles are a subset of the
-reference's (the pool is prefix-stable), so the error is the thinning's, not another random draw's.
+drawn count goes like 1/m) x cube (tile) size L. Reference: the same frame with m = 8 and 8 m cubes
+and no cost cap: 8x the default particle count. Not denser: the HDR target is half float, and a
+streak standing for fewer than ~8 drops has an opacity (~1e-4 at 30 m) below half-float resolution of
+what lies behind it, so its blend rounds away - the m = 2 frame has ~30 % less rain than m = 8..64,
+which agree within ~8 % (measured on a day sky, rain 8 mm/h).
 
 What is measured, on the precipitation's own contribution (frame minus the same frame dry):
   * bias: mean contribution / reference mean - 1. The opacity of a streak carries its m drops,
@@ -14,11 +16,12 @@ What is measured, on the precipitation's own contribution (frame minus the same 
   * rmse: per-pixel 8-bit sRGB RMSE: the graininess (fewer, bolder streaks);
   * block cv: coefficient of variation of the contribution over 32x32 px blocks, against the
     reference's (uniformity: an empty slab or a sparse level shows as a high cv).
-Time: median ms of the precipitation pass (CPU particle update + light compute + streak draw) over
-frames with advancing sim_time.
+Every statistic is the mean over --frames frames 1/30 s apart (one frame's bias is dominated by
+the few bright streaks near a lamp). Time: median ms of the precipitation pass (CPU particle update
++ light compute + streak draw) over the same frames.
 
-Usage: igserver quality weather [--out out/quality_weather.md] [--size 640x360] [--frames 3]
-       [--drops 8,16,32,64,128,256] [--tiles 2,4,8] [--scene rain_harbour|snow]
+Usage: igserver quality weather [--out out/quality_weather.md] [--size 640x360] [--frames 4]
+       [--drops 16,32,64,128,256] [--tiles 2,4,8] [--scene rain_harbour|snow]
 """
 
 from __future__ import annotations
@@ -32,10 +35,14 @@ import numpy as np
 
 from .volumes import box_blur
 
-REFERENCE_DROPS = 2.0
+REFERENCE_DROPS = 8.0
 REFERENCE_TILE = 8.0
-LOWPASS_LIMIT = 1.0  # 8-bit levels: a rain-density error below one level is invisible
-BIAS_LIMIT = 0.1
+# The default is the best point (lowest lowpass error) within a cost budget and a bias limit.
+# Budget: 12 000 streaks, ~15 ms of a quiet 2-core llvmpipe at 640x360 (a fifth of a demo frame);
+# the cost is ~linear in the streak count. Bias: 15 %, below the uncertainty of the rate ->
+# drop-spectrum relation itself (measured spectra scatter by more around Marshall-Palmer).
+STREAK_BUDGET = 12_000
+BIAS_LIMIT = 0.15
 
 
 def _luminance(hdr: np.ndarray) -> np.ndarray:
@@ -49,15 +56,15 @@ def block_cv(contribution: np.ndarray, block: int = 32) -> float:
 
 
 def run(argv: list[str]) -> int:
-    from ..render.precip.particles import PrecipSettings
+    from ..render.precip.particles import PrecipSettings, particle_count
     from ..render.renderer import Renderer
     from ..scene import apply_patch, load_scene
 
     ap = argparse.ArgumentParser(prog="igserver quality weather")
     ap.add_argument("--out", default="out/quality_weather.md")
     ap.add_argument("--size", default="640x360")
-    ap.add_argument("--frames", type=int, default=3)
-    ap.add_argument("--drops", default="8,16,32,64,128,256")
+    ap.add_argument("--frames", type=int, default=4)
+    ap.add_argument("--drops", default="16,32,64,128,256")
     ap.add_argument("--tiles", default="2,4,8")
     ap.add_argument("--scene", default="rain_harbour")
     args = ap.parse_args(argv)
@@ -80,35 +87,41 @@ def run(argv: list[str]) -> int:
         result = renderer.render(s, timed=True)
         return result, renderer.read_hdr()
 
-    dry = scene.model_copy(update={"weather": scene.weather.model_copy(update={
-        "precipitation": scene.weather.precipitation.model_copy(update={"type": "none"})})})
-    dry_result, dry_hdr = frame(dry, default)
-    ref_result, ref_hdr = frame(scene, settings(REFERENCE_DROPS, REFERENCE_TILE, cap=10**9))
+    times = [scene.time.sim_time + i / 30.0 for i in range(args.frames)]
+    at = [apply_patch(scene, {"time": {"sim_time": t}}) for t in times]
+    dry = [apply_patch(s, {"weather": {"precipitation": {"type": "none"}}}) for s in at]
+    dry_hdr = [frame(s, default)[1] for s in dry]
+    reference = settings(REFERENCE_DROPS, REFERENCE_TILE, cap=10**9)
+    ref = []  # per frame: (8-bit rgb, contribution luminance, ms)
+    for s, d in zip(at, dry_hdr):
+        result, hdr = frame(s, reference)
+        ref.append((result.rgba[..., :3].astype(np.float64), _luminance(hdr - d), result.pass_ms["precip"]))
     ref_streaks = ppass.stats["streaks"]
-    ref_contrib = _luminance(ref_hdr - dry_hdr)
-    ref_mean = float(np.abs(ref_contrib).mean())
-    ref_cv = block_cv(ref_contrib)
-    ref_rgb = ref_result.rgba[..., :3].astype(np.float64)
+    ref_mean = float(np.mean([np.abs(c).mean() for _, c, _ in ref]))
+    ref_cv = float(np.mean([block_cv(c) for _, c, _ in ref]))
+    ref_ms = statistics.median(ms for _, _, ms in ref)
 
     rows = []
     for tile in tiles:
         for m in drops:
             config = settings(m, tile)
-            result, hdr = frame(scene, config)
+            frame(at[0], config)  # warm-up: programs, buffers
+            means, lows, rmses, cvs, ms = [], [], [], [], []
+            for s, d, (ref_rgb, _, _) in zip(at, dry_hdr, ref):
+                result, hdr = frame(s, config)
+                contrib = _luminance(hdr - d)
+                rgb = result.rgba[..., :3].astype(np.float64)
+                means.append(np.abs(contrib).mean())
+                lows.append(np.sqrt(np.mean((box_blur(rgb) - box_blur(ref_rgb)) ** 2)))
+                rmses.append(np.sqrt(np.mean((rgb - ref_rgb) ** 2)))
+                cvs.append(block_cv(contrib))
+                ms.append(result.pass_ms["precip"])
             stats = dict(ppass.stats)
-            contrib = _luminance(hdr - dry_hdr)
-            rgb = result.rgba[..., :3].astype(np.float64)
-            ms = []
-            for i in range(args.frames):
-                moving = apply_patch(scene, {"time": {"sim_time": scene.time.sim_time + (i + 1) / 30.0}})
-                ms.append(frame(moving, config)[0].pass_ms["precip"])
             rows.append({
                 "drops_per_streak": m, "tile": tile, "particles_per_tile": stats["particles"],
-                "streaks": stats["streaks"], "capped": stats["drops_per_streak"] > m * 1.01,
-                "bias": float(np.abs(contrib).mean()) / ref_mean - 1.0,
-                "lowpass": float(np.sqrt(np.mean((box_blur(rgb) - box_blur(ref_rgb)) ** 2))),
-                "rmse": float(np.sqrt(np.mean((rgb - ref_rgb) ** 2))),
-                "block_cv": block_cv(contrib), "ms": statistics.median(ms),
+                "streaks": stats["streaks"], "capped": stats["particles"] < particle_count(kind, scene.weather.precipitation.rate, config),
+                "bias": float(np.mean(means)) / ref_mean - 1.0, "lowpass": float(np.mean(lows)),
+                "rmse": float(np.mean(rmses)), "block_cv": float(np.mean(cvs)), "ms": statistics.median(ms),
             })
             r = rows[-1]
             print(f"L {tile:4.1f} m {m:6.1f}  particles/tile {r['particles_per_tile']:6d}  streaks {r['streaks']:7d}  "
@@ -116,18 +129,18 @@ def run(argv: list[str]) -> int:
                   f"cv {r['block_cv']:.2f}  ms {r['ms']:7.1f}", flush=True)
     ppass.settings = PrecipSettings()
 
-    good = [r for r in rows if r["lowpass"] <= LOWPASS_LIMIT and abs(r["bias"]) <= BIAS_LIMIT]
-    choice = min(good, key=lambda r: r["ms"]) if good else min(rows, key=lambda r: r["lowpass"])
+    good = [r for r in rows if r["streaks"] <= STREAK_BUDGET and abs(r["bias"]) <= BIAS_LIMIT]
+    choice = min(good or rows, key=lambda r: r["lowpass"])
     report = {"renderer": renderer.caps.renderer, "scene": args.scene, "kind": kind, "size": f"{width}x{height}",
               "reference": {"drops_per_streak": REFERENCE_DROPS, "tile": REFERENCE_TILE, "streaks": ref_streaks,
-                            "block_cv": ref_cv, "ms": ref_result.pass_ms["precip"]},
+                            "block_cv": ref_cv, "ms": ref_ms},
               "rows": rows, "recommended": choice,
               "default": {"drops_per_streak": default.drops(kind), "tile": default.tile_size}}
     lines = [
         f"# Precipitation: error against run time ({args.scene}, {kind}, {width}x{height}, {renderer.caps.renderer})",
         "",
         f"Reference: {REFERENCE_DROPS:g} drops per streak, {REFERENCE_TILE:g} m cubes, no cap: {ref_streaks} streaks, "
-        f"{ref_result.pass_ms['precip']:.0f} ms; block cv {ref_cv:.2f}.",
+        f"{ref_ms:.0f} ms; block cv {ref_cv:.2f}. Statistics: mean over {args.frames} frames 1/30 s apart.",
         "bias = mean contribution vs reference; lowpass/rmse in 8-bit sRGB (lowpass: 9x9 blur); "
         "cv = spread of the contribution over 32 px blocks; ms = precipitation pass (median).",
         "",
@@ -139,7 +152,9 @@ def run(argv: list[str]) -> int:
         cap = " (cap)" if r["capped"] else ""
         lines.append(f"| {r['tile']:g} | {r['drops_per_streak']:g} | {r['particles_per_tile']} | {r['streaks']}{cap} | "
                      f"{r['bias']:+.3f} | {r['lowpass']:.2f} | {r['rmse']:.2f} | {r['block_cv']:.2f} | {r['ms']:.1f}{mark} |")
-    lines += ["", f"Recommended (cheapest with lowpass <= {LOWPASS_LIMIT} and |bias| <= {BIAS_LIMIT}): "
+    rule = (f"lowest lowpass with <= {STREAK_BUDGET} streaks and |bias| <= {BIAS_LIMIT}" if good
+            else "no row within the budget: the lowest lowpass error")
+    lines += ["", f"Recommended ({rule}): "
                   f"{choice['drops_per_streak']:g} drops per streak, {choice['tile']:g} m cubes. "
                   f"Default in use: {default.drops(kind):g} drops per streak, {default.tile_size:g} m cubes."]
     text = "\n".join(lines) + "\n"

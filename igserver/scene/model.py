@@ -15,7 +15,10 @@ import math
 from datetime import datetime, timezone
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic_core import InitErrorDetails, PydanticCustomError
+
+from ..assets import ASSET_NAME_PATTERN, AssetError, resolve_asset
 
 from ..assets import ASSET_NAME_PATTERN
 
@@ -191,10 +194,25 @@ class Effect(Strict):
     fade: float = Field(3.0, ge=0.0, le=600.0, description="s, fade-in/out duration")
     emits_smoke: bool = Field(False, description="fire also emits a smoke plume")
     seed: int = Field(1, ge=0, le=2**31 - 1, description="random seed of noise and flicker")
-    profile: str | None = Field(None, max_length=1024, description="optional profile image file")
+    profile: str | None = Field(
+        None, pattern=ASSET_NAME_PATTERN, description="optional profile: the name of a `profiles` asset (PNG; "
+        "a name, never a path: see README, Assets)"
+    )
     changed_at: float | None = Field(
         None, ge=0.0, le=1e12, description="s, sim_time of the last activate/deactivate (set by the IG)"
     )
+
+
+    @field_validator("profile")
+    @classmethod
+    def _profile_asset(cls, value: str | None) -> str | None:
+        # the host names an asset; the server's asset directory decides which file (DESIGN §7b)
+        if value is not None:
+            try:
+                resolve_asset("profiles", value, (".png",))
+            except AssetError as exc:
+                raise ValueError(str(exc)) from None
+        return value
 
 
 class Flicker(Strict):
@@ -356,6 +374,19 @@ class Scene(Strict):
     @classmethod
     def _entity_ids(cls, v):
         return _unique_ids(v, "entity")
+
+    # -- render budget (svc-runtime): every accepted state renders within a bounded cost (scene/budget.py)
+    @model_validator(mode="after")
+    def _within_budget(self):
+        from .budget import over_budget
+
+        problems = over_budget(self)
+        if problems:
+            raise ValidationError.from_exception_data("Scene", [
+                InitErrorDetails(type=PydanticCustomError("over_budget", message), loc=loc, input=None)
+                for loc, message in problems
+            ])
+        return self
 
 
 def is_finite_tree(value) -> bool:

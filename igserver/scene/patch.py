@@ -30,7 +30,8 @@ def validate_wire(tree: Any) -> Scene:
     strict mode: the same rules for msgpack and JSON callers, and ISO strings still parse as times.
     TOML files and ``--set`` values are not wire input: they keep the lax ``Scene.model_validate``.
     """
-    return Scene.model_validate_json(json.dumps(_integral_floats_as_ints(tree), allow_nan=False), strict=True)
+    # NaN/Infinity pass through as JSON's non-standard literals so the model reports them (finite_number)
+    return Scene.model_validate_json(json.dumps(_integral_floats_as_ints(tree)), strict=True)
 
 
 def _integral_floats_as_ints(node: Any) -> Any:

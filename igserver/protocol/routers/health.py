@@ -6,12 +6,22 @@ import time
 
 from fastapi import APIRouter, Request, Response
 from fastapi.responses import JSONResponse, PlainTextResponse
+from pydantic import Field
 
 from ..dependencies import Runtime
 from ..models import Health, Ready
 from ..problems import PROBLEM_BASE, PROBLEM_KINDS, ProblemError
 
 router = APIRouter(tags=["health"])
+
+
+class ReadyReport(Ready):
+    """/v1/ready: ready means a frame can be served now within the normal frame time."""
+
+    progress: dict | None = Field(None, description="table precompute in progress: {phase, fraction 0..1, elapsed_s}")
+    last_precompute: dict | None = Field(None, description="the last finished precompute: {phase, elapsed_s}")
+    unresponsive: str | None = Field(None, description="the watchdog's finding while the render process does not answer")
+    fault: dict | None = Field(None, description="the last abandoned state: {revision, detail, fallback_revision}")
 
 
 @router.get("/v1/health", response_model=Health, summary="The server process is alive")
@@ -21,15 +31,18 @@ async def health(runtime: Runtime) -> Health:
 
 @router.get(
     "/v1/ready",
-    response_model=Ready,
-    summary="The render process is up (renderer, GL version); 503 while starting or restarting",
-    responses={503: {"model": Ready, "description": "render process not ready"}},
+    response_model=ReadyReport,
+    summary="A frame can be served in normal frame time (first frame and its table precompute done, render "
+    "process answering); 503 while starting, precomputing, stopped or restarting, with the reason and progress",
+    responses={503: {"model": ReadyReport, "description": "not ready"}},
 )
 async def ready(runtime: Runtime):
     # info() reads attributes only (no lock): answers at once even while a restart is in progress
-    info = runtime.service.info()
-    body = Ready(
-        ready=bool(info.get("ready")),
+    service = runtime.service
+    info = service.info()
+    reason = runtime.not_ready_reason()
+    body = ReadyReport(
+        ready=reason is None,
         renderer=info.get("renderer"),
         gl_version=info.get("version"),
         software=info.get("software"),
@@ -37,7 +50,11 @@ async def ready(runtime: Runtime):
         pid=info.get("pid"),
         frames=info.get("frames", 0),
         revision=runtime.store.revision,
-        error=None if info.get("ready") else (runtime.pump.last_error or runtime.start_error),
+        error=reason,
+        progress=service.progress,
+        last_precompute=service.last_progress and {k: service.last_progress[k] for k in ("phase", "elapsed_s")},
+        unresponsive=runtime.unresponsive_now() if info.get("ready") else None,
+        fault=runtime.gateway.fault,
     )
     return JSONResponse(body.model_dump(), status_code=200 if body.ready else 503)
 

@@ -44,14 +44,19 @@ class PrecipPass(RenderPass):
     def needed(self, scene: Scene, view: CameraView) -> bool:
         return precipitation_falls(scene)
 
-    def _upload(self, name: str, data: np.ndarray) -> moderngl.Buffer:
-        raw = np.ascontiguousarray(data, dtype=np.float32).tobytes()
+    def _buffer(self, name: str, nbytes: int) -> moderngl.Buffer:
+        """A storage buffer of at least ``nbytes``, kept between frames (grown by doubling)."""
         buf = self._buffers.get(name)
-        if buf is None or buf.size < len(raw):
+        if buf is None or buf.size < nbytes:
             if buf is not None:
                 buf.release()
-            buf = self.ctx.buffer(reserve=max(len(raw), 16) * 2)
+            buf = self.ctx.buffer(reserve=max(nbytes, 16) * 2)
             self._buffers[name] = buf
+        return buf
+
+    def _upload(self, name: str, data: np.ndarray) -> moderngl.Buffer:
+        raw = np.ascontiguousarray(data, dtype=np.float32).tobytes()
+        buf = self._buffer(name, len(raw))
         buf.write(raw)
         return buf
 
@@ -77,7 +82,7 @@ class PrecipPass(RenderPass):
         self._upload("particles", packed).bind_to_storage_buffer(0)
         self._upload("tiles", tiles).bind_to_storage_buffer(1)
 
-        self._upload("radiance", np.zeros((particles.streak_count, 4))).bind_to_storage_buffer(2)
+        self._buffer("radiance", particles.streak_count * 16).bind_to_storage_buffer(2)  # vec4 per streak
         view = frame.view
         optics = OPTICS[kind]
         # Per level: first tile, particles per tile, first entry of radiance[] (one per streak).

@@ -17,11 +17,13 @@ so far-away fires cost a few thousand voxels.
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import moderngl
 import numpy as np
 
+from ...assets import AssetError, resolve_asset
 from ...scene.model import Scene
 from ..camera import CameraView
 from ..passes import RenderPass
@@ -30,6 +32,7 @@ from .effects import NOISE_PERIOD, NOISE_SCALE, Volume, visible_volumes
 from .fire_lights import fire_light
 from .profiles import FIRE_SMOKE_ALBEDO, SMOKE_ALBEDO, load_profile
 
+MAX_PROFILE_TEXTURES = 32  # profile textures kept resident (LRU); each is small, their number is not
 FIRE_LUMINANCE = 2.0e4  # cd/m^2 of profile colour 1 at intensity 1 (a candle is ~1e4, large flames more)
 FIRE_SIGMA_D = 1.5  # extinction of fire density 1 times the diameter: optical depth across the core
 SMOKE_SIGMA_D = 3.0
@@ -104,7 +107,7 @@ class VolumesPass(RenderPass):
         self.settings: VolumeSettings | None = None  # None = the scene's quality preset
         self.stats = {"modelled": 0, "drawn": 0, "voxels": 0}
         self._slots: dict[tuple, _Slot] = {}
-        self._profiles: dict[tuple, moderngl.Texture] = {}
+        self._profiles: OrderedDict[tuple, moderngl.Texture] = OrderedDict()  # LRU, at most MAX_PROFILE_TEXTURES
         self._cube_vbo = None
         self._vaos: dict = {}
         self._frame = 0
@@ -115,14 +118,27 @@ class VolumesPass(RenderPass):
     # -- modelling ---------------------------------------------------------------------------
 
     def _profile_texture(self, vol: Volume) -> moderngl.Texture:
+        """The profile's texture, from a bounded LRU cache: hosts naming many distinct profiles cannot grow
+        memory. ``vol.profile`` is an asset name (validated by the scene model); it is resolved again here,
+        in the render process, so only a regular file inside the profiles directory is ever opened."""
         key = (vol.kind, vol.profile)
         tex = self._profiles.get(key)
-        if tex is None:
-            data = load_profile(vol.kind, vol.profile)
-            tex = self.ctx.texture((data.shape[1], data.shape[0]), 4, data.astype("f2").tobytes(), dtype="f2")
-            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
-            tex.repeat_x = tex.repeat_y = False
-            self._profiles[key] = tex
+        if tex is not None:
+            self._profiles.move_to_end(key)
+            return tex
+        path = None
+        if vol.profile is not None:
+            try:
+                path = str(resolve_asset("profiles", vol.profile, (".png",)))
+            except AssetError:  # removed since the state was accepted: the procedural profile
+                path = None
+        data = load_profile(vol.kind, path)
+        tex = self.ctx.texture((data.shape[1], data.shape[0]), 4, data.astype("f2").tobytes(), dtype="f2")
+        tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        tex.repeat_x = tex.repeat_y = False
+        self._profiles[key] = tex
+        while len(self._profiles) > MAX_PROFILE_TEXTURES:
+            self._profiles.popitem(last=False)[1].release()
         return tex
 
     def _model(self, vol: Volume, frame, settings: VolumeSettings) -> moderngl.Texture:
