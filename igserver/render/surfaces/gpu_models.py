@@ -126,6 +126,7 @@ class GpuModel:
         for prim in model.primitives:
             mat = materials.setdefault(id(prim.material), GpuMaterial(textures, prim.material))
             self.primitives.append(GpuPrimitive(ctx, prim.vertices, prim.indices, prim.node, mat))
+        self.primitive_nodes = np.array([p.node for p in self.primitives], dtype=np.intp)
 
 
 class ModelCache:

@@ -64,6 +64,26 @@ class ModelData:
     bounds_center: np.ndarray = field(default_factory=lambda: np.zeros(3))  # entity frame, m
     bounds_radius: float = 1.0
 
+    def node_stack(self, poses: dict[str, np.ndarray] | None = None) -> np.ndarray:
+        """``node_matrices`` as one (nodes, 4, 4) array. The rest pose is computed once; a pose
+        recomputes only the posed nodes and their descendants (a radar: one node)."""
+        rest = self.__dict__.get("_rest_stack")
+        if rest is None:
+            rest = np.asarray(self.node_matrices()) if self.nodes else np.zeros((0, 4, 4))
+            self.__dict__["_rest_stack"] = rest
+        if not poses:
+            return rest
+        out = rest.copy()
+        changed = [False] * len(self.nodes)
+        for i, node in enumerate(self.nodes):  # parents precede children
+            pose = poses.get(node.name)
+            if pose is None and not (node.parent >= 0 and changed[node.parent]):
+                continue
+            local = node.local if pose is None else node.local @ (GLTF_TO_ENTITY.T @ pose @ GLTF_TO_ENTITY)
+            out[i] = (out[node.parent] if node.parent >= 0 else GLTF_TO_ENTITY) @ local
+            changed[i] = True
+        return out
+
     def node_matrices(self, poses: dict[str, np.ndarray] | None = None) -> list[np.ndarray]:
         """Model-root <- node matrices in the entity frame, with ``poses`` (name -> 4x4 in the
         entity's axes) applied about each posed node's own origin."""

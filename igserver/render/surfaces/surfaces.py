@@ -33,9 +33,11 @@ POLYGON_OFFSET = (2.0, 4.0)
 
 @dataclass
 class Batch:
-    """Instances of one model, per use: 'view' (in the camera frustum) and 'shadow' (casters)."""
+    """Instances of one model: rows (instances, primitives, 24) per use, 'view' (in the camera
+    frustum) and 'shadow' (casters near the camera), and the casters' bounds (n, 4: centre, radius)."""
     model: GpuModel
-    rows: dict[str, list[np.ndarray]] = field(default_factory=lambda: {"view": [], "shadow": []})
+    rows: dict[str, np.ndarray] = field(default_factory=dict)
+    caster_bounds: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
 
 
 def part_poses(entity: Entity) -> dict[str, np.ndarray]:
@@ -48,26 +50,37 @@ def part_poses(entity: Entity) -> dict[str, np.ndarray]:
     return poses
 
 
-def instance_rows(entity: Entity, model: GpuModel, view: CameraView) -> tuple[np.ndarray, np.ndarray, float]:
-    """(per-primitive instance rows (p, 24) float32, world bounds centre, radius) of one entity."""
+def model_instances(entities: list[Entity], model: GpuModel, view: CameraView) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Instance rows (entities, primitives, 24) float32, world bounding-sphere centres (n, 3) and
+    radii (n,) of the entities drawing ``model``, all entities of a model at once."""
     data = model.model
-    world = np.eye(4)
-    scale = np.asarray(entity.scale, float)
-    world[:3, :3] = body_to_world(entity.heading, entity.pitch, entity.roll) @ np.diag(scale)
-    world[:3, 3] = view.relative(entity.position)  # float64 subtraction: camera-relative
-    nodes = data.node_matrices(part_poses(entity))
-    is_box = data.name == "box"
-    tint = (*entity.color, entity.metallic) if is_box else (1.0, 1.0, 1.0, 1.0)
-    extra = (entity.roughness if is_box else 1.0, 0.0, 0.0, 0.0)
-    rows = np.empty((len(model.primitives), INSTANCE_FLOATS), np.float32)
-    for i, prim in enumerate(model.primitives):
-        m = world @ nodes[prim.node]
-        rows[i, :16] = m.T.reshape(-1)  # column-major
-        rows[i, 16:20] = tint
-        rows[i, 20:] = extra
-    centre = np.asarray(entity.position, float) + world[:3, :3] @ data.bounds_center
-    radius = data.bounds_radius * float(np.max(scale)) * (1.25 if entity.parts else 1.0)
-    return rows, centre, radius
+    prim_nodes = model.primitive_nodes
+    n, p = len(entities), len(prim_nodes)
+    scales = np.array([e.scale for e in entities], dtype=np.float64)
+    positions = np.array([e.position for e in entities], dtype=np.float64)
+    worlds = np.zeros((n, 4, 4))
+    worlds[:, 3, 3] = 1.0
+    for i, e in enumerate(entities):
+        worlds[i, :3, :3] = body_to_world(e.heading, e.pitch, e.roll) * scales[i]  # R @ diag(scale)
+    worlds[:, :3, 3] = positions - view.position  # float64 subtraction: camera-relative
+    posed = np.array([bool(e.parts) for e in entities])
+    nodes = np.broadcast_to(data.node_stack()[prim_nodes], (n, p, 4, 4))
+    if posed.any():
+        nodes = nodes.copy()
+        for i in np.nonzero(posed)[0]:
+            nodes[i] = data.node_stack(part_poses(entities[i]))[prim_nodes]
+    rows = np.empty((n, p, INSTANCE_FLOATS), np.float32)
+    # world @ node per entity and primitive, written column-major (transposed) into 16 floats
+    rows[..., :16] = np.einsum("eij,epjk->epki", worlds, nodes).reshape(n, p, 16)
+    if data.name == "box":  # the built-in box takes its material from the entity
+        rows[..., 16:20] = np.array([(*e.color, e.metallic) for e in entities])[:, None, :]
+        rows[..., 20] = np.array([e.roughness for e in entities])[:, None]
+    else:
+        rows[..., 16:21] = 1.0
+    rows[..., 21:] = 0.0
+    centres = positions + np.einsum("eij,j->ei", worlds[:, :3, :3], data.bounds_center)
+    radii = data.bounds_radius * scales.max(axis=1) * np.where(posed, 1.25, 1.0)
+    return rows, centres, radii
 
 
 class SurfacesPass(RenderPass):
@@ -86,21 +99,20 @@ class SurfacesPass(RenderPass):
 
     # --- instances --------------------------------------------------------------------------
     def _batches(self, scene: Scene, view: CameraView) -> dict[str, Batch]:
-        batches: dict[str, Batch] = {}
-        shadow_range = scene.shadows.distance
+        groups: dict[str, list[Entity]] = {}
         for entity in scene.entities:
-            if not entity.visible:
-                continue
-            model = self.models.get(entity.model)
+            if entity.visible:
+                groups.setdefault(entity.model, []).append(entity)
+        batches: dict[str, Batch] = {}
+        for name, entities in groups.items():
+            model = self.models.get(name)
             if model is None or not model.primitives:
                 continue
-            rows, centre, radius = instance_rows(entity, model, view)
-            batch = batches.setdefault(entity.model, Batch(model))
-            if view.sphere_visible(centre, radius):
-                batch.rows["view"].append(rows)
-            if float(np.linalg.norm(view.relative(centre))) - radius < shadow_range:
-                batch.rows["shadow"].append(rows)
-                batch.rows.setdefault("bounds", []).append(np.array([*centre, radius]))
+            rows, centres, radii = model_instances(entities, model, view)
+            in_view = np.array([view.sphere_visible(c, r) for c, r in zip(centres, radii)])
+            casts = np.linalg.norm(centres - view.position, axis=1) - radii < scene.shadows.distance
+            batches[name] = Batch(model, {"view": rows[in_view], "shadow": rows[casts]},
+                                  np.column_stack([centres[casts], radii[casts]]))
         return batches
 
     # --- shadows ----------------------------------------------------------------------------
@@ -149,10 +161,9 @@ class SurfacesPass(RenderPass):
                     "u_shadow_softness": scene.shadows.softness,
                     "u_key_shadow_map": SHADOW_UNIT_KEY, "u_spot_shadow_map": SHADOW_UNIT_SPOT}
         self.last_shadow_passes = []
-        bounds = [b for batch in batches.values() for b in batch.rows.get("bounds", [])]
-        if not scene.shadows.enabled or not bounds:
+        bounds = np.concatenate([b.caster_bounds for b in batches.values()] or [np.zeros((0, 4))])
+        if not scene.shadows.enabled or len(bounds) == 0:
             return uniforms
-        bounds = np.asarray(bounds)
         view = frame.view
         key = self._key_light(frame)
         if key is not None:
@@ -205,10 +216,9 @@ class SurfacesPass(RenderPass):
         """Draw the ``use`` instances of every primitive; ``blended`` / ``alpha_tested`` select
         primitives by alpha mode (BLEND; MASK or BLEND) when not None."""
         for batch in batches.values():
-            rows = batch.rows[use]
-            if not rows:
+            stacked = batch.rows[use]  # (instances, primitives, 24)
+            if len(stacked) == 0:
                 continue
-            stacked = np.stack(rows)  # (instances, primitives, 24)
             for p, prim in enumerate(batch.model.primitives):
                 mode = prim.material.data.alpha_mode
                 if blended is not None and (mode == 2) != blended:
@@ -242,14 +252,15 @@ class SurfacesPass(RenderPass):
                 "u_roughness": scene.ground.roughness,
             })
             self.fullscreen(program)
-        if not any(batch.rows["view"] for batch in batches.values()):
+        if not any(len(batch.rows["view"]) for batch in batches.values()):
             return
         program = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl", self._receiver_defines())
         set_uniforms(program, frame.uniforms)
         set_uniforms(program, shadow_uniforms)
         self._set_samplers(program)
         self._draw_batches(program, batches, "view", blended=False)
-        if any(p.material.data.alpha_mode == 2 for b in batches.values() if b.rows["view"] for p in b.model.primitives):
+        if any(p.material.data.alpha_mode == 2 for b in batches.values() if len(b.rows["view"])
+               for p in b.model.primitives):
             # Blended surfaces over the opaque ones: colour only, depth tested but not written.
             targets.color_fbo.use()
             self.ctx.enable(moderngl.BLEND)
