@@ -10,6 +10,9 @@ from pathlib import Path
 from pydantic import ValidationError
 
 
+PRESET_CHOICES = ["low", "medium", "high", "auto"]
+
+
 def _resolution(text: str) -> tuple[int, int]:
     w, _, h = text.lower().partition("x")
     return int(w), int(h)
@@ -23,6 +26,8 @@ def _scene_from_args(args):
     camera = {k: v for k, v in (("width", args.width), ("height", args.height)) if v is not None}
     if camera:
         patch.setdefault("camera", {}).update(camera)
+    if getattr(args, "preset", None):
+        patch.setdefault("quality", {})["preset"] = args.preset
     return apply_patch(scene, patch)
 
 
@@ -51,7 +56,8 @@ def cmd_bench(args) -> int:
 
     scenes = args.scenes.split(",") if args.scenes else bench.DEFAULT_SCENES
     resolutions = [_resolution(r) for r in args.resolutions.split(",")]
-    bench.run(scenes, resolutions, args.frames, args.set or [], args.json)
+    presets = args.presets.split(",") if args.presets else ([args.preset] if args.preset else None)
+    bench.run(scenes, resolutions, args.frames, args.set or [], args.json, presets, args.markdown)
     return 0
 
 
@@ -61,7 +67,8 @@ def cmd_serve(args) -> int:
 
     # flags > IGSERVER_* environment > defaults (pydantic-settings merges them)
     settings = ServerSettings(_cli_settings_source=args.settings_source(parsed_args=args))
-    return serve(scene_path=args.scene or None, width=args.width, height=args.height, settings=settings)
+    return serve(scene_path=args.scene or None, width=args.width, height=args.height, settings=settings,
+                 preset=args.preset)
 
 
 def cmd_health(args) -> int:
@@ -95,6 +102,7 @@ def add_serve_arguments(parser: argparse.ArgumentParser, default_scene: str | No
                         help=f"scene file or name in igserver/scenes/ (default {default_scene or 'built-in'})")
     parser.add_argument("--width", type=int)
     parser.add_argument("--height", type=int)
+    parser.add_argument("--preset", choices=PRESET_CHOICES, help="quality preset of the initial scene")
     parser.set_defaults(settings_source=CliSettingsSource(ServerSettings, root_parser=parser))
 
 
@@ -127,6 +135,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--width", type=int)
     p.add_argument("--height", type=int)
     p.add_argument("--set", action="append", metavar="PATH=VALUE", help="override a field, e.g. camera.pitch=10")
+    p.add_argument("--preset", choices=PRESET_CHOICES, help="quality preset (= --set quality.preset=...)")
     p.set_defaults(func=cmd_render)
 
     p = sub.add_parser("bench", help="frame time per pass and in total")
@@ -134,13 +143,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--resolutions", default="640x360")
     p.add_argument("--frames", type=int, default=30)
     p.add_argument("--json", help="also write the report as JSON")
+    p.add_argument("--markdown", help="also write the performance table (README form) to this file")
+    p.add_argument("--presets", help="comma-separated quality presets, one run each (e.g. low,medium,high)")
+    p.add_argument("--preset", choices=PRESET_CHOICES, help="one quality preset (default: the scene's)")
     p.add_argument("--set", action="append", metavar="PATH=VALUE")
     p.add_argument("--service", action="store_true",
                    help="end-to-end latency through the real server (flags: --frames --width --height --modes --json)")
     p.set_defaults(func=cmd_bench)
 
-    p = sub.add_parser("quality", help="error against run time for a pipeline (sky, volumes)")
-    p.add_argument("pipeline")
+    p = sub.add_parser("quality", help="error against run time: one pipeline's study, or all of them into "
+                                       "one report (no argument; --quick, --out out/quality)")
+    p.add_argument("pipeline", nargs="?", help="a study in igserver/quality (sky, volumes, ...); none = all")
     p.add_argument("rest", nargs=argparse.REMAINDER)
     p.set_defaults(func=cmd_quality)
     return parser
@@ -153,6 +166,11 @@ def main(argv: list[str] | None = None) -> int:
         from .protocol.bench import run_service_bench
 
         return run_service_bench([a for a in argv[1:] if a != "--service"]) or 0
+    if argv[:1] == ["quality"] and (len(argv) == 1 or argv[1].startswith("-")) and "-h" not in argv[1:2]:
+        # No study named: every study into one report (its own flags: --quick --out --only).
+        from .quality.report import run_all
+
+        return run_all(argv[1:])
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)

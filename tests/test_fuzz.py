@@ -1,6 +1,6 @@
 """Fuzz the served OpenAPI document with schemathesis, bounded in time: no 5xx, answers as documented.
 
-In the suite: 10 s, the operations that do not wait for a render (a frame of a fuzzed state can take a
+In the suite: 12 cases per operation (capped at 20 s), the operations that do not wait for a render (a frame of a fuzzed state can take a
 table precompute of tens of seconds on llvmpipe: that is the render budget's business, not the edge's).
 The longer run, over every operation (README, "Fuzzing"):
 
@@ -26,7 +26,8 @@ from igserver.scene import Scene
 # every check but positive_data_acceptance: some valid-looking states are refused for rules a JSON Schema
 # cannot say (unique effect ids, frustum top above bottom), and that 422 is right
 EXCLUDED_CHECKS = "positive_data_acceptance"
-FUZZ_SECONDS = 10
+CASES_PER_OPERATION = 12
+FUZZ_SECONDS = 20  # cap; ~5 s on a quiet machine
 
 
 @pytest.fixture(scope="module")
@@ -51,7 +52,9 @@ def test_schemathesis_finds_no_server_error(server, tmp_path):
     command = [
         str(st), "run", f"{server.url}/openapi.json", "--checks", "all", "--exclude-checks", EXCLUDED_CHECKS,
         "--exclude-path-regex", r"^/v1/(stream\.mjpg|frame|render)$",
-        "--max-time", str(FUZZ_SECONDS), "-w", "1", "--phases", "examples,coverage,fuzzing",
+        # a number of cases, not a time: the count stays meaningful on a loaded machine; max-time only caps
+        "--phases", "fuzzing", "--max-examples", str(CASES_PER_OPERATION), "--max-time", str(FUZZ_SECONDS),
+        "-w", "1",
         "--request-timeout", "30", "--generation-database", "none", "--no-color",
     ]
     result = subprocess.run(command, capture_output=True, text=True, timeout=FUZZ_SECONDS + 120, cwd=tmp_path)
@@ -64,4 +67,4 @@ def test_schemathesis_finds_no_server_error(server, tmp_path):
     assert result.returncode == 0, output[-4000:]
     operations = int(re.search(r"Operations:\s+(\d+) selected", output).group(1))
     assert operations >= 12  # every route but the three that wait for frames
-    assert generated >= operations  # at least one case each (hundreds on a quiet machine: 401 in 15 s against a standalone server)
+    assert generated >= 2 * operations, output[-3000:]  # a few cases each even if the time cap cut the run

@@ -10,7 +10,7 @@ import pytest
 from igserver.render.camera import make_view
 from igserver.render.graph import plan_passes
 from igserver.render.precip.particles import (
-    ParticlePool, PrecipSettings, particle_count, particle_frame, tile_levels, visible_tiles,
+    ParticlePool, PrecipSettings, particle_count, particle_frame,
 )
 from igserver.render.sky.frame_sky import cirrus_offset_units
 from igserver.render.volumes.effects import effect_volumes
@@ -154,8 +154,9 @@ def test_particle_count_follows_the_rate_and_the_cap_bounds_the_cost():
         frame = particle_frame(scene, make_view(scene.camera), settings, pool)
         streaks.append(frame.streak_count)
         # The drawn streaks stand for all the visible drops of the tile: m n = N L^3 per level.
-        for _, _, n, m in frame.levels:
-            assert n * m == pytest.approx(visible_number_density("rain", r) * settings.tile_size**3, rel=1e-9)
+        for level in frame.levels:
+            assert level.particles * level.drops_per_streak == pytest.approx(
+                visible_number_density("rain", r) * level.tile_size**3, rel=1e-9)
     assert streaks[:3] == sorted(streaks[:3]) and streaks[0] < streaks[2]
     assert streaks[3] <= settings.max_streaks
     snow = tiny({"weather": {"precipitation": {"type": "snow", "rate": 200.0}}})
@@ -175,20 +176,23 @@ def test_wrapping_keeps_the_cube_uniform():
                       "weather": {"wind_speed": 12.0, "wind_direction": 30.0,
                                   "precipitation": {"type": "snow", "rate": 2.0}}, "time": {"sim_time": t}})
         frame = particle_frame(scene, make_view(scene.camera), settings, pool)
-        q = frame.positions
-        n = len(q)
-        assert n > 2000 and np.all((q >= 0.0) & (q < L))
-        # 8 slabs per axis: each holds n/8 +- 5 sigma (binomial); the outer slabs are the faces.
-        sigma = math.sqrt(n * (1 / 8) * (7 / 8))
-        for axis in range(3):
-            counts = np.histogram(q[:, axis], bins=8, range=(0.0, L))[0]
-            assert np.all(np.abs(counts - n / 8) < 5 * sigma), (t, axis, counts)
         dt = 0.05
         later = scene.model_copy(update={"time": scene.time.model_copy(update={"sim_time": t + dt})})
-        q2 = particle_frame(later, make_view(later.camera), settings, pool).positions
-        step = (q2 - q + L / 2) % L - L / 2  # minimal image
-        velocity = frame.streaks / scene.weather.precipitation.streak_time  # ~ instantaneous velocity
-        assert np.max(np.linalg.norm(step - velocity * dt, axis=1)) < 0.02  # flutter curvature only
+        frame2 = particle_frame(later, make_view(later.camera), settings, pool)
+        for level in frame.levels:  # every level has its own cube of side L 2^l
+            L = level.tile_size
+            q = frame.positions[frame.level_slice(level)]
+            n = len(q)
+            assert n > 500 and np.all((q >= 0.0) & (q < L))
+            # 8 slabs per axis: each holds n/8 +- 5 sigma (binomial); the outer slabs are the faces.
+            sigma = math.sqrt(n * (1 / 8) * (7 / 8))
+            for axis in range(3):
+                counts = np.histogram(q[:, axis], bins=8, range=(0.0, L))[0]
+                assert np.all(np.abs(counts - n / 8) < 5 * sigma), (t, level.index, axis, counts)
+            q2 = frame2.positions[frame2.level_slice(level)]
+            step = (q2 - q + L / 2) % L - L / 2  # minimal image
+            velocity = frame.streaks[frame.level_slice(level)] / scene.weather.precipitation.streak_time
+            assert np.max(np.linalg.norm(step - velocity * dt, axis=1)) < 0.02  # flutter curvature only
 
 
 def test_streaks_do_not_depend_on_the_camera_motion():
@@ -206,21 +210,30 @@ def test_streaks_do_not_depend_on_the_camera_motion():
         assert np.max(np.linalg.norm(fast.streaks, axis=1)) < 10.0 * 0.1  # < 10 m/s x the exposure
 
 
-def test_tiles_cover_the_view_out_to_the_fade_and_lod_thins_far_tiles():
+def test_level_tiles_fill_the_view_out_to_the_fade_exactly_once():
     settings = PrecipSettings()
     scene = rain(10.0)
     view = make_view(scene.camera)
-    tiles = visible_tiles(view, settings.tile_size, settings.fade("rain"))
-    centres = tiles + settings.tile_size / 2
-    forward = view.forward
-    # A point on the view axis at every distance up to the fade lies in some tile.
-    for d in np.linspace(0.5, settings.fade("rain") - 1.0, 30):
-        p = forward * d
-        inside = np.all((p >= tiles) & (p < tiles + settings.tile_size), axis=1)
-        assert inside.any(), d
-    assert np.all(np.linalg.norm(centres, axis=1) < settings.fade("rain") + settings.tile_size)
-    levels = tile_levels(tiles, settings.tile_size, settings.lod_distance)
-    assert levels.min() == 0 and levels.max() >= 2
+    fade = settings.fade("rain")
+    frame = particle_frame(scene, view, settings, ParticlePool())
+    assert len(frame.levels) >= 3
+    # Points in the view (on the axis and toward the corners) at any distance up to the fade lie in
+    # exactly one tile of one level: the levels partition space, no gap at a level's boundary.
+    directions = [view.forward] + [view.forward + 0.3 * a * view.rotation[:, 0] + 0.2 * b * view.rotation[:, 2]
+                                   for a in (-1, 1) for b in (-1, 1)]
+    for direction in directions:
+        direction = direction / np.linalg.norm(direction)
+        for d in np.linspace(0.3, fade - 0.1, 60):
+            p = direction * d
+            hits = 0
+            for level in frame.levels:
+                tiles = frame.tiles[level.first_tile:level.first_tile + level.tile_count]
+                hits += int(np.sum(np.all((p >= tiles) & (p < tiles + level.tile_size), axis=1)))
+            assert hits == 1, (d, hits)
+    # Each level: a quarter of the density: 4x the drops per streak (up to the rounding of counts).
+    for a, b in zip(frame.levels, frame.levels[1:]):
+        assert b.tile_size >= a.tile_size
+        assert b.drops_per_streak == pytest.approx(4 * a.drops_per_streak, rel=0.05)
 
 
 def test_streak_is_the_exposure_not_the_frame_interval():

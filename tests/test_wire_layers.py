@@ -286,9 +286,6 @@ def test_msgpack_decoder_itself_bounds_what_it_builds():
     assert codec._loads_msgpack(pack({"s": "text"}), limits) == {"s": "text"}  # str, not bytes
 
 
-@pytest.mark.xfail(strict=True, reason="msgpack's StackError subclasses ValueError, so codec._loads_msgpack's "
-                   "'except ValueError' answers 400 malformed and its StackError branch is dead code (issue 9, "
-                   "item 9b: svc-edge); remove this marker with that fix")
 def test_msgpack_nesting_beyond_the_decoder_stack_is_a_limit():
     deep = b"\x91" * 5000 + b"\xc0"  # 5000 nested one-element arrays
     problem = raises_kind("limits", decode, deep, MSGPACK)
@@ -330,3 +327,27 @@ def test_echoed_changed_at_alone_is_restored():
 
 def test_assignment_values_may_contain_equals_signs():
     assert patch_from_assignments(["weather.note=a=b=c"]) == {"weather": {"note": "a=b=c"}}
+
+
+def test_problem_from_validation_error_lists_every_field():
+    store = StateStore(Scene())
+    problem = raises_kind("validation", store.validate_patch,
+                          {"camera": {"pitch": 95.0, "heading": 999.0}, "weather": {"wind_speed": -1.0}})
+    pointers = [e["pointer"] for e in problem.errors]
+    assert sorted(pointers) == ["#/camera/heading", "#/camera/pitch", "#/weather/wind_speed"]
+    assert all(e["detail"] and "http" not in e["detail"] for e in problem.errors)  # pydantic's words, no URL
+    # the summary names the first field and counts the others
+    assert problem.detail.startswith(pointers[0] + ": ") and problem.detail.endswith(" (and 2 more)")
+    single = raises_kind("validation", store.validate_patch, {"camera": {"pitch": 95.0}})
+    assert single.detail.startswith("#/camera/pitch: ") and "more" not in single.detail
+    assert str(single) == single.detail  # the exception's message is the detail
+
+
+def test_problem_document_members():
+    problem = ProblemError("render_unavailable", "down", headers={"Retry-After": "1"})
+    assert problem.headers == {"Retry-After": "1"} and problem.status == 503
+    doc = problem.document("/v1/frame")
+    assert doc["detail"] == "down" and doc["instance"] == "/v1/frame" and doc["kind"] == "render_unavailable"
+    assert doc["type"].endswith("/render_unavailable") and "errors" not in doc
+    bare = ProblemError("not_found")
+    assert str(bare) == bare.title and "detail" not in bare.document() and "instance" not in bare.document()

@@ -175,10 +175,12 @@ def serve(
     height: int | None = None,
     settings: ServerSettings | None = None,
     device_index: int | None = None,
+    preset: str | None = None,
 ) -> int:
     """Load the scene, bind, start the app under uvicorn, print the viewer URL; returns when the server stops.
 
     Exit status 2 (with a message, no traceback) when the scene, the port or the security settings are wrong.
+    ``preset``: the initial scene's quality preset (``quality.preset``).
     """
     import uvicorn
 
@@ -200,6 +202,8 @@ def serve(
     size = {k: v for k, v in (("width", width), ("height", height)) if v}
     if size:
         scene = apply_patch(scene, {"camera": size})
+    if preset:
+        scene = apply_patch(scene, {"quality": {"preset": preset}})
     try:
         sock = listening_socket(host, port)
     except OSError as exc:

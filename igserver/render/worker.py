@@ -156,8 +156,6 @@ def _render_process_main(conn, device_index: int | None, stamp=None) -> None:
         stale = [n for n in attached if n not in ring_names]
         for name in stale:
             attached.pop(name).close()
-        if stale:
-            release_free_memory()
         try:
             result = renderer.render(scene, timed=timed)
             if shm_name not in attached:
@@ -166,6 +164,8 @@ def _render_process_main(conn, device_index: int | None, stamp=None) -> None:
             flat = result.rgba.reshape(-1)
             buf[: flat.size] = flat.data
             conn.send(("frame", result.rgba.shape, result.total_ms, result.pass_ms, result.passes))
+            if stale:  # the frame size changed: the old ring and render targets are free now, after the frame
+                release_free_memory()
         except Exception as exc:
             # the client gets the kind of failure; the traceback (with server paths) goes to the log
             conn.send(("error", f"render failed ({type(exc).__name__})", traceback.format_exc(limit=8)))

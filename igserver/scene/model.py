@@ -71,8 +71,12 @@ class Camera(Strict):
     roll: float = Field(0.0, ge=-180.0, le=180.0, description="deg, right wing down positive")
     fov_y: float = Field(60.0, gt=0.1, lt=170.0, description="deg, vertical field of view (symmetric frustum)")
     frustum: Frustum | None = Field(None, description="asymmetric frustum; overrides fov_y when set")
-    near: float = Field(0.1, ge=1e-3, le=1e4, description="m, near clip distance")
-    far: float = Field(1_000_000.0, ge=1.0, le=1e7, description="m, far clip distance")
+    near: float = Field(0.1, ge=1e-3, le=1e4, description="m, near clip distance (depth precision does not depend on it)")
+    far: float = Field(
+        1_000_000.0, ge=1.0, le=1e7,
+        description="m, draw distance of entities, lights and effects; the sky and the earth's surface are "
+        "drawn to the horizon whatever it is (reversed-Z depth, no far clip plane)",
+    )
     width: int = Field(640, ge=16, le=7680, description="px")
     height: int = Field(360, ge=16, le=4320, description="px")
     exposure_ev: float | None = Field(
@@ -330,7 +334,14 @@ class Ground(Strict):
 
 
 class Quality(Strict):
-    preset: Literal["low", "medium", "high"] = "medium"
+    """Quality presets (igserver/render/presets.py): every pipeline's knobs per level, chosen from the
+    error-vs-time curves of ``igserver quality``."""
+
+    preset: Literal["low", "medium", "high", "auto"] = Field(
+        "medium", description="knob set of every pipeline; auto = the highest level whose measured frame time "
+        "fits target_ms, adapted at run time one knob at a time")
+    target_ms: float = Field(
+        40.0, ge=1.0, le=10_000.0, description="ms, frame-time target (render + readback) of the auto preset")
 
 
 def _unique_ids(items: list, what: str) -> list:

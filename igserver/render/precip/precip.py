@@ -63,7 +63,8 @@ class PrecipPass(RenderPass):
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
         particles = particle_frame(scene, view, self.settings, self.pool)
-        self.stats = {"particles": len(particles.positions), "tiles": len(particles.tiles),
+        near = particles.levels[0].particles if particles.levels else 0
+        self.stats = {"particles": near, "tiles": len(particles.tiles),
                       "streaks": particles.streak_count, "drops_per_streak": particles.drops_per_streak}
         if particles.streak_count == 0:
             return
@@ -84,20 +85,15 @@ class PrecipPass(RenderPass):
 
         self._buffer("radiance", particles.streak_count * 16).bind_to_storage_buffer(2)  # vec4 per streak
         view = frame.view
-        optics = OPTICS[kind]
-        # Per level: first tile, particles per tile, first entry of radiance[] (one per streak).
-        levels, first_streak = [], 0
-        for first, count, per_tile, drops in particles.levels:
-            levels.append((first, count, per_tile, drops, first_streak))
-            first_streak += count * per_tile
+        # Per level: its entries in radiance[] (one per streak) start at first_streak.
+        first_streak = np.cumsum([0] + [level.streaks for level in particles.levels])[:-1]
 
         light = self.programs.compute("precip/precip_light.comp.glsl")
         set_uniforms(light, frame.uniforms)
-        set_uniforms(light, optics)
-        for first, count, per_tile, _, base in levels:
-            set_uniforms(light, {"u_first_tile": first, "u_particles": per_tile, "u_first_streak": base,
-                                 "u_streaks": count * per_tile})
-            light.run((count * per_tile + 63) // 64)
+        set_uniforms(light, OPTICS[kind])
+        for level, base in zip(particles.levels, first_streak):
+            set_uniforms(light, {**self._level_uniforms(level, int(base)), "u_streaks": level.streaks})
+            light.run((level.streaks + 63) // 64)
         self.ctx.memory_barrier()
 
         program = self.programs.program("precip/precip.vert.glsl", "precip/precip.frag.glsl")
@@ -108,15 +104,21 @@ class PrecipPass(RenderPass):
             "u_px_per_tan": float(0.5 * view.height * view.projection[1, 1]),
         })
         frame.resources["scene_distance"].use(0)
-        self._quad_indices(program, max(per_tile for _, _, per_tile, _, _ in levels))
+        self._quad_indices(program, max(level.particles for level in particles.levels))
         targets.color_fbo.use()
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         self.ctx.enable(moderngl.BLEND)
         self.ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
-        for first, count, per_tile, drops, base in levels:  # one draw per LOD level
-            set_uniforms(program, {"u_first_tile": first, "u_particles": per_tile, "u_first_streak": base,
-                                   "u_drops_per_streak": float(drops)})
-            self._vao.render(moderngl.TRIANGLES, vertices=6 * per_tile, instances=count)
+        for level, base in zip(particles.levels, first_streak):  # one instanced draw per level
+            set_uniforms(program, {**self._level_uniforms(level, int(base)),
+                                   "u_drops_per_streak": float(level.drops_per_streak)})
+            self._vao.render(moderngl.TRIANGLES, vertices=6 * level.particles, instances=level.tile_count)
+        self.ctx.disable(moderngl.BLEND)
+
+    @staticmethod
+    def _level_uniforms(level, first_streak: int) -> dict:
+        return {"u_first_tile": level.first_tile, "u_first_particle": level.first_particle,
+                "u_particles": level.particles, "u_first_streak": first_streak}
 
     def _quad_indices(self, program, quads: int) -> None:
         """Index buffer of quads (0 1 2, 0 2 3) + 4 i, grown in powers of two."""
@@ -130,7 +132,6 @@ class PrecipPass(RenderPass):
             self._index_buffer.release()
         self._index_buffer = self.ctx.buffer(indices.tobytes())
         self._vao = self.ctx.vertex_array(program, [], index_buffer=self._index_buffer, index_element_size=4)
-        self.ctx.disable(moderngl.BLEND)
 
 
 __all__ = ["PrecipPass", "OPTICS"]

@@ -32,7 +32,7 @@ const vec2 CORNERS[4] = vec2[4](vec2(0, -1), vec2(1, -1), vec2(1, 1), vec2(0, 1)
 
 void main() {
     int index = gl_VertexID / 4;
-    Particle particle = particles[index];
+    Particle particle = particles[u_first_particle + index];
     vec2 corner = CORNERS[gl_VertexID % 4];  // x: 0 = tail (T ago), 1 = head (now); y: side
     vec3 head = particle.pos_diameter.xyz + tiles[u_first_tile + gl_InstanceID].xyz;
     vec3 tail = head - particle.streak_brightness.xyz;

@@ -10,5 +10,6 @@ layout(std430, binding = 1) readonly buffer Tiles { vec4 tiles[]; };  // xyz cam
 layout(std430, binding = 2) buffer Radiance { vec4 radiance[]; };  // per streak, pre-exposed
 
 uniform int u_first_tile;          // this level's tiles start here
+uniform int u_first_particle;      // this level's particles start here
 uniform int u_particles;           // particles per tile at this level
 uniform int u_first_streak;        // this level's entries in radiance[] start here

@@ -39,7 +39,7 @@ void main() {
     int s = int(gl_GlobalInvocationID.x);
     if (s >= u_streaks) return;
     int tile = s / u_particles;
-    Particle particle = particles[s - tile * u_particles];
+    Particle particle = particles[u_first_particle + s - tile * u_particles];
     vec3 head = particle.pos_diameter.xyz + tiles[u_first_tile + tile].xyz;
     vec3 light = particle_radiance(head) * particle.streak_brightness.w;
     radiance[u_first_streak + s] = vec4(pre_expose(apply_aerial_perspective(light, head)), 1.0);

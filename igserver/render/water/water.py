@@ -27,7 +27,6 @@ class WaterPass(RenderPass):
         set_uniforms(program, frame.uniforms)
         set_uniforms(program, {
             "u_plane_height": frame.scene.ocean.level - float(frame.view.position[2]),
-            "u_far": frame.view.far,
             "u_base_color": WATER_BODY_COLOR,
         })
         targets.scene_fbo.use()
