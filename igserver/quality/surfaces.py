@@ -246,9 +246,73 @@ def shadow_scene(width: int, height: int):
     })
 
 
+def shadow_table(renderer, width: int, height: int, resolutions: list[int], taps_list: list[int],
+                 frames: int) -> tuple[float, list[dict]]:
+    """(reference ms, rows of resolution, taps, relative RMSE against 4096 px / 64 taps, median ms)."""
+    from ..scene import apply_patch
+
+    surfaces = renderer.graph.passes["surfaces"]
+    default_taps = surfaces.shadow_taps
+    base = shadow_scene(width, height)
+
+    def render(resolution: int, taps: int) -> tuple[np.ndarray, float]:
+        surfaces.shadow_taps = taps
+        scene = apply_patch(base, {"shadows": {"resolution": resolution}})
+        renderer.render(scene)  # compile / warm
+        times = [renderer.render(scene, timed=True).pass_ms["surfaces"] for _ in range(frames)]
+        return renderer.read_hdr()[..., :3].astype(np.float64), statistics.median(times)
+
+    try:
+        reference, ref_ms = render(4096, 64)
+        mean = float(np.mean(reference))
+        table = []
+        for res in resolutions:
+            for taps in taps_list:
+                img, ms = render(res, taps)
+                rmse = float(np.sqrt(np.mean((img - reference) ** 2))) / mean
+                table.append({"resolution": res, "taps": taps, "rel_rmse": rmse, "ms": ms})
+                print(f"| {res} | {taps} | {rmse:.4f} | {ms:.1f} |", flush=True)
+    finally:
+        surfaces.shadow_taps = default_taps
+    return ref_ms, table
+
+
+def study(quick: bool = False):
+    """For `igserver quality` (report.py): shadow-map resolution x PCF taps, error against ms; the
+    BRDF's furnace and precision checks as notes."""
+    from ..render.renderer import Renderer
+    from ..render.surfaces.surfaces import DEFAULT_SHADOW_TAPS
+    from ..scene.model import Shadows
+    from .report import Point, Study
+
+    width, height = (160, 90) if quick else (320, 180)
+    renderer = Renderer()
+    try:
+        angles, material = brdf_samples(64, 32) if quick else brdf_samples()
+        errs = brdf_errors(shader_brdf(renderer.ctx, renderer.programs, angles, material),
+                           numpy_brdf(angles, material))
+        rows = furnace(samples=2**14 if quick else 2**18)
+        ref_ms, table = shadow_table(renderer, width, height, [512, 1024, 2048] if quick else [512, 1024, 2048, 4096],
+                                     [1, 4, 8] if quick else [1, 4, 8, 16], 1 if quick else 3)
+        device = renderer.caps.renderer
+    finally:
+        renderer.release()
+    default_res = Shadows().resolution
+    points = [Point("shadow map px" if r["taps"] == DEFAULT_SHADOW_TAPS else f"px at {r['taps']} taps",
+                    f"{r['resolution']} px, {r['taps']} taps", r["rel_rmse"], r["ms"],
+                    "medium" if (r["resolution"], r["taps"]) == (default_res, DEFAULT_SHADOW_TAPS) else None)
+              for r in table]
+    worst = max(rows, key=lambda r: r["max_albedo"])
+    notes = [f"white furnace: max directional albedo {worst['max_albedo']:.4f} (roughness {worst['roughness']},"
+             f" metallic {worst['metallic']}); <= 1 means energy is conserved",
+             f"shader BRDF vs float64 numpy: max relative error {errs['max_relative']:.2e} over {errs['samples']} samples",
+             f"reference: 4096 px, 64 taps ({ref_ms:.1f} ms)"]
+    return Study("surfaces", "relative RMSE of the linear frame against the 4096 px / 64-tap shadow reference",
+                 f"ms, surfaces pass at {width}x{height} (median)", points, notes, device)
+
+
 def run(argv: list[str]) -> int:
     from ..render.renderer import Renderer
-    from ..scene import apply_patch
 
     parser = argparse.ArgumentParser(prog="igserver quality surfaces", description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("out/quality_surfaces.md"))
@@ -273,32 +337,11 @@ def run(argv: list[str]) -> int:
     errs = brdf_errors(shader_brdf(renderer.ctx, renderer.programs, angles, material), numpy_brdf(angles, material))
     lines += ["## Shader BRDF vs float64 numpy", "", "```", json.dumps(errs, indent=1), "```", ""]
 
-    surfaces = renderer.graph.passes["surfaces"]
-    default_taps = surfaces.shadow_taps
-    base = shadow_scene(width, height)
-
-    def render(resolution: int, taps: int) -> tuple[np.ndarray, float]:
-        surfaces.shadow_taps = taps
-        scene = apply_patch(base, {"shadows": {"resolution": resolution}})
-        renderer.render(scene)  # compile / warm
-        times = []
-        for _ in range(args.frames):
-            times.append(renderer.render(scene, timed=True).pass_ms["surfaces"])
-        return renderer.read_hdr()[..., :3].astype(np.float64), statistics.median(times)
-
-    reference, ref_ms = render(4096, 64)
-    mean = float(np.mean(reference))
+    ref_ms, table = shadow_table(renderer, width, height, [int(x) for x in args.resolutions.split(",")],
+                                 [int(x) for x in args.taps.split(",")], args.frames)
     lines += [f"## Shadow maps ({width}x{height}; reference 4096 px, 64 taps: {ref_ms:.1f} ms)", "",
               "| resolution | taps | relative RMSE | surfaces ms |", "|---|---|---|---|"]
-    table = []
-    for res in (int(x) for x in args.resolutions.split(",")):
-        for taps in (int(x) for x in args.taps.split(",")):
-            img, ms = render(res, taps)
-            rmse = float(np.sqrt(np.mean((img - reference) ** 2))) / mean
-            table.append({"resolution": res, "taps": taps, "rel_rmse": rmse, "ms": ms})
-            lines.append(f"| {res} | {taps} | {rmse:.4f} | {ms:.1f} |")
-            print(lines[-1], flush=True)
-    surfaces.shadow_taps = default_taps
+    lines += [f"| {r['resolution']} | {r['taps']} | {r['rel_rmse']:.4f} | {r['ms']:.1f} |" for r in table]
     lines += ["", f"Renderer: {renderer.caps.renderer}. Times are wall time around ctx.finish() (llvmpipe has no"
               " usable timer queries); on a shared machine they are inflated.", ""]
     args.out.parent.mkdir(parents=True, exist_ok=True)

@@ -29,9 +29,10 @@ float interleaved_gradient_noise(vec2 pixel) {
 float pcf_shadow(sampler2DShadow map, vec4 coord_h, float radius_texels) {
     vec3 c = coord_h.xyz / coord_h.w;
     if (coord_h.w <= 0.0 || any(lessThan(c.xy, vec2(0.0))) || any(greaterThan(c.xy, vec2(1.0)))) return 0.0;
-    // A receiver beyond the map's far plane (the ground under the casters) compares at 1.0:
-    // shadowed where a caster was drawn, lit where the map is empty (cleared to 1).
-    float ref = min(c.z, 1.0);
+    // Depth is reversed (render/depth.py): 1 nearest the light, maps cleared to 0. A receiver beyond
+    // the map's far plane (the ground under the casters) compares at 0: shadowed where a caster was
+    // drawn, lit where the map is empty. The compare is ">=": lit when at least as near the light.
+    float ref = max(c.z, 0.0);
     float radius = max(radius_texels, 0.5) / float(textureSize(map, 0).x);
     float angle = 6.2831853 * interleaved_gradient_noise(gl_FragCoord.xy);
     float lit = 0.0;

@@ -8,6 +8,9 @@ Spot light: a perspective map along the spot's axis covering its outer cone out 
 
 Matrices map camera-relative positions (what the GPU sees) to light clip space; the camera offset
 is folded in here in float64, so a scene 1e6 m from the origin is as exact as one at the origin.
+Depth follows the project's convention (render/depth.py): reversed (window depth 1 nearest the
+light, 0 farthest, cleared to 0, nearest wins with ">"), for clip depth [0, 1] (``zero_to_one``,
+glClipControl on) or the conventional [-1, 1].
 """
 
 from __future__ import annotations
@@ -24,10 +27,13 @@ MIN_EXTENT = 8.0  # m: the narrowest key-light map (one small caster)
 class ShadowProjection:
     view_proj: np.ndarray  # 4x4: camera-relative world -> light clip
     texel: float           # m per texel (key light), or per texel at 1 m (spot light)
+    zero_to_one: bool = True
 
     def map_matrix(self) -> np.ndarray:
-        """Camera-relative world -> [0,1]^3 shadow-map coordinates (homogeneous)."""
-        bias = np.array([[0.5, 0, 0, 0.5], [0, 0.5, 0, 0.5], [0, 0, 0.5, 0.5], [0, 0, 0, 1.0]])
+        """Camera-relative world -> shadow-map coordinates (homogeneous): xy in [0,1], z the window
+        depth the map stores (1 nearest the light)."""
+        z_row = [0, 0, 1.0, 0] if self.zero_to_one else [0, 0, 0.5, 0.5]
+        bias = np.array([[0.5, 0, 0, 0.5], [0, 0.5, 0, 0.5], z_row, [0, 0, 0, 1.0]])
         return bias @ self.view_proj
 
 
@@ -41,7 +47,7 @@ def light_basis(direction: np.ndarray) -> np.ndarray:
 
 
 def fit_directional(centers: np.ndarray, radii: np.ndarray, direction: np.ndarray, camera: np.ndarray,
-                    resolution: int) -> ShadowProjection:
+                    resolution: int, zero_to_one: bool = True) -> ShadowProjection:
     """Orthographic map around spheres (world ``centers`` (n,3) float64, ``radii`` (n,)) for a light
     from unit ``direction``; ``camera`` is the world camera position the matrix is relative to."""
     basis = light_basis(direction)
@@ -61,14 +67,14 @@ def fit_directional(centers: np.ndarray, radii: np.ndarray, direction: np.ndarra
     view[:3, 3] = basis @ camera - origin          # p_light = B (p_rel + camera) - origin
     half = extent / 2.0
     depth = near_z - far_z
-    # z_light in [-depth, 0] -> clip z = -2 z / depth - 1 in [-1, 1]: nearer the light = smaller
-    proj = np.diag([1.0 / half, 1.0 / half, -2.0 / depth, 1.0])
-    proj[2, 3] = -1.0
-    return ShadowProjection(proj @ view, texel)
+    # z_light in [-depth, 0] -> window depth 1 + z / depth in [0, 1] (reversed: nearer the light = larger)
+    proj = np.diag([1.0 / half, 1.0 / half, 1.0 / depth if zero_to_one else 2.0 / depth, 1.0])
+    proj[2, 3] = 1.0
+    return ShadowProjection(proj @ view, texel, zero_to_one)
 
 
 def fit_spot(position_rel: np.ndarray, axis: np.ndarray, cos_outer: float, light_range: float,
-             resolution: int, near: float = 0.1) -> ShadowProjection:
+             resolution: int, zero_to_one: bool = True, near: float = 0.1) -> ShadowProjection:
     """Perspective map from a spot light at camera-relative ``position_rel`` along unit ``axis``."""
     half_angle = min(math.acos(max(min(cos_outer, 1.0), -1.0)) + math.radians(2.0), math.radians(80.0))
     basis = light_basis(-np.asarray(axis, float))  # z toward the light = against the beam
@@ -76,10 +82,12 @@ def fit_spot(position_rel: np.ndarray, axis: np.ndarray, cos_outer: float, light
     view[:3, :3] = basis
     view[:3, 3] = -basis @ np.asarray(position_rel, float)
     f = 1.0 / math.tan(half_angle)
-    far = max(light_range, near * 10.0)
+    # reversed, infinite far plane: window depth = near / d (d: distance along the spot's axis)
     proj = np.zeros((4, 4))
     proj[0, 0] = proj[1, 1] = f
-    proj[2, 2] = -(far + near) / (far - near)
-    proj[2, 3] = -2.0 * far * near / (far - near)
+    if zero_to_one:
+        proj[2, 3] = near                     # clip z = near, w = d
+    else:
+        proj[2, 2], proj[2, 3] = 1.0, 2.0 * near  # NDC z = 2 near / d - 1
     proj[3, 2] = -1.0
-    return ShadowProjection(proj @ view, 2.0 * math.tan(half_angle) / resolution)
+    return ShadowProjection(proj @ view, 2.0 * math.tan(half_angle) / resolution, zero_to_one)

@@ -15,6 +15,7 @@ import moderngl
 import numpy as np
 
 from ...scene.model import Entity, Scene
+from .. import depth
 from ..camera import CameraView, body_to_world, gl_matrix
 from ..passes import RenderPass
 from ..shaders import set_uniforms
@@ -28,7 +29,8 @@ DEFAULT_SHADOW_TAPS = 4  # from `igserver quality surfaces`: 8 and 16 taps lower
 SUN_LIGHT, MOON_LIGHT = -1, -2
 # Slope-scaled depth offset in the shadow pass (factor x max depth slope + units x depth ulp):
 # removes acne on surfaces at a grazing light without a large constant bias (peter-panning).
-POLYGON_OFFSET = (2.0, 4.0)
+# Negative: depth is reversed (render/depth.py), so "away from the light" is smaller.
+POLYGON_OFFSET = (-2.0, -4.0)
 
 
 @dataclass
@@ -91,7 +93,6 @@ class SurfacesPass(RenderPass):
         self.models = ModelCache(ctx)
         self._shadow_maps: dict[str, tuple[moderngl.Texture, moderngl.Framebuffer]] = {}
         self.last_shadow_passes: list[str] = []  # which shadow maps the last frame drew
-        self._main_depth_func = "<"
         self.shadow_taps = DEFAULT_SHADOW_TAPS  # PCF taps per lookup (quality knob: igserver quality surfaces)
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
@@ -122,8 +123,8 @@ class SurfacesPass(RenderPass):
             if held is not None:
                 held[1].release()
                 held[0].release()
-            tex = self.ctx.depth_texture((size, size))
-            tex.compare_func = "<="
+            tex, _ = depth.float_depth_texture(self.ctx, (size, size))
+            tex.compare_func = ">="  # lit where the receiver is at least as near the light (reversed depth)
             tex.filter = (moderngl.LINEAR, moderngl.LINEAR)  # hardware 2x2 PCF per tap
             tex.repeat_x = tex.repeat_y = False
             self._shadow_maps[key] = (tex, self.ctx.framebuffer(depth_attachment=tex))
@@ -132,7 +133,7 @@ class SurfacesPass(RenderPass):
     def _render_shadow_map(self, key: str, size: int, projection: ShadowProjection, batches) -> moderngl.Texture:
         tex, fbo = self._shadow_target(key, size)
         fbo.use()
-        fbo.clear(depth=1.0)
+        fbo.clear(depth=depth.CLEAR_DEPTH)
         opaque = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl", {"SHADOW_PASS": 1})
         tested = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl",
                                        {"SHADOW_PASS": 1, "ALPHA_TEST": 1})
@@ -141,17 +142,13 @@ class SurfacesPass(RenderPass):
             self._set_samplers(program)
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
-        # The shadow map is ours: conventional depth (near = 0), whatever the main view uses. The
-        # main pass's function is restored from frame.resources["depth_func"] when the renderer
-        # publishes one (reversed-Z), else GL's default "<".
-        self.ctx.depth_func = "<"
+        # Same depth convention as the view (reversed, the renderer's NEAREST_WINS stays set).
         self.ctx.polygon_offset = POLYGON_OFFSET
         try:
             self._draw_batches(opaque, batches, "shadow", alpha_tested=False)
             self._draw_batches(tested, batches, "shadow", alpha_tested=True)
         finally:
             self.ctx.polygon_offset = (0.0, 0.0)
-            self.ctx.depth_func = self._main_depth_func
         return tex
 
     def _shadows(self, frame, batches, scene: Scene) -> dict:
@@ -169,7 +166,7 @@ class SurfacesPass(RenderPass):
         if key is not None:
             which, direction = key
             projection = fit_directional(bounds[:, :3], bounds[:, 3], direction, view.position,
-                                         scene.shadows.resolution)
+                                         scene.shadows.resolution, depth.zero_to_one(self.ctx))
             tex = self._render_shadow_map("key", scene.shadows.resolution, projection, batches)
             tex.use(location=SHADOW_UNIT_KEY)
             uniforms.update({"u_key_shadow_light": which, "u_key_shadow_texel": projection.texel})
@@ -179,7 +176,7 @@ class SurfacesPass(RenderPass):
         if spot is not None:
             index, light = spot
             projection = fit_spot(view.relative(light.position), light.spot_dir, light.cos_outer, light.range,
-                                  SPOT_SHADOW_RESOLUTION)
+                                  SPOT_SHADOW_RESOLUTION, depth.zero_to_one(self.ctx))
             tex = self._render_shadow_map("spot", SPOT_SHADOW_RESOLUTION, projection, batches)
             tex.use(location=SHADOW_UNIT_SPOT)
             uniforms.update({"u_spot_shadow_light": index, "u_spot_shadow_texel": projection.texel,
@@ -235,7 +232,6 @@ class SurfacesPass(RenderPass):
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
         batches = self._batches(scene, view)
-        self._main_depth_func = frame.resources.get("depth_func", "<")
         shadow_uniforms = self._shadows(frame, batches, scene)
         targets.scene_fbo.use()
         self.ctx.enable(moderngl.DEPTH_TEST)
