@@ -42,7 +42,7 @@ TAU_DARK = 4.0  # s, adapting to less light
 GROUND_REFLECTANCE = 0.15
 EV_MIN, EV_MAX = -16.0, 24.0
 LUMA = np.array([0.2126, 0.7152, 0.0722])
-MAX_OVER_MEAN_EV = 1.0  # the display meter may expose at most this much more than the average meter
+MAX_OVER_MEAN_EV = 2.5  # the display meter may expose at most this much more than the average meter
 MAX_STREAM_DT = 1.0  # s: frames further apart in sim_time are not one continuous view
 
 

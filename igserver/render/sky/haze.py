@@ -231,7 +231,9 @@ class HazeTransition:
             self._progress = 1.0
         else:
             dt = 0.0 if self._last_sim is None else sim_time - self._last_sim
-            if dt <= 0.0:  # same instant (paused clock, re-render) or time went back: the new state
+            if dt <= 0.0 or dt > max(duration, 1.0):
+                # Same instant (paused clock, re-render), time went back, or a gap longer than the
+                # transition (not one continuous stream): the new state at once.
                 self._progress = 1.0
                 self._from = self._to = target
             else:
