@@ -23,7 +23,7 @@ from ..scene.model import Scene
 from .codec import MSGPACK, PROBLEM_JSON, PROBLEM_MSGPACK, encode, negotiate
 from .models import FrameMessage
 from .problems import PROBLEM_KINDS, Problem, ProblemError, json_pointer
-from .routers import effects, frames, health, state, viewer, ws
+from .routers import effects, frames, health, query, state, viewer, ws
 from .runtime import IGRuntime, ServerSettings
 
 log = logging.getLogger("igserver.protocol")
@@ -100,7 +100,7 @@ def create_app(
     )
     app.state.runtime = runtime
     _install_error_handlers(app)
-    for module in (health, state, frames, ws, effects, viewer):
+    for module in (health, state, frames, ws, effects, query, viewer):
         app.include_router(module.router)
 
     # documents that no route returns as a pydantic model still belong in the schema
