@@ -250,6 +250,33 @@ class WaterPass(RenderPass):
         self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
         vao.render(moderngl.TRIANGLES, instances=len(selection.nodes))
 
+    def capture(self, scene: Scene) -> tuple[lod.LodSelection, np.ndarray]:
+        """The displaced mesh the GPU would draw for ``scene``: the water vertex shader run by transform
+        feedback on every selected block. Returns (selection, camera-relative positions (N, G+1, G+1, 3))."""
+        from ..camera import make_view
+
+        view = make_view(scene.camera)
+        sea = sea_surface(scene.ocean, scene.weather)
+        selection = self.select(sea, scene, view)
+        program = self.capture_program(sea.field is not None)
+        self._bind_waves(program, sea, scene, view)
+        morph = np.minimum(selection.morph, 1e30).astype(np.float32)
+        program["u_morph"].write(morph.tobytes())
+        verts, _ = self._patch_buffer()
+        g1 = lod.PATCH_QUADS + 1
+        nodes = np.ascontiguousarray(selection.nodes, dtype=np.float32)
+        inst = self.ctx.buffer(nodes.tobytes())
+        out = self.ctx.buffer(reserve=len(nodes) * g1 * g1 * 12)
+        vao = self.ctx.vertex_array(program, [(verts, "2f", "in_grid"), (inst, "4f/i", "in_node")])
+        # A draw needs a complete framebuffer even with the rasterizer off (the headless default has none).
+        target = self.ctx.simple_framebuffer((1, 1))
+        target.use()
+        vao.transform(out, mode=moderngl.POINTS, vertices=g1 * g1, instances=len(nodes))
+        positions = np.frombuffer(out.read(), dtype=np.float32).reshape(len(nodes), g1, g1, 3).copy()
+        for obj in (vao, inst, out, target):
+            obj.release()
+        return selection, positions
+
     def _vao(self, program, nodes: np.ndarray) -> moderngl.VertexArray:
         verts, index = self._patch_buffer()
         data = np.ascontiguousarray(nodes, dtype=np.float32).tobytes()
