@@ -164,3 +164,26 @@ def test_long_time_phases_stay_exact():
     s100 = np.std(sea.evaluate(grid, 100.0)["position"][:, 2])
     s1e9 = np.std(sea.evaluate(grid, t)["position"][:, 2])
     assert s1e9 == pytest.approx(s100, rel=0.1)  # 4000 samples: std estimate ±~3 %
+
+
+def test_height_map_bathymetry_asset():
+    bathy = {"type": "map", "map": "island", "map_center": [500.0, 0.0], "map_size": [1500.0, 1500.0],
+             "map_heading": 0.0, "map_elevation": [-50.0, 10.0], "depth": 60.0}
+    ocean = Ocean(enabled=True, bathymetry=bathy)
+    centre = depth_at(ocean.bathymetry, np.array([[500.0 + 0.1 * 750.0, 0.05 * 750.0]]))  # island top
+    assert centre[0] < 0  # dry land: the island
+    assert depth_at(ocean.bathymetry, np.array([[-2000.0, 0.0]]))[0] == 60.0  # around the map
+    sea = sea_surface(ocean, Weather(wind_speed=10.0, wind_direction=270.0))
+    q = sea.query(np.array([[575.0, 37.5], [-1000.0, 0.0]]), 10.0)
+    assert q["height"][0] == 0.0 and abs(q["height"][1]) > 0.0  # no waves on the island, waves offshore
+    j = sea.evaluate(np.random.default_rng(8).uniform(-300.0, 1300.0, (5000, 2)), 3.0)["jacobian"]
+    assert j.min() >= 0.0
+
+
+def test_unknown_bathymetry_asset_is_a_clear_error():
+    with pytest.raises(ValueError, match="no_such_map"):
+        Ocean(enabled=True, bathymetry={"type": "map", "map": "no_such_map"})
+    with pytest.raises(ValueError):
+        Ocean(bathymetry={"type": "map"})  # a map needs its asset name
+    with pytest.raises(ValueError):
+        Ocean(bathymetry={"type": "map", "map": "../etc/passwd"})

@@ -167,9 +167,9 @@ class Bathymetry(Strict):
         if self.type == "map" and self.map is None:
             raise ValueError("bathymetry.type 'map' needs bathymetry.map (an asset name)")
         if self.map is not None:
-            from ..assets import check_name  # the plain-name rule of every asset
-
-            check_name(self.map)
+            from ..assets import resolve_asset  # plain names only; the asset must exist (checked here,
+                                                # at the protocol edge, not at render time)
+            resolve_asset("bathymetry", self.map, (".png",))
         if not self.map_elevation[1] > self.map_elevation[0]:
             raise ValueError("bathymetry.map_elevation must be (lower, higher)")
         return self
