@@ -56,6 +56,16 @@ class SeaSurface:
         fmax = float(np.max(self.field.factor)) if self.field is not None and self.n else 1.0
         return float(np.sum(self.waves.amplitude)) * max(fmax, 1.0)
 
+    def foam_jacobian(self, wind: float) -> float:
+        """J below which the surface counts as whitecap: the quantile of J (sampled over 1 km², 3
+        instants) at Monahan & O'Muircheartaigh's (1980) whitecap coverage W = 3.84e-6·U^3.41."""
+        coverage = min(3.84e-6 * max(wind, 0.0) ** 3.41, 0.5)
+        if coverage <= 0.0 or self.n == 0:
+            return -1.0
+        xy = np.random.default_rng(11).uniform(-500.0, 500.0, (4000, 2))
+        j = np.concatenate([self.evaluate(xy, t, full=False)["jacobian"] for t in (0.0, 7.3, 19.1)])
+        return float(np.quantile(j, coverage))
+
     def phase_offsets(self, t: float, origin_xy=(0.0, 0.0)) -> np.ndarray:
         """(k_i D_i·origin − ω_i t + φ_i) mod 2π, float64: the GPU adds k_i D_i·(p − origin)."""
         o = np.asarray(origin_xy, dtype=np.float64)

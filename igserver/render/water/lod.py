@@ -47,9 +47,13 @@ class LodSelection:
 
 
 def level_error(k: np.ndarray, amplitude: np.ndarray, spacing: float) -> float:
-    """World-space error (m) of a mesh with vertex ``spacing`` showing waves (k, A)."""
+    """World-space error (m) of a mesh with vertex ``spacing`` showing waves (k, A): linear
+    interpolation misses a sinusoid by A·(kΔ)²/8. Waves the vertex shader fades out at this spacing
+    (kΔ from π/2 to π, gerstner.glsl) leave the geometry for the shading (their slopes become
+    roughness), so they count with their remaining weight only."""
     x = k * spacing
-    return float(np.sum(amplitude * np.minimum(1.0, x * x / 8.0)))
+    kept = 1.0 - np.clip((x - 0.5 * math.pi) / (0.5 * math.pi), 0.0, 1.0)
+    return float(np.sum(amplitude * kept * np.minimum(1.0, x * x / 8.0)))
 
 
 def horizon_distance(height: float) -> float:
@@ -62,11 +66,11 @@ def select(view: CameraView, cam_height: float, k: np.ndarray, amplitude: np.nda
     """Blocks to draw this frame. ``cam_height``: camera height above the mean sea level (m)."""
     sphere = float(np.sum(amplitude))
     h_abs = abs(cam_height)
-    # Finest spacing: 1/8 of the shortest wave, but no finer than what a pixel at the camera's
-    # height resolves (h·tan(fov/2)/H_px), and between 5 cm and 64 m.
+    # Finest spacing: 1/8 of the shortest wave, but no finer than 4 pixels straight below the camera
+    # (h·tan(fov/2)/(H_px/2) per pixel), and between 12.5 cm and 64 m.
     kmax = float(np.max(k)) if len(k) else 1.0
     px = max(h_abs, 1.0) * math.tan(math.radians(fov_y_deg) / 2.0) / (view.height / 2.0)
-    spacing = 2.0 ** round(math.log2(min(max(2.0 * math.pi / kmax / 8.0, px, 0.05), 64.0)))
+    spacing = 2.0 ** round(math.log2(min(max(2.0 * math.pi / kmax / 8.0, 4.0 * px, 0.125), 64.0)))
     s0 = spacing * PATCH_QUADS
     pixels_per_rad = (view.height / 2.0) / math.tan(math.radians(fov_y_deg) / 2.0)
     reach = max(horizon_distance(h_abs) + 2.0 * sphere, 4.0 * s0)

@@ -25,6 +25,8 @@ in vec3 v_normal;
 in float v_jacobian;
 in float v_lost_var;
 in float v_depth;
+in vec3 v_air_t;
+in vec3 v_air_s;
 
 layout(location = 0) out vec4 out_color;
 layout(location = 1) out float out_distance;
@@ -34,8 +36,7 @@ const vec3 DEEP_ALBEDO = vec3(0.004, 0.016, 0.022); // backscatter of the deep w
 const vec3 ABSORPTION = vec3(0.35, 0.07, 0.045);    // 1/m, coastal water (red first)
 const vec3 BOTTOM_ALBEDO = vec3(0.35, 0.30, 0.22);  // sand
 const vec3 FOAM_ALBEDO = vec3(0.75);
-const float FOAM_START = 0.55;                       // J below this begins to whiten
-const float FOAM_FULL = 0.15;
+uniform float u_foam_jacobian;  // J below which the sea is white: the whitecap-coverage quantile (CPU)
 
 vec4 detail(sampler2D tex, vec3 map) {
     return texture(tex, v_rest * map.x + map.yz);
@@ -99,14 +100,14 @@ void main() {
     vec3 through = exp(-ABSORPTION * max(v_depth, 0.0) * (1.0 + 1.0 / cos_t));
     vec3 body = (DEEP_ALBEDO * (1.0 - through) + BOTTOM_ALBEDO * through) * e_down / PI;
     vec3 lit = fresnel * sky + direct + (1.0 - fresnel) * body;
-    // Foam where the Gerstner surface pinches (J -> 0): breaking crests and the surf zone.
-    float foam = smoothstep(FOAM_START, FOAM_FULL, v_jacobian);
+    // Foam where the Gerstner surface pinches (J small): breaking crests and the surf zone.
+    float foam = smoothstep(u_foam_jacobian + 0.02, u_foam_jacobian - 0.06, v_jacobian);
     lit = mix(lit, FOAM_ALBEDO * e_down / PI, foam);
     // Dry land of the bathymetry (h <= 0): no water, the bare beach at the water level (there is no
     // terrain pipeline yet), wet sand darker for the last few centimetres.
     float wet = smoothstep(0.0, 0.05, v_depth);
     vec3 sand = BOTTOM_ALBEDO * mix(1.0, 0.6, smoothstep(-0.3, 0.0, v_depth)) * e_down / PI;  // Lambert
     lit = mix(sand, lit, wet);
-    out_color = vec4(pre_expose(apply_aerial_perspective(lit, v_rel)), 1.0);
+    out_color = vec4(pre_expose(lit * v_air_t + v_air_s), 1.0);  // apply_aerial_perspective, per vertex
     out_distance = dist;
 }

@@ -79,6 +79,18 @@ def detail_tiles(sea: SeaSurface, t: float) -> list[tuple[float, np.ndarray]]:
     return tiles
 
 
+_FOAM_CACHE: dict[int, float] = {}
+
+
+def _foam_threshold(sea: SeaSurface, wind: float) -> float:
+    key = id(sea)
+    if key not in _FOAM_CACHE:
+        if len(_FOAM_CACHE) > 16:
+            _FOAM_CACHE.clear()
+        _FOAM_CACHE[key] = sea.foam_jacobian(wind)
+    return _FOAM_CACHE[key]
+
+
 class WaterPass(RenderPass):
     name = "water"
 
@@ -232,6 +244,8 @@ class WaterPass(RenderPass):
             self._detail[c].use(DETAIL_UNIT0 + c)
             set_uniforms(program, {f"u_detail{c}": DETAIL_UNIT0 + c})
         set_uniforms(program, {"u_detail_map": detail_map.tobytes(), "u_min_slope_var": 2e-4})
+        set_uniforms(program, {"u_foam_jacobian": _foam_threshold(sea, scene.weather.wind_speed
+                                                                  if scene.ocean.sea_state is None else sea.spectrum.wind)})
         hulls = hull_boxes(scene, view)
         if "u_hull_count" in program:
             program["u_hull_count"].value = len(hulls)

@@ -1,5 +1,6 @@
 // Sea mesh: one instanced G x G patch per CDLOD block (lod.py), morphed, displaced, on the earth.
 #include "common/frame.glsl"
+#include "common/atmosphere.glsl"
 #include "water/gerstner.glsl"
 
 uniform vec2 u_morph[24];      // per level: morph start, end distance (m)
@@ -16,6 +17,8 @@ out vec3 v_normal;
 out float v_jacobian;
 out float v_lost_var;
 out float v_depth;
+out vec3 v_air_t;               // aerial perspective as L -> L * v_air_t + v_air_s, per vertex
+out vec3 v_air_s;
 
 const float EARTH_RADIUS = 6.371e6;
 
@@ -40,5 +43,9 @@ void main() {
     v_jacobian = s.jacobian;
     v_lost_var = s.lost_var;
     v_depth = s.depth;
+    // Aerial perspective is affine in the radiance and smooth in distance: evaluated per vertex
+    // through the shared function (two calls give the affine map), interpolated per pixel.
+    v_air_s = apply_aerial_perspective(vec3(0.0), v_rel);
+    v_air_t = apply_aerial_perspective(vec3(1.0), v_rel) - v_air_s;
     gl_Position = u_view_proj * vec4(v_rel, 1.0);
 }
