@@ -10,9 +10,9 @@ Integrated ONCE per (bathymetry, wave set), on a regular grid in a local frame (
   local wave vector K = ∇ψ.
 - Amplitude. Linear shoaling K_s = √(c_g,ref / c_g(h)) and refraction K_r = √(cos θ_ref / cos θ)
   (θ measured from the march axis: exact for straight parallel contours, the plane beach; an
-  approximation over a general height map). Breaking: wherever the highest crest-to-trough the
-  superposition can reach (2·Σ A_i) exceeds 0.78·h, all amplitudes are scaled down to it; on dry
-  land (h ≤ 0) they are zero.
+  approximation over a general height map). Breaking: wherever the highest wave of the local sea,
+  H_max = 1.86·Hs (Rayleigh, ~1000 waves; Hs = 4·√(Σ A_i²/2)), would exceed 0.78·h, all amplitudes
+  are scaled down to it; on dry land (h ≤ 0) they are zero. The scale (1 − cap) marks the surf zone.
 - Steepness. Q grows toward the shore with shallowness 1 − tanh(k_p h) (k_p the peak's local
   wavenumber): Q(x) = Q + (Q_SHORE − Q)·(1 − tanh k_p h).
 
@@ -32,7 +32,8 @@ from ..scene.model import Bathymetry
 from .dispersion import group_velocity, wavenumber
 from .spectrum import WaveSet
 
-BREAKING_RATIO = 0.78  # H_max / h (McCowan)
+BREAKING_RATIO = 0.78  # H / h (McCowan): the highest wave breaks beyond it
+HIGHEST_WAVE = 1.86  # H_max / Hs of ~1000 waves of a Rayleigh sea (the highest a ship meets in an hour)
 Q_SHORE = 0.9  # Gerstner steepness reached in very shallow water
 MIN_COS = 0.17  # cos 80°: a ray never turns past 80° from the march axis (caustic guard)
 SLOPE_MAX_CELLS = 8192
@@ -158,6 +159,7 @@ class WaveField:
     kvec: np.ndarray  # (n, nu, nv, 2) rad/m
     steepness: np.ndarray  # (nu, nv)
     depth: np.ndarray  # (nu, nv) m
+    breaking: np.ndarray  # (nu, nv): 1 − breaking cap (0 unbroken, → 1 in the surf zone)
 
 
 def reference_waves(waves: WaveSet, depth: float) -> WaveSet:
@@ -237,9 +239,10 @@ def wave_field(bathy: Bathymetry, waves: WaveSet, q: float, omega_p: float) -> W
     cg = group_velocity(waves.omega[:, None, None], k, hk[None])
     factor = np.sqrt(cg_ref[:, None, None] / cg) * np.sqrt(cos_ratio)
     wet = h > 0.0
-    h_max = 2.0 * np.sum(waves.amplitude[:, None, None] * factor, axis=0)
+    hs_local = 4.0 * np.sqrt(0.5 * np.sum((waves.amplitude[:, None, None] * factor) ** 2, axis=0))
+    h_max = HIGHEST_WAVE * hs_local
     cap = np.where(wet, np.minimum(1.0, BREAKING_RATIO * np.maximum(h, 0.0) / np.maximum(h_max, 1e-300)), 0.0)
     factor = factor * cap[None]
     kp = wavenumber(omega_p, hk)
     steep = shore_steepness(q, kp * hk)
-    return WaveField(grid, residual, factor, kvec, steep, h)
+    return WaveField(grid, residual, factor, kvec, steep, h, np.where(wet, 1.0 - cap, 0.0))

@@ -17,7 +17,7 @@ uniform float u_steepness;              // Q over the reference depth (no field)
 
 #ifdef WATER_FIELD
 uniform sampler2DArray u_field;         // per wave: R (rad), F, Kx, Ky (rad/m)
-uniform sampler2D u_field_scalar;       // Q(x), depth (m)
+uniform sampler2D u_field_scalar;       // Q(x), depth (m), breaking (0..1)
 uniform vec2 u_field_origin;            // m, camera-relative position of node (0, 0)
 uniform vec2 u_field_u;                 // unit axes
 uniform vec2 u_field_v;
@@ -31,6 +31,7 @@ struct SeaSample {
     float jacobian;  // horizontal Jacobian det(dP/dp): 1 flat, -> 0 where crests pinch (foam)
     float lost_var;  // slope variance of the waves faded out by the LOD
     float depth;     // m (1e4 where no field: deep)
+    float breaking;  // 0 unbroken .. 1: how much the breaking cap cut the waves (surf zone)
 };
 
 #ifdef WATER_FIELD
@@ -55,15 +56,17 @@ vec4 field_at(sampler2DArray tex, ivec2 i0, ivec2 i1, vec2 t, int layer) {
 SeaSample sea_displace(vec2 p, float spacing) {
     float q = u_steepness;
     float depth = 1e4;
+    float breaking = 0.0;
 #ifdef WATER_FIELD
     ivec2 i0, i1;
     vec2 t;
     field_cell(p, i0, i1, t);
-    vec2 s00 = texelFetch(u_field_scalar, i0, 0).xy, s10 = texelFetch(u_field_scalar, ivec2(i1.x, i0.y), 0).xy;
-    vec2 s01 = texelFetch(u_field_scalar, ivec2(i0.x, i1.y), 0).xy, s11 = texelFetch(u_field_scalar, i1, 0).xy;
-    vec2 sc = (s00 * (1.0 - t.x) + s10 * t.x) * (1.0 - t.y) + (s01 * (1.0 - t.x) + s11 * t.x) * t.y;
+    vec3 s00 = texelFetch(u_field_scalar, i0, 0).xyz, s10 = texelFetch(u_field_scalar, ivec2(i1.x, i0.y), 0).xyz;
+    vec3 s01 = texelFetch(u_field_scalar, ivec2(i0.x, i1.y), 0).xyz, s11 = texelFetch(u_field_scalar, i1, 0).xyz;
+    vec3 sc = (s00 * (1.0 - t.x) + s10 * t.x) * (1.0 - t.y) + (s01 * (1.0 - t.x) + s11 * t.x) * t.y;
     q = sc.x;
     depth = sc.y;
+    breaking = sc.z;
 #endif
     vec2 disp = vec2(0.0);
     float height = 0.0;
@@ -104,5 +107,6 @@ SeaSample sea_displace(vec2 p, float spacing) {
     r.jacobian = jxx * jyy - jxy * jyx;
     r.lost_var = lost;
     r.depth = depth;
+    r.breaking = breaking;
     return r;
 }

@@ -140,6 +140,9 @@ def select(view: CameraView, cam_height: float, k: np.ndarray, amplitude: np.nda
     arr = np.array(nodes, dtype=np.float64).reshape(-1, 4)
     arr[:, 0] -= cam[0]
     arr[:, 1] -= cam[1]
+    # Near blocks first: the depth test then rejects hidden far fragments before they are shaded.
+    centre = arr[:, :2] + arr[:, 2:3] / 2.0
+    arr = arr[np.argsort(np.hypot(centre[:, 0], centre[:, 1]) - arr[:, 2] * 0.7072, kind="stable")]
     return LodSelection(arr.astype(np.float32), morph, np.asarray(ranges), spacing, lod_error_px, sphere)
 
 

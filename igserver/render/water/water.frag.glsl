@@ -25,6 +25,7 @@ in vec3 v_normal;
 in float v_jacobian;
 in float v_lost_var;
 in float v_depth;
+in float v_breaking;
 in vec3 v_air_t;
 in vec3 v_air_s;
 
@@ -53,10 +54,12 @@ vec3 glint(vec3 e, vec3 n, vec3 v, vec3 l, float alpha) {
 }
 
 void main() {
+#ifdef WATER_HULLS  // only when hulls float in the sea: discard would disable early depth tests
     for (int i = 0; i < u_hull_count; ++i) {
         vec3 b = (u_hull_inv[i] * vec4(v_rel, 1.0)).xyz;
         if (all(lessThan(abs(b), vec3(1.0)))) discard;  // inside a hull: the sea stays out
     }
+#endif
     // Mesh slope + detail slopes (3 summed maps), and what none of them resolves as roughness.
     vec4 d0 = detail(u_detail0, u_detail_map[0]);
     vec4 d1 = detail(u_detail1, u_detail_map[1]);
@@ -102,6 +105,10 @@ void main() {
     vec3 lit = fresnel * sky + direct + (1.0 - fresnel) * body;
     // Foam where the Gerstner surface pinches (J small): breaking crests and the surf zone.
     float foam = smoothstep(u_foam_jacobian + 0.02, u_foam_jacobian - 0.06, v_jacobian);
+    // Surf zone: where the breaking cap cut the waves, the broken water is white on the crests.
+    // (J < 1 on the compressed crests, > 1 in the troughs.)
+    foam = max(foam, smoothstep(0.1, 0.7, v_breaking) * smoothstep(1.02, 0.9, v_jacobian));
+    foam *= smoothstep(0.15, 0.85, 0.5 + 4.0 * (d1.x - d2.y));  // streaky texture from the detail maps
     lit = mix(lit, FOAM_ALBEDO * e_down / PI, foam);
     // Dry land of the bathymetry (h <= 0): no water, the bare beach at the water level (there is no
     // terrain pipeline yet), wet sand darker for the last few centimetres.

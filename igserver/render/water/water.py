@@ -108,10 +108,12 @@ class WaterPass(RenderPass):
         return scene.ocean.enabled
 
     # ---- resources ------------------------------------------------------------------------------
-    def _program(self, field: bool) -> moderngl.Program:
+    def _program(self, field: bool, hulls: bool = False) -> moderngl.Program:
         defines = {"MAX_WAVES": MAX_WAVES, "MAX_HULLS": MAX_HULLS}
         if field:
             defines["WATER_FIELD"] = 1
+        if hulls:
+            defines["WATER_HULLS"] = 1
         return self.programs.program("water/water.vert.glsl", "water/water.frag.glsl", defines)
 
     def capture_program(self, field: bool) -> moderngl.Program:
@@ -152,8 +154,9 @@ class WaterPass(RenderPass):
         data = np.stack([f.residual, f.factor, f.kvec[..., 0], f.kvec[..., 1]], axis=-1)  # (n, nu, nv, 4)
         data = np.ascontiguousarray(np.transpose(data, (0, 2, 1, 3)), dtype=np.float32)  # rows = v
         field = self.ctx.texture_array((nu, nv, n), 4, data.tobytes(), dtype="f4")
-        scalar = np.ascontiguousarray(np.stack([f.steepness, f.depth], axis=-1).transpose(1, 0, 2), dtype=np.float32)
-        scalar_tex = self.ctx.texture((nu, nv), 2, scalar.tobytes(), dtype="f4")
+        scalar = np.stack([f.steepness, f.depth, f.breaking, np.zeros_like(f.depth)], axis=-1)
+        scalar = np.ascontiguousarray(scalar.transpose(1, 0, 2), dtype=np.float32)
+        scalar_tex = self.ctx.texture((nu, nv), 4, scalar.tobytes(), dtype="f4")
         for tex in (field, scalar_tex):
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._field_tex = (field, scalar_tex)
@@ -230,7 +233,8 @@ class WaterPass(RenderPass):
         t = scene.time.sim_time
         tiles = self._render_detail(sea, t, scene.ocean.detail_resolution)
         selection = self.select(sea, scene, view)
-        program = self._program(sea.field is not None)
+        hulls = hull_boxes(scene, view)
+        program = self._program(sea.field is not None, bool(hulls))
         set_uniforms(program, frame.uniforms)
         if sea.field is not None:
             self._upload_field(sea)
@@ -246,7 +250,6 @@ class WaterPass(RenderPass):
         set_uniforms(program, {"u_detail_map": detail_map.tobytes(), "u_min_slope_var": 2e-4})
         set_uniforms(program, {"u_foam_jacobian": _foam_threshold(sea, scene.weather.wind_speed
                                                                   if scene.ocean.sea_state is None else sea.spectrum.wind)})
-        hulls = hull_boxes(scene, view)
         if "u_hull_count" in program:
             program["u_hull_count"].value = len(hulls)
             if hulls:

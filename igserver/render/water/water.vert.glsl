@@ -17,6 +17,7 @@ out vec3 v_normal;
 out float v_jacobian;
 out float v_lost_var;
 out float v_depth;
+out float v_breaking;
 out vec3 v_air_t;               // aerial perspective as L -> L * v_air_t + v_air_s, per vertex
 out vec3 v_air_s;
 
@@ -43,6 +44,7 @@ void main() {
     v_jacobian = s.jacobian;
     v_lost_var = s.lost_var;
     v_depth = s.depth;
+    v_breaking = s.breaking;
     // Aerial perspective is affine in the radiance and smooth in distance: evaluated per vertex
     // through the shared function (two calls give the affine map), interpolated per pixel.
     v_air_s = apply_aerial_perspective(vec3(0.0), v_rel);
