@@ -162,8 +162,12 @@ def run(argv: list[str]) -> int:
         lines.append(f"| {r['knob']} | {r['value']}{mark} | {r['ms']:.1f} | {r['triangles']} | {r['rmse']:.1f} | "
                      f"{r['lowpass']:.1f} | {r['near_rms_cm']:.3f} / {r['near_max_cm']:.3f} | "
                      f"{r['far_rms_cm']:.1f} / {r['far_max_cm']:.1f} | {r['hs']:.2f} | {r['mss']:.4f} |")
-    lines += ["", f"Cheapest with lowpass <= {LOWPASS_LIMIT} and near max <= {SURFACE_LIMIT_CM} cm: "
-              f"{choice['knob']} = {choice['value']} ({choice['ms']:.1f} ms)."]
+    if good:
+        lines += ["", f"Cheapest with lowpass <= {LOWPASS_LIMIT} and near max <= {SURFACE_LIMIT_CM} cm: "
+                  f"{choice['knob']} = {choice['value']} ({choice['ms']:.1f} ms)."]
+    else:
+        lines += ["", f"No setting meets lowpass <= {LOWPASS_LIMIT} and near max <= {SURFACE_LIMIT_CM} cm; "
+                  f"lowest lowpass: {choice['knob']} = {choice['value']}."]
     out.write_text("\n".join(lines) + "\n")
     out.with_suffix(".json").write_text(json.dumps({"reference": REFERENCE, "rows": rows, "choice": choice}, indent=2))
     print(f"wrote {out}")
