@@ -1,4 +1,4 @@
-"""``igserver bench``: frame time per pass and in total, per scene and resolution.
+"""``igserver bench``: frame time per pass and in total, per scene, resolution and quality preset.
 
 Each pass is bracketed by ``ctx.finish()`` and a wall clock (llvmpipe has no usable timer queries);
 ``frame`` is the same frame rendered without the per-pass synchronisation, i.e. what a client sees.
@@ -53,8 +53,25 @@ def bench_scene(renderer, scene, frames: int, warmup: int = 3) -> dict:
     }
 
 
+TABLE_PASSES = ["sky", "surfaces", "water", "volumes", "precip", "post"]
+
+
+def markdown_table(report: dict) -> str:
+    """The README's performance table: per scene x resolution x preset, frame median (p99) and
+    per-pass medians (ms)."""
+    passes = [p for p in TABLE_PASSES if any(p in r["pass_ms"] for r in report["runs"])]
+    head = ["scene", "resolution", "preset", "frame median (p99)", *passes]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in report["runs"]:
+        cells = [f"`{r['scene']}`", r["resolution"], r["preset"],
+                 f"{r['frame_ms']['median']:.1f} ({r['frame_ms']['p99']:.1f})",
+                 *(f"{r['pass_ms'][p]['median']:.1f}" if p in r["pass_ms"] else "–" for p in passes)]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
 def run(scenes: list[str], resolutions: list[tuple[int, int]], frames: int, assignments: list[str],
-        json_path: str | None = None) -> dict:
+        json_path: str | None = None, presets: list[str] | None = None, markdown_path: str | None = None) -> dict:
     from .render.renderer import Renderer
 
     renderer = Renderer()
@@ -64,17 +81,25 @@ def run(scenes: list[str], resolutions: list[tuple[int, int]], frames: int, assi
     for name in scenes:
         base = apply_patch(load_scene(name), patch)
         for width, height in resolutions:
-            scene = apply_patch(base, {"camera": {"width": width, "height": height}})
-            row = bench_scene(renderer, scene, frames)
-            row.update(scene=name, resolution=f"{width}x{height}")
-            report["runs"].append(row)
-            passes = "  ".join(f"{k} {v['median']:.2f} ({v['p99']:.2f})" for k, v in row["pass_ms"].items())
-            extra = "".join(f"  |  {k}: " + ", ".join(f"{sk} {sv:.4g}" if isinstance(sv, float) else f"{sk} {sv}"
-                                                       for sk, sv in v.items()) for k, v in row["stats"].items())
-            print(f"{name:18s} {width}x{height}  frame {row['frame_ms']['median']:.2f} ({row['frame_ms']['p99']:.2f})"
-                  f"  sum-of-passes {row['total_ms']['median']:.2f} ({row['total_ms']['p99']:.2f})  |  {passes}{extra}")
+            for preset in presets or [base.quality.preset]:
+                scene = apply_patch(base, {"camera": {"width": width, "height": height},
+                                           "quality": {"preset": preset}})
+                row = bench_scene(renderer, scene, frames)
+                row.update(scene=name, resolution=f"{width}x{height}", preset=preset)
+                report["runs"].append(row)
+                passes = "  ".join(f"{k} {v['median']:.2f} ({v['p99']:.2f})" for k, v in row["pass_ms"].items())
+                extra = "".join(f"  |  {k}: " + ", ".join(f"{sk} {sv:.4g}" if isinstance(sv, float) else f"{sk} {sv}"
+                                                           for sk, sv in v.items()) for k, v in row["stats"].items())
+                print(f"{name:18s} {width}x{height} {preset:6s}  frame {row['frame_ms']['median']:.2f} "
+                      f"({row['frame_ms']['p99']:.2f})  sum-of-passes {row['total_ms']['median']:.2f} "
+                      f"({row['total_ms']['p99']:.2f})  |  {passes}{extra}", flush=True)
     if json_path:
         with open(json_path, "w") as fh:
             json.dump(report, fh, indent=2)
+    table = markdown_table(report)
+    print(f"\nrenderer: {report['renderer']}\n\n{table}")
+    if markdown_path:
+        with open(markdown_path, "w") as fh:
+            fh.write(f"renderer: {report['renderer']} (GL {report['gl_version']}), {frames} frames\n\n{table}\n")
     renderer.release()
     return report

@@ -1,4 +1,4 @@
-"""Command line: ``igserver serve | render | bench | quality``."""
+"""Command line: ``igserver serve | health | render | bench | quality``."""
 
 from __future__ import annotations
 
@@ -10,6 +10,9 @@ from pathlib import Path
 from pydantic import ValidationError
 
 
+PRESET_CHOICES = ["low", "medium", "high", "auto"]
+
+
 def _resolution(text: str) -> tuple[int, int]:
     w, _, h = text.lower().partition("x")
     return int(w), int(h)
@@ -19,21 +22,28 @@ def _scene_from_args(args):
     from .scene import apply_patch, load_scene, patch_from_assignments
 
     scene = load_scene(args.scene)
-    patch = patch_from_assignments(args.set or [])
+    patch = patch_from_assignments(args.set or [], base=scene.model_dump(mode="json"))
     camera = {k: v for k, v in (("width", args.width), ("height", args.height)) if v is not None}
     if camera:
         patch.setdefault("camera", {}).update(camera)
+    if getattr(args, "preset", None):
+        patch.setdefault("quality", {})["preset"] = args.preset
     return apply_patch(scene, patch)
 
 
 def cmd_render(args) -> int:
     from PIL import Image
 
-    from .render.worker import RenderService
+    from .render.worker import RenderError, RenderService
 
     scene = _scene_from_args(args)
-    with RenderService(scene) as service:
-        frame = service.render(timed=True)
+    try:
+        with RenderService(scene) as service:
+            frame = service.render(timed=True)
+    except RenderError as exc:
+        # no EGL, no GL 4.5, a driver crash: say what to install, not where in our code it happened
+        print(f"igserver render: {str(exc).strip().splitlines()[-1]}", file=sys.stderr)
+        return 1
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Image.fromarray(frame.rgba[:, :, :3]).save(args.out)
     print(f"wrote {args.out} ({frame.width}x{frame.height}, passes {' '.join(frame.passes)}, "
@@ -46,14 +56,54 @@ def cmd_bench(args) -> int:
 
     scenes = args.scenes.split(",") if args.scenes else bench.DEFAULT_SCENES
     resolutions = [_resolution(r) for r in args.resolutions.split(",")]
-    bench.run(scenes, resolutions, args.frames, args.set or [], args.json)
+    presets = args.presets.split(",") if args.presets else ([args.preset] if args.preset else None)
+    bench.run(scenes, resolutions, args.frames, args.set or [], args.json, presets, args.markdown)
     return 0
 
 
 def cmd_serve(args) -> int:
     from .protocol.app import serve
+    from .protocol.settings import ServerSettings
 
-    return serve(scene_path=args.scene, host=args.host, port=args.port, width=args.width, height=args.height) or 0
+    # flags > IGSERVER_* environment > defaults (pydantic-settings merges them)
+    settings = ServerSettings(_cli_settings_source=args.settings_source(parsed_args=args))
+    return serve(scene_path=args.scene or None, width=args.width, height=args.height, settings=settings,
+                 preset=args.preset)
+
+
+def cmd_health(args) -> int:
+    """Container health check: is the local server ready (a frame can be served)? Reads the IGSERVER_* settings."""
+    import httpx
+
+    from .protocol.settings import WILDCARD_HOSTS, ServerSettings
+
+    settings = ServerSettings()
+    host = "127.0.0.1" if settings.host in WILDCARD_HOSTS else settings.host
+    host = f"[{host}]" if ":" in host else host
+    token = settings.bearer_token()
+    headers = {"Authorization": f"Bearer {token}"} if token else {}
+    path = "/v1/health" if args.live else "/v1/ready"
+    try:
+        response = httpx.get(f"http://{host}:{settings.port}{path}", headers=headers, timeout=args.timeout)
+    except httpx.HTTPError as exc:
+        print(f"igserver health: {exc}", file=sys.stderr)
+        return 1
+    print(response.text)
+    return 0 if response.status_code == 200 else 1
+
+
+def add_serve_arguments(parser: argparse.ArgumentParser, default_scene: str | None) -> None:
+    """``igserver serve``'s flags: the scene and size, and one flag per server setting (settings.py)."""
+    from pydantic_settings import CliSettingsSource
+
+    from .protocol.settings import ServerSettings
+
+    parser.add_argument("--scene", default=default_scene,
+                        help=f"scene file or name in igserver/scenes/ (default {default_scene or 'built-in'})")
+    parser.add_argument("--width", type=int)
+    parser.add_argument("--height", type=int)
+    parser.add_argument("--preset", choices=PRESET_CHOICES, help="quality preset of the initial scene")
+    parser.set_defaults(settings_source=CliSettingsSource(ServerSettings, root_parser=parser))
 
 
 def cmd_quality(args) -> int:
@@ -69,13 +119,15 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="igserver", description="Network image generator for training simulators")
     sub = parser.add_subparsers(dest="command", required=True)
 
-    p = sub.add_parser("serve", help="start the IG service (REST, WebSocket, MJPEG, viewer page)")
-    p.add_argument("--scene", default="demo", help="scene file or name in igserver/scenes/ (default demo)")
-    p.add_argument("--host", default="127.0.0.1")
-    p.add_argument("--port", type=int, default=8600)
-    p.add_argument("--width", type=int)
-    p.add_argument("--height", type=int)
+    p = sub.add_parser("serve", help="start the IG service (REST, WebSocket, MJPEG, viewer page)",
+                       description="Every setting is also an IGSERVER_* environment variable (README: settings).")
+    add_serve_arguments(p, "demo")
     p.set_defaults(func=cmd_serve)
+
+    p = sub.add_parser("health", help="exit 0 when the local server is ready (Docker HEALTHCHECK)")
+    p.add_argument("--live", action="store_true", help="only check that the server process answers")
+    p.add_argument("--timeout", type=float, default=4.0)
+    p.set_defaults(func=cmd_health)
 
     p = sub.add_parser("render", help="render one frame of a scene to a PNG")
     p.add_argument("--scene", required=True, help="scene file or name in igserver/scenes/")
@@ -83,6 +135,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--width", type=int)
     p.add_argument("--height", type=int)
     p.add_argument("--set", action="append", metavar="PATH=VALUE", help="override a field, e.g. camera.pitch=10")
+    p.add_argument("--preset", choices=PRESET_CHOICES, help="quality preset (= --set quality.preset=...)")
     p.set_defaults(func=cmd_render)
 
     p = sub.add_parser("bench", help="frame time per pass and in total")
@@ -90,13 +143,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--resolutions", default="640x360")
     p.add_argument("--frames", type=int, default=30)
     p.add_argument("--json", help="also write the report as JSON")
+    p.add_argument("--markdown", help="also write the performance table (README form) to this file")
+    p.add_argument("--presets", help="comma-separated quality presets, one run each (e.g. low,medium,high)")
+    p.add_argument("--preset", choices=PRESET_CHOICES, help="one quality preset (default: the scene's)")
     p.add_argument("--set", action="append", metavar="PATH=VALUE")
     p.add_argument("--service", action="store_true",
                    help="end-to-end latency through the real server (flags: --frames --width --height --modes --json)")
     p.set_defaults(func=cmd_bench)
 
-    p = sub.add_parser("quality", help="error against run time for a pipeline (sky, volumes)")
-    p.add_argument("pipeline")
+    p = sub.add_parser("quality", help="error against run time: one pipeline's study, or all of them into "
+                                       "one report (no argument; --quick, --out out/quality)")
+    p.add_argument("pipeline", nargs="?", help="a study in igserver/quality (sky, volumes, ...); none = all")
     p.add_argument("rest", nargs=argparse.REMAINDER)
     p.set_defaults(func=cmd_quality)
     return parser
@@ -109,6 +166,11 @@ def main(argv: list[str] | None = None) -> int:
         from .protocol.bench import run_service_bench
 
         return run_service_bench([a for a in argv[1:] if a != "--service"]) or 0
+    if argv[:1] == ["quality"] and (len(argv) == 1 or argv[1].startswith("-")) and "-h" not in argv[1:2]:
+        # No study named: every study into one report (its own flags: --quick --out --only).
+        from .quality.report import run_all
+
+        return run_all(argv[1:])
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
@@ -119,6 +181,9 @@ def main(argv: list[str] | None = None) -> int:
     except (FileNotFoundError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

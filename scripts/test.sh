@@ -3,5 +3,14 @@
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 bash "$root/scripts/bootstrap.sh"
+# the viewer is tested in a real browser: Debian's headless Chromium (installed when root, like Mesa)
+if ! command -v chromium >/dev/null 2>&1; then
+  if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+    echo "test.sh: installing chromium (viewer tests)" >&2
+    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium >&2
+  else
+    echo "test.sh: chromium missing: the viewer browser tests will be skipped (apt-get install chromium)" >&2
+  fi
+fi
 cd "$root"
 exec .venv/bin/python -m pytest -q "$@"

@@ -1,10 +1,11 @@
-"""Shared fixtures: one resident renderer for the session (context creation and shader compiles
-are paid once), and a helper that makes a tiny scene from a patch."""
+"""Shared fixtures: one resident renderer (one GL context) for the whole session — context creation and
+shader compiles are paid once, and every GL test runs on the same context in any order. The renderer
+makes its context current before each use (igserver/render/context.py: the one rule for GL contexts),
+so a test that creates and releases another context cannot take the shared renderer's calls."""
 
 from __future__ import annotations
 
 import pytest
-
 
 
 @pytest.fixture(scope="session")
@@ -14,3 +15,17 @@ def renderer():
     r = Renderer()
     yield r
     r.release()
+
+
+# Tests that start other processes (a real server, the render process, the CLI).
+PROCESS_MODULES = {"test_cli", "test_client", "test_protocol", "test_service_streams", "test_worker"}
+
+
+def pytest_collection_modifyitems(config, items):
+    """Mark what each test needs, so a run can select the fast in-process, GL-free tests
+    (``-m "not gl and not process"``: the mutation run's selection, scripts/mutation.sh)."""
+    for item in items:
+        if "renderer" in getattr(item, "fixturenames", ()):
+            item.add_marker(pytest.mark.gl)
+        if item.module is not None and item.module.__name__.rsplit(".", 1)[-1] in PROCESS_MODULES:
+            item.add_marker(pytest.mark.process)

@@ -15,3 +15,52 @@ def tiny(patch: dict | None = None, width: int = 64, height: int = 36) -> Scene:
 def luminance(rgba: np.ndarray) -> np.ndarray:
     rgb = rgba[..., :3].astype(np.float64)
     return 0.2126 * rgb[..., 0] + 0.7152 * rgb[..., 1] + 0.0722 * rgb[..., 2]
+
+
+class GLWork:
+    """Counts the GL work a block submits, at moderngl's boundary (independent of igserver's own pass
+    bookkeeping): draws, compute dispatches, framebuffer blits, clears and framebuffer binds.
+
+    ``with GLWork() as work: renderer.render(scene)`` then ``work.counts`` ({kind: n}) and ``work.calls``
+    (the sequence of (kind, detail)). A pass that runs costs GL commands even when it draws nothing
+    (it binds its target), so equal counts mean no pass ran that the other frame did not run.
+    """
+
+    HOOKS = {
+        "draw": ("VertexArray", "render"),
+        "dispatch": ("ComputeShader", "run"),
+        "blit": ("Context", "copy_framebuffer"),
+        "clear": ("Framebuffer", "clear"),
+        "bind_fbo": ("Framebuffer", "use"),
+    }
+
+    def __init__(self):
+        self.calls: list[tuple[str, str]] = []
+        self._saved: list[tuple[type, str, object]] = []
+
+    @property
+    def counts(self) -> dict[str, int]:
+        out = {kind: 0 for kind in self.HOOKS}
+        for kind, _ in self.calls:
+            out[kind] += 1
+        return out
+
+    def __enter__(self) -> "GLWork":
+        import moderngl
+
+        for kind, (cls_name, method) in self.HOOKS.items():
+            cls = getattr(moderngl, cls_name)
+            original = getattr(cls, method)
+            self._saved.append((cls, method, original))
+
+            def counted(obj, *args, _kind=kind, _original=original, **kwargs):
+                self.calls.append((_kind, type(obj).__name__))
+                return _original(obj, *args, **kwargs)
+
+            setattr(cls, method, counted)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for cls, method, original in reversed(self._saved):
+            setattr(cls, method, original)
+        self._saved.clear()

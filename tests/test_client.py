@@ -8,7 +8,8 @@ import json
 import pytest
 from PIL import Image
 
-from clients.igclient import AsyncIGClient, IGClient, IGError, main
+from igserver.client import AsyncIGClient, IGClient, IGError
+from igserver.client.core import main
 from igserver.protocol.runtime import ServerSettings
 from igserver.protocol.testing import LoopbackServer
 from igserver.scene import Scene, save_scene
@@ -101,3 +102,103 @@ def test_cli(server, tmp_path, capsys):
     assert main(url + ["bench", "--frames", "5"]) == 0
     out = capsys.readouterr().out
     assert "ws:" in out and "http:" in out and "p99" in out
+
+
+# --------------------------------------------------------------------------- issue 9, item 9: CLI and client
+
+def test_cli_messages_instead_of_tracebacks(server, tmp_path, capsys):
+    url = ["--url", server.url]
+    assert main(url + ["set", "camera.pitch"]) == 2
+    err = capsys.readouterr().err
+    assert "PATH=VALUE" in err and "Traceback" not in err
+    scenario = tmp_path / "bad.jsonl"
+    scenario.write_text('# a comment\n   # an indented comment\n// another\n{"camera": {"heading": 5}}\nnot json\n')
+    assert main(url + ["play", str(scenario)]) == 2
+    assert f"{scenario}:5: not a JSON patch" in capsys.readouterr().err
+    scenario.write_text('# header\n  # indented\n{"camera": {"heading": 7}}\n\n// done\n')
+    assert main(url + ["play", str(scenario), "--rate", "100"]) == 0
+    with IGClient(server.url) as ig:
+        assert ig.get_state().camera.heading == 7
+    assert main(url + ["frame", str(tmp_path / "f.bmp")]) == 2
+    assert "use .jpg, .png or .raw" in capsys.readouterr().err
+    assert main(["--url", "http://127.0.0.1:9", "state"]) == 1  # nothing listens on the discard port
+    assert "cannot reach" in capsys.readouterr().err
+
+
+def test_cli_raw_frames_list_items_and_effects(server, tmp_path, capsys):
+    url = ["--url", server.url]
+    assert main(url + ["frame", str(tmp_path / "f.raw")]) == 0
+    assert (tmp_path / "f.raw").stat().st_size == W * H * 4  # RGBA8, as the message says
+    assert "RGBA8" in capsys.readouterr().out
+
+    assert main(url + ["effects", "add", "fire-a", "diameter=3", "position=[5,0,0]"]) == 0
+    assert main(url + ["effects", "add", "smoke-b", "type=smoke"]) == 0
+    capsys.readouterr()
+    assert main(url + ["effects"]) == 0
+    listing = capsys.readouterr().out
+    assert "fire-a" in listing and "smoke-b" in listing
+    # a list item, addressed by its index: only that item changes
+    assert main(url + ["set", "effects.1.intensity=0.25", "effects.0.active=false"]) == 0
+    with IGClient(server.url) as ig:
+        effects = {e["id"]: e for e in ig.effects()}
+    assert effects["smoke-b"]["intensity"] == 0.25 and effects["fire-a"]["active"] is False
+    assert effects["fire-a"]["diameter"] == 3.0 and effects["smoke-b"]["active"] is True
+    assert main(url + ["set", "effects.9.active=false"]) == 2  # no such item: a message, nothing sent
+    assert "2 items" in capsys.readouterr().err
+    assert main(url + ["effects", "start", "fire-a"]) == 0
+    assert main(url + ["effects", "set", "fire-a", "intensity=2"]) == 0
+    assert main(url + ["effects", "stop", "smoke-b"]) == 0
+    with IGClient(server.url) as ig:
+        effects = {e["id"]: e for e in ig.effects()}
+    assert effects["fire-a"]["active"] is True and effects["fire-a"]["intensity"] == 2.0
+    assert effects["smoke-b"]["active"] is False
+    assert main(url + ["effects", "remove", "fire-a"]) == 0 and main(url + ["effects", "remove", "smoke-b"]) == 0
+    with IGClient(server.url) as ig:
+        assert ig.effects() == []
+    assert main(url + ["effects", "stop", "nope"]) == 2  # 404 as a message
+
+
+def test_cli_bench_restores_the_state(server, capsys):
+    with IGClient(server.url) as ig:
+        before = ig.patch_state({"host_frame": 500, "camera": {"heading": 33.0, "pitch": 2.0}})
+    assert main(["--url", server.url, "bench", "--frames", "3", "--modes", "http"]) == 0
+    with IGClient(server.url) as ig:
+        after = ig.get_state()
+    assert after.camera == before.camera and after.host_frame == before.host_frame
+
+
+def test_cli_record_stops_cleanly_on_ctrl_c(server, tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "live.mjpg"
+    process = subprocess.Popen([sys.executable, "-m", "igserver.client.core", "--url", server.url, "record",
+                                "--mjpeg", str(out), "--frames", "0"], stderr=subprocess.PIPE, text=True,
+                               env={**os.environ})
+    deadline = time.monotonic() + 60
+    while (not out.exists() or out.stat().st_size == 0) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=30)
+    assert process.returncode == 0, err
+    assert "stopped after" in err and "Traceback" not in err
+    assert out.read_bytes()[:2] == b"\xff\xd8"
+
+
+def test_async_client_has_the_sync_methods(server):
+    sync_methods = {n for n in dir(IGClient) if not n.startswith("_") and callable(getattr(IGClient, n))}
+    async_methods = {n for n in dir(AsyncIGClient) if not n.startswith("_") and callable(getattr(AsyncIGClient, n))}
+    assert sync_methods <= async_methods, sync_methods - async_methods
+
+    async def scenario():
+        async with AsyncIGClient(server.url) as ig:
+            assert (await ig.health())["status"] == "ok"
+            assert (await ig.wait_ready(timeout=60))["ready"]
+            assert "igserver_frames_rendered_total" in await ig.metrics()
+            jpegs = [jpeg async for jpeg in ig.mjpeg(frames=2)]
+            assert len(jpegs) == 2 and all(j[:2] == b"\xff\xd8" for j in jpegs)
+
+    asyncio.run(scenario())

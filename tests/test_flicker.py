@@ -13,7 +13,9 @@ from igserver.render.volumes.effects import puffing_frequency
 from igserver.render.volumes.fire_lights import fire_light
 from igserver.scene import Scene
 
-RATE = 60.0  # Hz, sampling of the light's intensity (a frame rate)
+RATE = 60.0  # Hz, sampling of the flicker gain (a frame rate)
+LIGHT_RATE = 20.0  # Hz, sampling of a fire light's intensity: Nyquist 10 Hz is above the highest partial
+                   # (1.5/sqrt(0.3) * e^0.6 = 5 Hz), and a third of the samples keeps the test fast
 
 
 def _fire_scene(diameter: float, sim_time: float, seed: int = 1, **effect) -> Scene:
@@ -25,32 +27,48 @@ def _fire_scene(diameter: float, sim_time: float, seed: int = 1, **effect) -> Sc
 
 def _intensity_series(diameter: float, seed: int, seconds: float = 60.0, t0: float = 100.0) -> np.ndarray:
     values = []
-    for t in t0 + np.arange(0.0, seconds, 1.0 / RATE):
-        light = fire_light(_fire_scene(diameter, float(t), seed).effects[0], _fire_scene(diameter, float(t), seed))
+    scene = _fire_scene(diameter, t0, seed)  # validated once; only sim_time changes (model_copy)
+    for t in t0 + np.arange(0.0, seconds, 1.0 / LIGHT_RATE):
+        at_t = scene.model_copy(update={"time": scene.time.model_copy(update={"sim_time": float(t)})})
+        light = fire_light(at_t.effects[0], at_t)
         values.append(float(np.max(light.color)))
     return np.asarray(values)
 
 
-def _peak_frequency(series: np.ndarray) -> float:
-    spectrum = np.abs(np.fft.rfft((series - series.mean()) * np.hanning(len(series))))
-    freqs = np.fft.rfftfreq(len(series), 1.0 / RATE)
+def _peak_frequency(series: np.ndarray, rate: float = RATE) -> float:
+    """Frequency of the spectrum's maximum: Hann window, zero-padded 16x so the maximum is read between
+    the bins (no scalloping loss that could let a neighbouring partial win)."""
+    n = len(series)
+    spectrum = np.abs(np.fft.rfft((series - series.mean()) * np.hanning(n), 16 * n))
+    freqs = np.fft.rfftfreq(16 * n, 1.0 / rate)
     return float(freqs[1:][np.argmax(spectrum[1:])])
 
 
-@pytest.mark.parametrize("diameter", [0.3, 1.0, 3.0])
-@pytest.mark.parametrize("seed", [1, 17])
+# What the model guarantees (igserver/render/lights.py, _partials): the largest partial sits within
+# exp(+-0.03) of the peak frequency for every seed (seeded log-jitter of +-0.03), and its neighbours are
+# 0.1 apart in ln f with smaller weights. The measured peak may additionally be off by the analysis'
+# frequency resolution, one bin 1/T of the T-second series. So the tolerance on ln(peak / f) is
+# 0.03 + 1 / (T f): 4.9 % for a 3 m fire over 60 s, far below a 1.2x error (ln 1.2 = 18 %).
+PARTIAL_JITTER = 0.03
+
+
+def _tolerance(frequency: float, seconds: float) -> float:
+    return PARTIAL_JITTER + 1.0 / (seconds * frequency)
+
+
+@pytest.mark.parametrize("diameter, seed", [(0.3, 1), (1.0, 17), (3.0, 5)])
 def test_fire_light_spectrum_peaks_at_puffing_frequency(diameter, seed):
-    expected = 1.5 / math.sqrt(diameter)
+    expected = 1.5 / math.sqrt(diameter)  # pool-fire puffing (DESIGN 4.3), written out independently
     assert puffing_frequency(diameter) == pytest.approx(expected)
-    peak = _peak_frequency(_intensity_series(diameter, seed))
-    assert abs(peak / expected - 1.0) <= 0.25, (diameter, seed, peak, expected)
+    peak = _peak_frequency(_intensity_series(diameter, seed), LIGHT_RATE)
+    assert abs(math.log(peak / expected)) <= _tolerance(expected, 60.0), (diameter, seed, peak, expected)
 
 
 def test_flicker_gain_spectrum_many_seeds():
     t = np.arange(0.0, 120.0, 1.0 / RATE)
     for seed in range(1, 40):
         peak = _peak_frequency(flicker_gain(2.0, 0.3, seed, t))
-        assert abs(peak / 2.0 - 1.0) <= 0.25, seed
+        assert abs(math.log(peak / 2.0)) <= _tolerance(2.0, 120.0), (seed, peak)
 
 
 def test_flicker_deterministic_and_seeded():

@@ -16,7 +16,7 @@ import msgpack
 import pytest
 from PIL import Image
 
-from clients.igclient import iter_multipart_jpegs
+from igserver.client.core import iter_multipart_jpegs
 from igserver.protocol.runtime import ServerSettings
 from igserver.protocol.testing import LoopbackServer
 from igserver.scene import Scene
@@ -36,6 +36,8 @@ def small_scene(**extra) -> Scene:
 @pytest.fixture(scope="module")
 def server():
     with LoopbackServer(small_scene(), ServerSettings(keepalive_s=0.25)) as srv:
+        # a frozen IG clock: these tests compare states and count frames, which a running sim_time changes
+        httpx.patch(srv.url + "/v1/clock", json={"paused": True}).raise_for_status()
         yield srv
 
 
@@ -194,10 +196,10 @@ def test_problem_counters_in_metrics(http):
     text = http.get("/metrics").text
     counts = {line.split(" ")[0]: float(line.split(" ")[1]) for line in text.splitlines() if line and line[0] != "#"}
     assert counts['igserver_protocol_errors_total{kind="non_finite"}'] >= 1
-    for name in ("igserver_frames_rendered_total", "igserver_render_process_restarts", "igserver_frame_render_ms_count",
+    for name in ("igserver_frames_rendered_total", "igserver_render_process_restarts", "igserver_frame_render_seconds_count",
                  "igserver_state_updates_total{method=\"patch\"}"):
         assert name in counts, name
-    assert any(k.startswith('igserver_pass_ms_count{pass="') for k in counts)
+    assert any(k.startswith('igserver_pass_seconds_count{pass="') for k in counts)
 
 
 def test_unknown_route_and_method_are_problems(http):
@@ -298,3 +300,47 @@ def test_mjpeg_stream_read_by_ffmpeg(server, tmp_path):
     assert result.returncode == 0, result.stderr.decode()
     frames = sorted(tmp_path.glob("f*.png"))
     assert len(frames) == 2 and Image.open(frames[0]).size == (W, H)
+
+
+# --------------------------------------------------------------------------- mixed valid + invalid
+
+# Each message has valid sections beside one invalid one: the valid parts must not be applied either
+# (a rejected message changes nothing, and the revision does not move). Guards against a store that
+# validates section by section and keeps what passed.
+MIXED = [
+    ("bad-last-section", {"camera": {"pitch": 10.0}, "weather": {"wind_speed": -5.0}}, "validation",
+     "#/weather/wind_speed"),
+    ("bad-first-section", {"atmosphere": {"visibility": 1.0}, "camera": {"heading": 77.0}}, "validation",
+     "#/atmosphere/visibility"),
+    ("bad-field-beside-good-one", {"camera": {"pitch": 10.0, "zoom": 2.0}}, "validation", "#/camera/zoom"),
+    ("good-effect-bad-light", {"effects": [{"id": "mixed-fire"}], "lights": [{"id": "l", "intensity": -1.0}]},
+     "validation", "#/lights/0/intensity"),
+    ("good-host-frame-non-finite", {"host_frame": 123456, "time": {"sim_time": float("nan")}}, "non_finite",
+     "#/time/sim_time"),
+]
+
+
+@pytest.mark.parametrize("case", MIXED, ids=[c[0] for c in MIXED])
+@pytest.mark.parametrize("route", ["PATCH /v1/state", "PUT /v1/state", "POST /v1/render",
+                                   "POST /v1/render?replace=true"])
+def test_mixed_valid_and_invalid_message_changes_nothing(http, case, route):
+    _, message, kind, pointer = case
+    method, path = route.split(" ")
+    http.put("/v1/state", json=small_scene().model_dump(mode="json"))  # the valid sections would change it
+    before, revision = snapshot(http)
+    if method == "PUT" or "replace" in path:
+        message = {**before, **message}  # a whole valid state with the mixed sections merged over it
+    response = http.request(method, path, content=pack(message), headers={"Content-Type": MSGPACK})
+    assert response.status_code == 422, response.content
+    problem = unpack(response.content)
+    assert problem["kind"] == kind and pointer in [e["pointer"] for e in problem["errors"]], problem
+    assert snapshot(http) == (before, revision)
+
+
+def test_mixed_effect_patch_changes_nothing(http):
+    http.put("/v1/state", json=small_scene(effects=[{"id": "fx", "diameter": 2.0}]).model_dump(mode="json"))
+    before, revision = snapshot(http)
+    response = http.patch("/v1/effects/fx", json={"intensity": 2.0, "diameter": -1.0})
+    assert response.status_code == 422 and response.json()["errors"][0]["pointer"] == "#/diameter"
+    assert snapshot(http) == (before, revision)
+    assert http.get("/v1/effects/fx").json()["intensity"] == 1.0

@@ -46,9 +46,37 @@ def test_sky_changes_with_time_of_day(renderer):
 
 
 def test_auto_exposure_keeps_every_time_of_day_visible(renderer):
+    """Sky and ground without the sun in view, at noon, low sun and civil twilight: the automatic exposure
+    puts the mid-tones mid-range and clips nothing. Median 8-bit level within [32, 224]: sRGB 32 is 3.6
+    stops below middle grey (sRGB 118, linear 0.18) and 224 is 2 stops above it — beyond that a frame
+    reads as under- or over-exposed; fewer than 1 % of pixels crushed (<= 2) or blown (>= 253), since
+    nothing in these views is brighter than the sky near the sun's side or darker than the ground."""
     for elevation in (60, 5, -6):
-        rgba = _render(renderer, {"time": {"sun_override": {"elevation": elevation, "azimuth": 90}}})
-        assert 5 < luminance(rgba).mean() < 250, elevation
+        lum = luminance(_render(renderer, {"time": {"sun_override": {"elevation": elevation, "azimuth": 90}}}))
+        assert 32 <= np.median(lum) <= 224, (elevation, np.median(lum))
+        assert (lum <= 2).mean() < 0.01 and (lum >= 253).mean() < 0.01, elevation
+
+
+def _sun_pixel_expected_and_found(renderer, scene, elevation: float, azimuth: float):
+    """Where the direction (elevation, azimuth) projects (pixel coordinates, x right, y down) and where
+    the rendered HDR radiance peaks (the centre of the pixel holding the maximum)."""
+    renderer.render(scene)
+    hdr = renderer.read_hdr()
+    assert np.isfinite(hdr).all()
+    view = make_view(scene.camera)
+    el, az = np.radians(elevation), np.radians(azimuth)
+    sun = np.array([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el), 0.0])  # ENU, heading from north
+    clip = view.view_proj @ sun
+    expect = ((clip[0] / clip[3] * 0.5 + 0.5) * scene.camera.width,
+              (1 - (clip[1] / clip[3] * 0.5 + 0.5)) * scene.camera.height)
+    lum = luminance(hdr)
+    y, x = np.unravel_index(np.argmax(lum), lum.shape)
+    return np.array(expect), np.array([x + 0.5, y + 0.5])
+
+
+# The disk (0.27 deg radius: 0.65 px at 96 px per 40 deg) is brightest at its centre (limb darkening), so
+# the peak is the pixel containing the centre: within half a pixel; 1 px allows the centre on an edge.
+SUN_PIXEL_TOLERANCE = 1.0
 
 
 def test_sun_is_where_the_ephemeris_puts_it(renderer):
@@ -56,17 +84,20 @@ def test_sun_is_where_the_ephemeris_puts_it(renderer):
     state = celestial_state(scene.time.utc, scene.location.lat, scene.location.lon)
     scene = scene.model_copy(update={"camera": scene.camera.model_copy(update={
         "heading": state.sun_azimuth - 8.0, "pitch": state.sun_elevation - 5.0, "fov_y": 40.0})})
-    rgba = renderer.render(scene).rgba
-    view = make_view(scene.camera)
-    el, az = np.radians(state.sun_elevation), np.radians(state.sun_azimuth)
-    sun = np.array([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el), 0.0])
-    clip = view.view_proj @ sun
-    expect_x = (clip[0] / clip[3] * 0.5 + 0.5) * 96
-    expect_y = (1 - (clip[1] / clip[3] * 0.5 + 0.5)) * 96
-    lum = luminance(rgba)
-    y, x = np.unravel_index(np.argmax(lum), lum.shape)
-    assert abs(x + 0.5 - expect_x) < 3 and abs(y + 0.5 - expect_y) < 3
-    assert expect_x > 48 and expect_y < 48  # sun right of and above the view axis, as placed
+    expect, found = _sun_pixel_expected_and_found(renderer, scene, state.sun_elevation, state.sun_azimuth)
+    assert np.all(np.abs(found - expect) <= SUN_PIXEL_TOLERANCE), (expect, found)
+    assert expect[0] > 48 and expect[1] < 48  # sun right of and above the view axis, as placed
+
+
+@pytest.mark.parametrize("azimuth, elevation", [(250.0, 12.0), (35.0, 3.0), (160.0, 30.0)])
+def test_sun_override_puts_the_disk_where_its_direction_points(renderer, azimuth, elevation):
+    """``time.sun_override`` (elevation, azimuth: degrees, azimuth clockwise from north) pins the disk's
+    pixel: camera 8 deg left of and 4 deg below the sun, so the disk is right of and above the centre."""
+    scene = tiny({"ground": {"enabled": False}, "time": {"sun_override": {"elevation": elevation, "azimuth": azimuth}},
+                  "camera": {"heading": azimuth - 8.0, "pitch": elevation - 4.0, "fov_y": 40.0}}, 96, 96)
+    expect, found = _sun_pixel_expected_and_found(renderer, scene, elevation, azimuth)
+    assert expect[0] > 48 and expect[1] < 48
+    assert np.all(np.abs(found - expect) <= SUN_PIXEL_TOLERANCE), (expect, found)
 
 
 def test_far_from_origin_renders_like_the_origin(renderer):
@@ -87,16 +118,121 @@ def test_point_light_lights_the_ground_at_night(renderer):
     assert lit > dark + 10
 
 
+# --------------------------------------------------------------------------- extreme cases: what the picture must be
+
+EARTH_RADIUS = 6.371e6  # m, the mean earth radius (the sea and the ground are this sphere seen from above)
+SKY = 1e29  # the distance target holds 1e30 m where the sky shows
+
+
+def _first_surface_row(renderer, patch, width, height) -> int:
+    """Row (from the top) of the first surface pixel in the centre column of the distance target."""
+    renderer.render(tiny(patch, width, height))
+    distance = renderer.read_distance()
+    column = distance[:, width // 2]
+    assert np.isfinite(distance).all()
+    below = np.nonzero(column < SKY)[0]
+    assert len(below), "no surface in the centre column"
+    assert np.all(column[below[0]:] < SKY), "sky below the horizon"
+    return int(below[0])
+
+
+@pytest.mark.parametrize("height_m, pitch, tan_bottom_top", [
+    (0.001, 0.0, None),             # on the water: dip 0.001 deg, the horizon on the view axis
+    (10_000.0, 0.0, None),          # dip 3.2 deg
+    (50_000.0, -5.0, None),         # dip 7.2 deg, horizon 800 km away (inside the default far plane)
+    (2.0, 0.0, (-5.0, 30.0)),       # asymmetric frustum: the horizon 5 deg above the bottom edge
+])
+def test_horizon_row_is_where_geometry_puts_it(renderer, height_m, pitch, tan_bottom_top):
+    """The sea seen from height h is a sphere of the earth's radius: the horizon dips by
+    acos(R / (R + h)) below the horizontal, and a pinhole camera (pitch p, vertical half-angles b..t)
+    images elevation e at ndc_y = (2 tan(e - p) - tan t - tan b) / (tan t - tan b)."""
+    width, height = 33, 91  # odd: a centre column on the view axis
+    camera = {"position": [0.0, 0.0, height_m], "pitch": pitch, "fov_y": 40.0}
+    if tan_bottom_top is None:
+        bottom, top = -20.0, 20.0
+    else:
+        bottom, top = tan_bottom_top
+        camera["frustum"] = {"left": -20.0, "right": 20.0, "bottom": bottom, "top": top}
+    patch = {"camera": camera, "ocean": {"enabled": True}, "ground": {"enabled": False}}
+    dip = np.arccos(EARTH_RADIUS / (EARTH_RADIUS + height_m))
+    tb, tt = np.tan(np.radians(bottom)), np.tan(np.radians(top))
+    ndc = (2.0 * np.tan(-dip - np.radians(pitch)) - tt - tb) / (tt - tb)
+    horizon_y = (1.0 - ndc) / 2.0 * height  # continuous pixel coordinate from the top
+    # The first surface row is the first whose pixel centre (row + 0.5) lies below the horizon:
+    # 0 <= row + 0.5 - horizon_y < 1. Slack of 0.1 px each way: a ray grazing the sphere that close to
+    # the horizon is decided in float32.
+    row = _first_surface_row(renderer, patch, width, height)
+    assert -0.1 <= row + 0.5 - horizon_y < 1.1, (row, horizon_y)
+
+
+@pytest.mark.xfail(strict=True, reason="camera.far = 1e7 m (accepted by the model) renders a black frame with "
+                   "no surface: far/near = 1e8 exhausts the float depth buffer; reversed-Z is issue 12 (depth)")
+def test_far_plane_at_its_maximum_still_renders(renderer):
+    """From 100 km the horizon is 1130 km away: only a far plane beyond 1e6 m shows it (dip 10.1 deg)."""
+    patch = {"camera": {"position": [0.0, 0.0, 100_000.0], "pitch": -5.0, "fov_y": 40.0, "far": 1e7},
+             "ocean": {"enabled": True}, "ground": {"enabled": False}}
+    dip = np.arccos(EARTH_RADIUS / (EARTH_RADIUS + 100_000.0))
+    horizon_y = (1.0 - np.tan(-dip + np.radians(5.0)) / np.tan(np.radians(20.0))) / 2.0 * 91
+    row = _first_surface_row(renderer, patch, 33, 91)
+    assert -0.1 <= row + 0.5 - horizon_y < 1.1, (row, horizon_y)
+
+
+def test_looking_straight_down_and_up(renderer):
+    """Pitch -90 from 5 km: every pixel is ground, at the distance a sphere of the earth's radius puts it
+    (h at the nadir, ~h / cos(angle off nadir) towards the corners); pitch +90: every pixel is sky."""
+    h, size, fov = 5_000.0, 33, 40.0
+    renderer.render(tiny({"camera": {"position": [0.0, 0.0, h], "pitch": -90.0, "fov_y": fov}}, size, size))
+    distance = renderer.read_distance().astype(np.float64)
+    assert np.all(distance < SKY)
+    # angle off nadir of each pixel centre, pinhole with square pixels
+    t = np.tan(np.radians(fov / 2.0)) * ((np.arange(size) + 0.5) / size * 2.0 - 1.0)
+    off = np.arctan(np.hypot(t[None, :], t[:, None]))
+    # flat-earth distance h / cos(off) is short by ~h^2 tan^2 / (2 R cos) < 0.1 %, and the float32
+    # ray-sphere solve at 6.4e6 m holds ~1e-4: 2e-3 relative covers both
+    assert np.allclose(distance, h / np.cos(off), rtol=2e-3)
+    assert abs(distance[size // 2, size // 2] - h) < 2e-3 * h
+    renderer.render(tiny({"camera": {"position": [0.0, 0.0, 2.0], "pitch": 90.0}}, size, size))
+    assert np.all(renderer.read_distance() >= SKY)
+
+
+def test_sky_brightness_orders_by_sun_elevation(renderer):
+    """Zenith-ward sky radiance (fixed exposure) falls monotonically as the sun sinks from the zenith to
+    -18 deg, and the sunlit sky is blue (Rayleigh: more blue scattered than red), the twilight sky less so."""
+    look_up = {"ground": {"enabled": False}, "camera": {"pitch": 60.0, "heading": 90.0, "exposure_ev": 10}}
+    means, blue_over_red = [], []
+    for elevation in (90.0, 45.0, 10.0, 0.0, -6.0, -12.0, -18.0):
+        _render(renderer, {**look_up, "time": {"sun_override": {"elevation": elevation, "azimuth": 270.0}}})
+        rgb = renderer.read_hdr()[..., :3].reshape(-1, 3).astype(np.float64)
+        means.append(float(luminance(rgb).mean()))
+        blue_over_red.append(float(rgb[:, 2].mean() / rgb[:, 0].mean()))
+    assert all(a > b for a, b in zip(means, means[1:])), means
+    assert means[-1] > 0.0
+    assert blue_over_red[0] > 1.2 and blue_over_red[1] > 1.2, blue_over_red  # the day sky is blue
+
+
+def test_neighbouring_inputs_give_neighbouring_pictures(renderer):
+    """No singularity or seam: a small change of the input changes the picture a little. Pairs that differ
+    by 0.01 deg or 1 mm must agree to within 2 levels on average (the dither alone moves +-1)."""
+    pairs = [
+        ({"camera": {"pitch": 90.0}}, {"camera": {"pitch": 89.99}}),  # the pole of the heading
+        ({"camera": {"pitch": -90.0}}, {"camera": {"pitch": -89.99}}),
+        ({"camera": {"position": [0, 0, 0.001]}, "ocean": {"enabled": True}, "ground": {"enabled": False}},
+         {"camera": {"position": [0, 0, 0.002]}, "ocean": {"enabled": True}, "ground": {"enabled": False}}),
+        ({"time": {"sun_override": {"elevation": 0.0, "azimuth": 0.0}}},
+         {"time": {"sun_override": {"elevation": -0.01, "azimuth": 0.0}}}),  # the sun crossing the horizon
+        ({"time": {"sun_override": {"elevation": 90.0, "azimuth": 0.0}}},
+         {"time": {"sun_override": {"elevation": 89.99, "azimuth": 123.0}}}),  # azimuth undefined at the zenith
+        ({"time": {"sim_time": 0.0}}, {"time": {"sim_time": 1e9}}),  # a static scene does not depend on time
+    ]
+    for a, b in pairs:
+        pa, pb = _render(renderer, a).astype(int), _render(renderer, b).astype(int)
+        assert np.abs(pa - pb).mean() <= 2.0, (a, b, np.abs(pa - pb).mean())
+
+
 @pytest.mark.parametrize("patch", [
-    {"camera": {"position": [0, 0, 0.001]}, "ocean": {"enabled": True}},
-    {"camera": {"position": [0, 0, 100_000], "pitch": -10}, "ocean": {"enabled": True}},
-    {"camera": {"pitch": 90}}, {"camera": {"pitch": -90}},
-    {"time": {"sun_override": {"elevation": 90, "azimuth": 0}}},
-    {"time": {"sun_override": {"elevation": 0, "azimuth": 0}}},
-    {"time": {"sun_override": {"elevation": -18, "azimuth": 0}}},
     {"atmosphere": {"visibility": 50}}, {"atmosphere": {"visibility": 200_000}},
-    {"time": {"sim_time": 1e9}},
     {"camera": {"frustum": {"left": -50, "right": 10, "bottom": -5, "top": 30}}},
+    {"time": {"sun_override": {"elevation": -18, "azimuth": 0}}},
 ])
 def test_extreme_cases_are_finite(renderer, patch):
     rgba = _render(renderer, patch)

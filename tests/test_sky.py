@@ -16,13 +16,12 @@ from igserver.scene.model import Scene
 W, H = 64, 36
 
 
-@pytest.fixture(scope="module")
-def renderer(tmp_path_factory):
+@pytest.fixture(scope="module", autouse=True)
+def fresh_table_cache(tmp_path_factory):
+    """Tables computed (and cached) in this module's own directory: the cache test starts cold."""
     mp = pytest.MonkeyPatch()
     mp.setenv("IGSERVER_CACHE", str(tmp_path_factory.mktemp("igcache")))
-    r = Renderer()
-    yield r
-    r.release()
+    yield
     mp.undo()
 
 
@@ -63,7 +62,8 @@ def test_tables_finite_and_transmittance_monotone(renderer):
 
 def test_cache_hit_on_second_construction(renderer):
     params = scene_atmosphere(scene())
-    renderer.render(scene())
+    first = AtmosphereTables(renderer.ctx, params)  # computed (cold module cache) or loaded: saved either way
+    first.release()
     again = AtmosphereTables(renderer.ctx, params)
     try:
         assert again.from_cache and again.precompute_s == 0.0
@@ -88,14 +88,36 @@ def test_sky_colour_noon_sunset_night(renderer):
     night = radiance(renderer, scene(el=-18.0, pitch=30.0))
     assert night.mean() < 1e-2 * sunset.mean()
     # Twilight fades without steps as the sun sinks: zenith luminance non-increasing degree by
-    # degree down to -18 (the natural night sky is the floor), never more than 8x per degree,
-    # and never black.
+    # degree down to -18 (the natural night sky is the floor) and never black.
     zen = [radiance(renderer, scene(el=float(e), pitch=89.0, fov=5.0))[H // 2, W // 2].mean()
            for e in range(0, -19, -1)]
     assert all(a >= 0.999 * b for a, b in zip(zen, zen[1:])), zen
-    ratios = [a / b for a, b in zip(zen, zen[1:])]
-    assert max(ratios) < 8.0, ratios  # measured max 6.9 (-9 -> -10 deg) at the medium preset
+    # The natural night sky (airglow + starlight, ~21.7 V mag/arcsec^2) is ~1.7e-4 cd/m^2 at the zenith.
     assert min(zen) > 1e-4  # cd/m^2
+    # The fall per degree is never steeper than single scattering's, computed independently in float64
+    # (quality/reference_sky.py, no tables): light scattered twice or more also reaches the zenith column
+    # from air that is still sunlit beyond the earth's shadow, so it fades more slowly than the directly
+    # lit part. Single scattering vanishes below -10 deg (the shadow rises above the atmosphere), so the
+    # bound applies from 0 to -10. The 10 % slack is the tables' interpolation error on each of the two
+    # radiances of a ratio (2.6 % mean at zenith angle 65 deg, more toward the terminator: README).
+    ratios = [a / b for a, b in zip(zen, zen[1:])]
+    single = _reference_single_scattering_zenith(range(0, -11, -1))
+    bound = [a / b for a, b in zip(single, single[1:])]
+    assert all(r <= 1.1 * b for r, b in zip(ratios, bound)), (ratios[:10], bound)
+
+
+def _reference_single_scattering_zenith(elevations) -> list[float]:
+    """Zenith single-scattered radiance (cd/m^2, mean of R, G, B) of the default atmosphere for each sun
+    elevation (deg), from the float64 ray-marching reference (96 samples: ratios converge to < 1 %)."""
+    from igserver.quality.reference_sky import single_scattering
+
+    params = scene_atmosphere(scene())
+    out = []
+    for e in elevations:
+        el = np.radians(e)
+        sun = np.array([0.0, np.cos(el), np.sin(el)])
+        out.append(float(single_scattering(params, 2.0, np.array([[0.0, 0.0, 1.0]]), sun, samples=96)[0].mean()))
+    return out
 
 
 def _aerial(renderer: Renderer, s: Scene, points: np.ndarray, surface: float) -> np.ndarray:

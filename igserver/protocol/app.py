@@ -5,6 +5,7 @@ Routes (details in OpenAPI at /docs and /openapi.json):
   GET|PUT|PATCH /v1/state
   GET /v1/frame, POST /v1/render, GET /v1/stream.mjpg, WS /v1/ws
   GET|POST /v1/effects, GET|PATCH|DELETE /v1/effects/{id}
+  GET|PATCH /v1/clock
   GET /  (viewer page)
 """
 
@@ -12,28 +13,43 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import socket
+import sys
 from pathlib import Path
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import Response
+from fastapi_offline import FastAPIOffline
 from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.routing import compile_path
 
 from ..scene.model import Scene
 from .codec import MSGPACK, PROBLEM_JSON, PROBLEM_MSGPACK, encode, negotiate
-from .models import FrameMessage
-from .problems import PROBLEM_KINDS, Problem, ProblemError, json_pointer
-from .routers import effects, frames, health, query, state, viewer, ws
-from .runtime import IGRuntime, ServerSettings
+from .openapi import complete_schema
+from .problems import ProblemError, json_pointer
+from .routers import clock, docs, effects, frames, health, query, state, viewer, ws
+from .runtime import IGRuntime
+from .security import EdgeGuard
+from .settings import ServerSettings
 
 log = logging.getLogger("igserver.protocol")
 
 API_DESCRIPTION = """
 Network image generator, protocol v1. Bodies are msgpack (`application/vnd.msgpack`; also
 `application/x-msgpack`, `application/msgpack`) or JSON, answered in the caller's format (Accept, else
-the request's Content-Type). The message schema is the `Scene` model. Errors are RFC 9457 problem details
-(`application/problem+json`, or the same members as `application/problem+msgpack`) with a JSON Pointer
-to every offending field; a rejected message changes nothing.
+the request's Content-Type); writes must carry one of these content types (415 otherwise). The message
+schema is the `Scene` model (`ScenePatch` for partial updates); types are strict (`"10"` is not a number).
+Errors are RFC 9457 problem details (`application/problem+json`, or the same members as
+`application/problem+msgpack`) with a JSON Pointer to every offending field; a rejected message changes
+nothing.
+
+Authentication: when the server has a token (always when bound beyond loopback), send
+`Authorization: Bearer <token>`; browsers open `/?access_token=<token>` once (a cookie follows).
+Writes and WebSockets from a foreign `Origin`, and requests for a foreign `Host`, are refused (403).
+
+The WebSocket `/v1/ws` (frames pushed with credit-based flow control) is described in
+[/v1/ws-protocol](/v1/ws-protocol) and as an AsyncAPI 3.0 document at [/asyncapi.json](/asyncapi.json).
 """
 
 
@@ -45,6 +61,17 @@ def problem_response(request: Request, problem: ProblemError) -> Response:
     media = PROBLEM_MSGPACK if fmt == MSGPACK else PROBLEM_JSON
     document = problem.document(request.url.path)
     return Response(encode(document, fmt), status_code=problem.status, media_type=media, headers=problem.headers)
+
+
+def allowed_methods(request: Request) -> list[str]:
+    """The methods served at this request's path, read from the OpenAPI paths (one route per method)."""
+    methods: set[str] = set()
+    for template, item in request.app.openapi().get("paths", {}).items():
+        if compile_path(template)[0].match(request.url.path):
+            methods |= {m.upper() for m in item if m in ("get", "put", "post", "patch", "delete")}
+    if "GET" in methods:
+        methods.add("HEAD")
+    return sorted(methods)
 
 
 def _install_error_handlers(app: FastAPI) -> None:
@@ -62,12 +89,15 @@ def _install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(StarletteHTTPException)
     async def on_http(request: Request, exc: StarletteHTTPException):
         kind = {404: "not_found", 405: "method_not_allowed"}.get(exc.status_code, "bad_request")
-        return problem_response(request, ProblemError(kind, str(exc.detail), status=exc.status_code))
+        headers = dict(exc.headers or {})
+        if exc.status_code == 405:  # Allow lists every method of the path (RFC 9110 §15.5.6), not one route's
+            headers["Allow"] = ", ".join(allowed_methods(request))
+        return problem_response(request, ProblemError(kind, str(exc.detail), status=exc.status_code, headers=headers))
 
     @app.exception_handler(Exception)
     async def on_unexpected(request: Request, exc: Exception):
         log.exception("unhandled error on %s", request.url.path)
-        return problem_response(request, ProblemError("internal", type(exc).__name__))
+        return problem_response(request, ProblemError("internal", "see the server log"))
 
 
 def create_app(
@@ -91,7 +121,8 @@ def create_app(
         finally:
             await runtime.stop()
 
-    app = FastAPI(
+    # Swagger UI and ReDoc from the fastapi-offline package: /docs works on an air-gapped network
+    app = FastAPIOffline(
         title="igserver",
         version="1",
         summary="Image generator for training simulators",
@@ -100,23 +131,16 @@ def create_app(
     )
     app.state.runtime = runtime
     _install_error_handlers(app)
-    for module in (health, state, frames, ws, effects, query, viewer):
+    for module in (health, state, frames, ws, effects, clock, query, viewer, docs):
         app.include_router(module.router)
+    app.add_middleware(EdgeGuard, settings=runtime.settings)
 
-    # documents that no route returns as a pydantic model still belong in the schema
     original_openapi = app.openapi
 
     def openapi():
         if app.openapi_schema is None:
-            schema = original_openapi()
-            components = schema.setdefault("components", {}).setdefault("schemas", {})
-            for model in (Problem, FrameMessage):
-                components[model.__name__] = model.model_json_schema(ref_template="#/components/schemas/{model}")
-                for name, sub in components[model.__name__].pop("$defs", {}).items():
-                    components.setdefault(name, sub)
-            components.setdefault("Scene", Scene.model_json_schema(ref_template="#/components/schemas/{model}"))
-            schema["x-problem-kinds"] = {k: {"status": s, "title": t} for k, (s, t) in PROBLEM_KINDS.items()}
-        return app.openapi_schema or schema
+            app.openapi_schema = complete_schema(original_openapi())
+        return app.openapi_schema
 
     app.openapi = openapi
     return app
@@ -132,43 +156,74 @@ def uvicorn_config(app: FastAPI, host: str, port: int, **kwargs):
     )
 
 
+def listening_socket(host: str, port: int) -> socket.socket:
+    """Bind before anything is printed, so a port in use is the first (and only) thing the operator reads."""
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    sock = socket.socket(family, socket.SOCK_STREAM, socket.IPPROTO_TCP)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind((host, port))
+    except OSError:
+        sock.close()
+        raise
+    return sock
+
+
 def serve(
     scene_path: str | Path | None = "demo",
-    host: str = "127.0.0.1",
-    port: int = 8600,
     width: int | None = None,
     height: int | None = None,
     settings: ServerSettings | None = None,
     device_index: int | None = None,
-) -> None:
-    """Load the scene, start the app under uvicorn, print the viewer URL; returns when the server stops."""
+    preset: str | None = None,
+) -> int:
+    """Load the scene, bind, start the app under uvicorn, print the viewer URL; returns when the server stops.
+
+    Exit status 2 (with a message, no traceback) when the scene, the port or the security settings are wrong.
+    ``preset``: the initial scene's quality preset (``quality.preset``).
+    """
     import uvicorn
 
     from ..scene.files import load_scene
     from ..scene.patch import apply_patch
 
+    settings = settings or ServerSettings()
+    host, port = settings.host, settings.port
+    try:
+        token = settings.bearer_token()
+    except OSError as exc:
+        print(f"igserver: cannot read the token file: {exc}", file=sys.stderr)
+        return 2
+    if settings.binds_beyond_loopback() and not token:
+        print(f"igserver: refusing to listen on {host} without a token: anyone on the network could drive the IG. "
+              "Set IGSERVER_TOKEN (or --token-file), or bind 127.0.0.1.", file=sys.stderr)
+        return 2
     scene = load_scene(scene_path) if scene_path else Scene()
     size = {k: v for k, v in (("width", width), ("height", height)) if v}
     if size:
         scene = apply_patch(scene, {"camera": size})
+    if preset:
+        scene = apply_patch(scene, {"quality": {"preset": preset}})
+    try:
+        sock = listening_socket(host, port)
+    except OSError as exc:
+        print(f"igserver: cannot listen on {host}:{port}: {exc.strerror or exc} "
+              "(another igserver running? pick another --port)", file=sys.stderr)
+        return 2
     app = create_app(scene=scene, settings=settings, device_index=device_index)
     server = uvicorn.Server(uvicorn_config(app, host, port))
     shown = f"[{host}]" if ":" in host else host
-    print(f"igserver: viewer at http://{shown}:{port}/  (API docs: http://{shown}:{port}/docs)", flush=True)
-    server.run()
+    login = "?access_token=<token>" if token else ""
+    print(f"igserver: viewer at http://{shown}:{port}/{login}  (API docs: http://{shown}:{port}/docs)", flush=True)
+    server.run(sockets=[sock])
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m igserver.protocol``: the same as ``igserver serve`` (used by the benchmark)."""
-    import argparse
+    """``python -m igserver.protocol``: ``igserver serve`` on the built-in default scene (used by the benchmark)."""
+    from ..cli import main as cli_main
 
-    parser = argparse.ArgumentParser(prog="python -m igserver.protocol")
-    parser.add_argument("--scene", default=None, help="scene file or name in igserver/scenes/ (default: built-in defaults)")
-    parser.add_argument("--host", default="127.0.0.1")
-    parser.add_argument("--port", type=int, default=8600)
-    parser.add_argument("--width", type=int)
-    parser.add_argument("--height", type=int)
-    args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.INFO)
-    serve(args.scene, args.host, args.port, args.width, args.height)
-    return 0
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if "--scene" not in argv:
+        argv = ["--scene", "", *argv]
+    return cli_main(["serve", *argv])

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import msgpack
+from pydantic import BaseModel, Field
 
 from .problems import ProblemError, json_pointer
 
@@ -24,15 +24,15 @@ PROBLEM_JSON = "application/problem+json"
 PROBLEM_MSGPACK = "application/problem+msgpack"
 
 
-@dataclass(frozen=True)
-class Limits:
-    """Bounds on a message body, checked before the scene model sees it."""
+class Limits(BaseModel, frozen=True):
+    """Bounds on a message body, checked before the scene model sees it (settings: IGSERVER_LIMITS__*)."""
 
-    max_body_bytes: int = 1 << 20  # a full scene with every list at its maximum is ~150 KiB
-    max_depth: int = 16
-    max_string: int = 4096
-    max_array: int = 1024
-    max_map: int = 256
+    # a full scene with every list at its maximum is ~150 KiB
+    max_body_bytes: int = Field(1 << 20, ge=1, description="body bytes")
+    max_depth: int = Field(16, ge=1, le=64, description="nesting depth of maps and arrays")
+    max_string: int = Field(4096, ge=1, description="string length")
+    max_array: int = Field(1024, ge=1, description="array length")
+    max_map: int = Field(256, ge=1, description="keys in one map")
 
 
 DEFAULT_LIMITS = Limits()
@@ -91,6 +91,16 @@ def negotiate(accept: str | None, content_type: str | None) -> str:
     return request_format
 
 
+def acceptable(accept: str | None) -> bool:
+    """False when Accept lists only formats this API never answers in (406); absent Accept takes anything."""
+    if not accept:
+        return True
+    for q, _, media in _accept_ranges(accept):
+        if q > 0 and (is_msgpack(media) or is_json(media) or media in ("*/*", "application/*")):
+            return True
+    return False
+
+
 def _reject_ext(code: int, data: bytes) -> Any:
     raise ValueError(f"msgpack extension type {code} is not part of the protocol")
 
@@ -115,6 +125,8 @@ def _loads_msgpack(body: bytes, limits: Limits) -> Any:
             max_ext_len=0,
             timestamp=0,
         )
+    except msgpack.StackError:  # nested deeper than msgpack's own stack (a ValueError: catch it first)
+        raise ProblemError("limits", f"msgpack nesting deeper than {limits.max_depth}") from None
     except ValueError as exc:  # includes ExtraData, FormatError and the length limits
         text = str(exc)
         if "max_ext_len" in text:  # max_ext_len=0 refuses every extension type, timestamps included
@@ -122,10 +134,8 @@ def _loads_msgpack(body: bytes, limits: Limits) -> Any:
         if "exceeds max_" in text:
             raise ProblemError("limits", f"msgpack: {text}") from None
         raise ProblemError("malformed", f"invalid msgpack: {text}") from None
-    except Exception as exc:  # StackError (too deep), UnicodeDecodeError, TypeError on odd keys
+    except Exception as exc:  # UnicodeDecodeError, TypeError on odd keys
         name = type(exc).__name__
-        if name == "StackError":
-            raise ProblemError("limits", "msgpack nesting too deep") from None
         raise ProblemError("malformed", f"invalid msgpack: {name}: {exc}") from None
 
 
@@ -187,7 +197,7 @@ def decode(body: bytes, content_type: str | None, limits: Limits = DEFAULT_LIMIT
         raise ProblemError("limits", f"body of {len(body)} bytes exceeds {limits.max_body_bytes}")
     if is_msgpack(media):
         tree = _loads_msgpack(body, limits)
-    elif is_json(media) or media == "":
+    elif is_json(media):
         tree = _loads_json(body)
     else:
         raise ProblemError(

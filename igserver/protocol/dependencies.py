@@ -6,7 +6,7 @@ from typing import Annotated, Any
 
 from fastapi import Depends, Request, Response
 
-from .codec import MSGPACK, decode, encode, negotiate
+from .codec import MSGPACK, acceptable, base_media_type, decode, encode, is_json, is_msgpack, negotiate
 from .problems import ProblemError
 from .runtime import IGRuntime
 
@@ -38,6 +38,12 @@ async def read_limited_body(request: Request, max_bytes: int) -> bytes:
 
 
 async def message_body(request: Request, runtime: Runtime) -> Any:
+    """The decoded body of a write. The content type is checked first, before a byte is read: a write without
+    a JSON or msgpack type is how a foreign web page would send one without a CORS preflight (security.py)."""
+    media = base_media_type(request.headers.get("content-type"))
+    if not (is_json(media) or is_msgpack(media)):
+        raise ProblemError("unsupported_media_type", f"a {request.method} needs Content-Type application/json "
+                           f"or {MSGPACK} (got {media or 'none'!r})")
     limits = runtime.settings.limits
     body = await read_limited_body(request, limits.max_body_bytes)
     if not body:
@@ -49,6 +55,9 @@ Message = Annotated[Any, Depends(message_body)]
 
 
 def reply_format(request: Request) -> str:
+    accept = request.headers.get("accept")
+    if not acceptable(accept):
+        raise ProblemError("not_acceptable", f"Accept {accept!r}: this route answers in JSON or {MSGPACK}")
     return negotiate(request.headers.get("accept"), request.headers.get("content-type"))
 
 

@@ -19,6 +19,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 
+from ..render.worker import RenderError, RenderTimeout
 from ..scene.model import Scene
 from .imaging import encode_frame
 from .metrics import ServiceMetrics
@@ -35,6 +36,7 @@ class EncodedFrame:
     revision: int  # state revision it shows
     accepted_at: float  # perf_counter when that state was accepted
     render_call_ms: float  # wall time of RenderService.render in this process (render + IPC)
+    rendered_at: float = field(default_factory=time.perf_counter)
     _encoded: dict = field(default_factory=dict)
     _lock: threading.Lock = field(default_factory=threading.Lock)
 
@@ -67,10 +69,15 @@ class EncodedFrame:
             return hit
         return await asyncio.to_thread(self.encoded, fmt, quality, metrics)
 
+    @property
+    def sim_time(self) -> float:
+        return self.frame.sim_time
+
     def headers(self) -> dict[str, str]:
         return {
             "X-IG-Host-Frame": str(self.host_frame),
             "X-IG-Frame": str(self.ig_frame),
+            "X-IG-Sim-Time": f"{self.sim_time:.6f}",
             "X-IG-Render-Ms": f"{self.frame.render_ms:.3f}",
             "X-IG-Width": str(self.frame.width),
             "X-IG-Height": str(self.frame.height),
@@ -78,7 +85,12 @@ class EncodedFrame:
 
 
 class RenderGateway:
-    """Async face of the blocking ``RenderService``: one executor thread, metrics on every frame."""
+    """Async face of the blocking ``RenderService``: one executor thread, metrics on every frame.
+
+    A render that fails (overran its time limit, or crashed the process twice) makes the store fall back
+    to the last state that rendered; the failure is kept in ``fault`` for /v1/ready and the caller gets a
+    problem. The render process is restarted and warmed up with the good state in the background.
+    """
 
     def __init__(self, service, metrics: ServiceMetrics, timed: bool = True):
         self.service = service
@@ -86,6 +98,9 @@ class RenderGateway:
         self.timed = timed  # per-pass times for /metrics (ctx.finish per pass: negligible on llvmpipe)
         self.executor = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="igserver-render")
         self.busy_since: float | None = None
+        self.store: StateStore | None = None  # set by the runtime: falls back on a failed render
+        self.fault: dict | None = None  # the last abandoned state: {"revision", "detail", "fallback_revision"}
+        self.recovering = False  # restarting the render process after an abandoned render
 
     async def call(self, fn, *args):
         return await asyncio.get_running_loop().run_in_executor(self.executor, fn, *args)
@@ -96,6 +111,10 @@ class RenderGateway:
         self.executor.submit(self.service.set_state, scene)
 
     async def render(self, scene: Scene, revision: int, accepted_at: float) -> EncodedFrame:
+        reason = self.service.unresponsive_reason() if self.service.alive else None
+        if reason is not None:  # answer at once instead of queueing behind a stopped process
+            raise RenderError(reason)
+
         def blocking():
             self.busy_since = time.perf_counter()
             try:
@@ -106,6 +125,10 @@ class RenderGateway:
         t0 = time.perf_counter()
         try:
             frame = await self.call(blocking)
+        except RenderError as exc:
+            self.metrics.render_errors.inc()
+            self._abandon(revision, exc)
+            raise
         except Exception:
             self.metrics.render_errors.inc()
             raise
@@ -114,7 +137,38 @@ class RenderGateway:
         self.metrics.frame_ms.observe(frame.render_ms)
         for name, ms in (frame.pass_ms or {}).items():
             self.metrics.pass_ms.observe(ms, **{"pass": name})
+        if self.store is not None:
+            self.store.mark_rendered(revision)
         return EncodedFrame(frame, revision, accepted_at, call_ms)
+
+    def _abandon(self, revision: int, exc: RenderError) -> None:
+        """Fall back from a state that cannot render, and get the render process back in the background."""
+        fallback = self.store.fall_back(revision) if self.store is not None else None
+        if fallback is None and not isinstance(exc, RenderTimeout):
+            return  # nothing better to show, and the process is up: keep the state, report the error
+        self.fault = {"revision": revision, "detail": str(exc), "fallback_revision": fallback}
+        log.error("state revision %d abandoned (%s); falling back to revision %s", revision, exc, fallback)
+        self.recover_in_background()
+
+    def recover_in_background(self, kill: bool = False) -> None:
+        """Restart the render process (``kill``: first kill a hung one) and render one frame of the current
+        state, in the executor; ``recovering`` is true until then (/v1/ready answers not ready)."""
+        self.recovering = True
+        scene = self.store.scene if self.store is not None else None
+        if kill:
+            self.service.kill_for_test()
+
+        def recover():
+            try:
+                self.service.ensure_started()
+                if scene is not None:  # warm up: ready means the next frame comes in normal frame time
+                    self.service.render(scene, timed=False)
+            except Exception as error:  # the next render retries the start
+                log.error("render process recovery failed: %s", error)
+            finally:
+                self.recovering = False
+
+        self.executor.submit(recover)
 
     def shutdown(self) -> None:
         self.executor.shutdown(wait=False, cancel_futures=True)
@@ -129,11 +183,14 @@ class FramePump:
         max_fps: float = 60.0,
         keepalive_s: float = 1.0,
         jpeg_quality: int = 85,
+        animation_fps: float = 30.0,
     ):
         self.store = store
         self.gateway = gateway
         self.metrics = metrics
         self.min_interval = 1.0 / max_fps
+        # while the IG clock runs, sim_time moves every instant: frames are re-rendered at this rate
+        self.animation_interval = 1.0 / animation_fps
         self.keepalive_s = keepalive_s
         self.jpeg_quality = jpeg_quality
         self.latest: EncodedFrame | None = None
@@ -188,7 +245,8 @@ class FramePump:
     async def frame_of_current_state(self) -> EncodedFrame:
         """A frame of the latest accepted state: the pump's if it shows that revision, else render one."""
         latest = self.latest
-        if latest is not None and latest.revision == self.store.revision:
+        if latest is not None and latest.revision == self.store.revision and (
+                not self.store.clock.running or time.perf_counter() - latest.rendered_at < self.animation_interval):
             return latest
         encoded = await self.gateway.render(self.store.scene, self.store.revision, self.store.accepted_at)
         self.publish(encoded)
@@ -204,9 +262,11 @@ class FramePump:
             latest = self.latest
             stale = latest is None or latest.revision != self.store.revision
             since = time.perf_counter() - last_render
-            if not stale and since < self.keepalive_s:
-                # nothing new to show: sleep until the state changes or the keepalive is due
-                await self.store.wait_for_change(latest.revision, self.keepalive_s - since)
+            # a running clock animates the scene (fades, flicker, waves): render at the animation rate
+            wait = self.animation_interval if self.store.clock.running else self.keepalive_s
+            if not stale and since < wait:
+                # nothing new to show: sleep until the state changes or the next frame is due
+                await self.store.wait_for_change(latest.revision, wait - since)
                 continue
             if since < self.min_interval:
                 await asyncio.sleep(self.min_interval - since)

@@ -10,12 +10,23 @@ from typing import Literal
 from pydantic import BaseModel, Field
 
 SCENE_REF = {"$ref": "#/components/schemas/Scene"}
-PATCH_SCHEMA = {
-    "type": "object",
-    "description": "A partial Scene: maps merge key by key, lists and values replace. Validated whole: "
-    "the result must be a valid Scene, else nothing changes.",
-}
+PATCH_SCHEMA = {"$ref": "#/components/schemas/ScenePatch"}  # built in openapi.py: the Scene, all optional
 EFFECT_REF = {"$ref": "#/components/schemas/Effect"}
+EFFECT_PATCH_REF = {"$ref": "#/components/schemas/EffectPatch"}
+
+# Headers the routes set by hand, documented on their 200 answers (openapi.py)
+FRAME_HEADERS = {
+    "X-IG-Frame": {"description": "IG frame number", "schema": {"type": "integer"}},
+    "X-IG-Host-Frame": {"description": "host_frame of the state the frame shows", "schema": {"type": "integer"}},
+    "X-IG-Width": {"description": "frame width (px)", "schema": {"type": "integer"}},
+    "X-IG-Height": {"description": "frame height (px)", "schema": {"type": "integer"}},
+    "X-IG-Render-Ms": {"description": "render time in the render process (ms)", "schema": {"type": "number"}},
+    "X-IG-Encode-Ms": {"description": "image encoding time in the server (ms)", "schema": {"type": "number"}},
+}
+STATE_HEADERS = {
+    "X-IG-Revision": {"description": "accepted state revision", "schema": {"type": "integer"}},
+    "X-IG-Host-Frame": {"description": "host_frame of the accepted state (PUT/PATCH)", "schema": {"type": "integer"}},
+}
 
 
 def body_doc(schema: dict, description: str) -> dict:
@@ -77,3 +88,45 @@ class FrameMessage(BaseModel):
     data: bytes = Field(..., description="encoded image (raw: RGBA rows, top row first)")
     render_ms: float = Field(..., description="render time in the render process")
     encode_ms: float = Field(..., description="encoding time in the server")
+
+
+# --- WebSocket /v1/ws messages (documented in the AsyncAPI document and /v1/ws-protocol; routers/ws.py)
+class HelloMessage(BaseModel):
+    """Client -> server, optional and first: sets the credit window and the image format."""
+
+    type: Literal["hello"] = "hello"
+    credits: int = Field(2, ge=0, le=1024, description="frames the server may send before the next ack "
+                         "(at most the server's ws_max_credits)")
+    format: Literal["jpeg", "png", "raw"] = "jpeg"
+    quality: int = Field(85, ge=1, le=100, description="JPEG quality")
+    id: int | str | None = None
+
+
+class StateMessage(BaseModel):
+    """Client -> server: merge a partial state (``patch``) or replace the whole state (``replace``)."""
+
+    type: Literal["patch", "replace"]
+    state: dict = Field(..., description="a ScenePatch (patch) or a Scene (replace)")
+    id: int | str | None = Field(None, description="echoed in the error reply when the message is rejected")
+
+
+class AckMessage(BaseModel):
+    """Client -> server: one frame consumed, one credit back."""
+
+    type: Literal["ack"] = "ack"
+    frame: int | None = Field(None, description="the IG frame number consumed (informative)")
+
+
+class CreditMessage(BaseModel):
+    """Client -> server: grant more credits."""
+
+    type: Literal["credit"] = "credit"
+    n: int = Field(1, ge=0, le=1024)
+
+
+class ErrorMessage(BaseModel):
+    """Server -> client: a message was rejected and nothing changed."""
+
+    type: Literal["error"] = "error"
+    id: int | str | None = Field(None, description="the rejected message's id, when it had one")
+    problem: dict = Field(..., description="RFC 9457 problem members (see the Problem schema)")

@@ -22,6 +22,8 @@ PROBLEM_KINDS: dict[str, tuple[int, str]] = {
     "limits": (413, "Message exceeds a size, length or nesting limit"),
     "unsupported_media_type": (415, "Unsupported media type"),
     "not_acceptable": (406, "Not acceptable"),
+    "unauthorized": (401, "Bearer token missing or wrong"),
+    "forbidden": (403, "Host or Origin not allowed"),
     "not_found": (404, "Not found"),
     "conflict": (409, "Conflict"),
     "method_not_allowed": (405, "Method not allowed"),

@@ -4,27 +4,28 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import signal
+import threading
 import time
-from dataclasses import dataclass, field
 
 from ..scene.model import Scene
-from .codec import Limits
 from .frames import FramePump, RenderGateway
 from .metrics import ServiceMetrics
+from .settings import ServerSettings  # noqa: F401  (re-exported: settings live in settings.py)
 from .state import StateStore
 
 log = logging.getLogger("igserver.protocol")
 
 
-@dataclass(frozen=True)
-class ServerSettings:
-    max_fps: float = 60.0  # stream render rate cap
-    keepalive_s: float = 1.0  # a static scene is re-rendered (and re-sent to MJPEG viewers) this often
-    jpeg_quality: int = 85
-    limits: Limits = field(default_factory=Limits)
-    ws_initial_credits: int = 2  # frames the server may send a WebSocket client before its first ack
-    ws_max_credits: int = 16
-    timed_passes: bool = True  # per-pass times for /metrics
+def _ensure_log_output() -> None:
+    """Operators see start-up, precompute progress, watchdog and abandoned renders on stderr even when the
+    embedding program configured no logging (``igserver serve``); a configured root logger is left alone."""
+    package = logging.getLogger("igserver")
+    if not logging.getLogger().handlers and not package.handlers:
+        handler = logging.StreamHandler()
+        handler.setFormatter(logging.Formatter("%(asctime)s igserver %(levelname)s %(message)s"))
+        package.addHandler(handler)
+        package.setLevel(logging.INFO)
 
 
 class IGRuntime:
@@ -32,16 +33,22 @@ class IGRuntime:
         self.settings = settings or ServerSettings()
         self.service = service
         self.metrics = ServiceMetrics()
+        service.render_timeout_s = self.settings.render_timeout_s
         self.gateway = RenderGateway(service, self.metrics, timed=self.settings.timed_passes)
         self.store = StateStore(scene or service.state, on_accept=self.gateway.push_state)
+        self.clock = self.store.clock
+        self.gateway.store = self.store
         self.pump = FramePump(
             self.store, self.gateway, self.metrics,
             max_fps=self.settings.max_fps, keepalive_s=self.settings.keepalive_s,
-            jpeg_quality=self.settings.jpeg_quality,
+            jpeg_quality=self.settings.jpeg_quality, animation_fps=self.settings.animation_fps,
         )
         self.started_at = time.time()
         self.stream_clients = {"mjpeg": 0, "ws": 0}
         self.start_error: str | None = None
+        self.unresponsive: str | None = None  # the watchdog's finding, None while the render process answers
+        self._watchdog_task: asyncio.Task | None = None
+        self.stopping = asyncio.Event()  # set at shutdown: open streams end so the server can exit
         self._register_gauges()
 
     def _register_gauges(self) -> None:
@@ -53,24 +60,99 @@ class IGRuntime:
         m.gauge("igserver_stream_clients_ws", "Connected WebSocket clients", lambda: self.stream_clients["ws"])
         m.gauge("igserver_state_revision", "Accepted state revision", lambda: self.store.revision)
 
+    def not_ready_reason(self) -> str | None:
+        """None when a frame can be served within the normal frame time; else why not (for /v1/ready)."""
+        info = self.service.info()
+        if self.start_error and not info.get("ready"):
+            return self.start_error
+        if not info.get("ready"):
+            return "render process starting"
+        unresponsive = self.unresponsive_now()
+        if unresponsive:
+            return unresponsive
+        if self.gateway.recovering:
+            return "render process restarting after an abandoned render"
+        if not self.service.warm:
+            progress = self.service.progress
+            if progress:
+                return f"precomputing {progress['phase']} ({progress['fraction']:.0%})"
+            return "rendering the first frame"
+        return None
+
+    def unresponsive_now(self) -> str | None:
+        """The watchdog's finding, or a fresher one (the watchdog looks every watchdog_interval_s)."""
+        return self.unresponsive or self.service.unresponsive_reason()
+
     def ready(self) -> bool:
-        return bool(self.service.info().get("ready"))
+        return self.not_ready_reason() is None
 
     async def start(self) -> None:
-        """Start the render process in the background: /v1/health answers at once, /v1/ready once it is up."""
+        """Start the render process in the background: /v1/health answers at once, /v1/ready once the first
+        frame (with its table precompute) has rendered, so that ready means "a frame in normal frame time"."""
         self.gateway.push_state(self.store.scene)
 
         async def start_render_process():
             try:
+                t0 = time.perf_counter()
                 await self.gateway.call(self.service.start)
+                log.info("render process up in %.1f s; rendering the first frame", time.perf_counter() - t0)
+                store = self.store
+                encoded = await self.gateway.render(store.scene, store.revision, store.accepted_at)
+                self.pump.publish(encoded)
+                log.info("ready: first frame rendered %.1f s after start", time.perf_counter() - t0)
             except Exception as exc:  # ready stays false; the next render retries the start
                 self.start_error = f"{type(exc).__name__}: {exc}"
                 log.error("render process failed to start: %s", self.start_error)
 
-        asyncio.get_running_loop().create_task(start_render_process())
+        _ensure_log_output()
+        loop = asyncio.get_running_loop()
+        self._end_streams_on_exit_signal(loop)
+        loop.create_task(start_render_process())
+        self._watchdog_task = loop.create_task(self._watchdog(), name="igserver-watchdog")
         self.pump.start()
 
+    def _end_streams_on_exit_signal(self, loop: asyncio.AbstractEventLoop) -> None:
+        """SIGTERM/SIGINT: end the open MJPEG streams at once. uvicorn waits for open responses before it
+        runs the app's shutdown, and an MJPEG response never ends by itself (``docker stop`` would end in
+        SIGKILL). uvicorn's own handler still runs after ours."""
+        if threading.current_thread() is not threading.main_thread():
+            return  # a server in a test thread: its owner stops it
+        for signum in (signal.SIGTERM, signal.SIGINT):
+            previous = signal.getsignal(signum)
+            if not callable(previous):
+                continue
+
+            def handler(num, frame, previous=previous):
+                loop.call_soon_threadsafe(self.stopping.set)
+                previous(num, frame)
+
+            signal.signal(signum, handler)
+
+    async def _watchdog(self) -> None:
+        """Notice a render process that stops answering (stopped by the OS, heartbeat gone): /v1/ready says
+        so at once and renders fail fast; one that stays so past the render time limit is restarted."""
+        since: float | None = None
+        while True:
+            await asyncio.sleep(self.settings.watchdog_interval_s)
+            service = self.service
+            reason = service.unresponsive_reason() if service.alive and service.ready else None
+            now = time.monotonic()
+            if reason and since is None:
+                since = now
+                log.warning("watchdog: %s", reason)
+            elif not reason and since is not None:
+                log.info("watchdog: render process answers again after %.1f s", now - since)
+                since = None
+            self.unresponsive = reason
+            if reason and now - since > self.settings.render_timeout_s and not self.gateway.recovering:
+                log.error("watchdog: render process unresponsive for %.0f s: restarting it", now - since)
+                self.gateway.recover_in_background(kill=True)
+                since = None
+
     async def stop(self) -> None:
+        self.stopping.set()
+        if self._watchdog_task is not None:
+            self._watchdog_task.cancel()
         await self.pump.stop()
         await asyncio.to_thread(self.service.stop)
         self.gateway.shutdown()

@@ -14,17 +14,19 @@ from typing import Any, Callable
 from pydantic import ValidationError
 
 from ..scene.model import Effect, Scene
-from ..scene.patch import apply_patch
+from ..scene.patch import apply_patch, validate_wire
+from .clock import IGClock, sends_sim_time
 from .problems import ProblemError, from_validation_error
 
 
-def stamp_effect_changes(old: Scene, new: Scene) -> Scene:
-    """Set ``changed_at = sim_time`` on effects that appeared or switched ``active``, so the renderer fades.
+def stamp_effect_changes(old: Scene, new: Scene, now: float | None = None) -> Scene:
+    """Set ``changed_at = now`` (the IG clock's sim_time; default the new state's) on effects that appeared
+    or switched ``active``, so the renderer fades.
 
     ``changed_at`` belongs to the IG: whatever the client sent there is overwritten on a switch.
     """
     previous = {effect.id: effect for effect in old.effects}
-    now = new.time.sim_time
+    now = new.time.sim_time if now is None else now
     changed = False
     effects: list[Effect] = []
     for effect in new.effects:
@@ -41,19 +43,26 @@ def stamp_effect_changes(old: Scene, new: Scene) -> Scene:
 
 
 class StateStore:
-    def __init__(self, scene: Scene, on_accept: Callable[[Scene], None] | None = None):
+    def __init__(self, scene: Scene, on_accept: Callable[[Scene], None] | None = None, clock: IGClock | None = None):
+        self.clock = clock or IGClock(scene.time.sim_time)
         self._scene = scene
         self.revision = 0
         self.accepted_at = time.perf_counter()  # when the current revision was accepted (latency metric)
         self._changed = asyncio.Event()
         self._on_accept = on_accept
+        self._good: tuple[int, Scene] | None = None  # the last revision that rendered, and its state
 
     @property
     def scene(self) -> Scene:
-        return self._scene
+        """The accepted state at the IG clock's sim_time now: what a frame rendered now shows."""
+        return at_sim_time(self._scene, self.clock.sim_time())
 
-    def _accept(self, new: Scene) -> Scene:
-        new = stamp_effect_changes(self._scene, new)
+    def _accept(self, new: Scene, tree: Any = None) -> Scene:
+        host_time = sends_sim_time(tree)
+        if host_time is not None:  # a host that sends sim_time drives the clock (host mode)
+            self.clock.host_sent(host_time)
+        now = self.clock.sim_time()
+        new = at_sim_time(stamp_effect_changes(self._scene, new, now), now)
         self._scene = new
         self.revision += 1
         self.accepted_at = time.perf_counter()
@@ -61,6 +70,24 @@ class StateStore:
             self._on_accept(new)
         self._notify()
         return new
+
+    def clock_changed(self) -> Scene:
+        """The IG clock was set, paused or handed over: a new revision, so streams show it at once."""
+        return self._accept(self._scene)
+
+    def mark_rendered(self, revision: int) -> None:
+        """A frame of ``revision`` rendered: it is the state to fall back to if a later one cannot render."""
+        if revision == self.revision:
+            self._good = (revision, self._scene)
+
+    def fall_back(self, failed_revision: int) -> int | None:
+        """Replace the state of ``failed_revision`` (it hung or crashed the renderer) by the last state that
+        rendered, as a new revision; returns that revision, or None when there is nothing to go back to."""
+        if self._good is None or failed_revision != self.revision or self._good[0] == failed_revision:
+            return None
+        self._accept(self._good[1])
+        self._good = (self.revision, self._scene)
+        return self._good[0]
 
     def _notify(self) -> None:
         # one Event per revision: waiters hold the event of the revision they saw, set exactly once
@@ -81,7 +108,7 @@ class StateStore:
         if not isinstance(tree, dict):
             raise ProblemError("validation", "a state message must be a map", [{"pointer": "#", "detail": "expected a map"}])
         try:
-            return Scene.model_validate(tree)
+            return validate_wire(tree)
         except ValidationError as exc:
             raise from_validation_error(exc, prefix) from None
 
@@ -89,16 +116,23 @@ class StateStore:
         if not isinstance(tree, dict):
             raise ProblemError("validation", "a patch must be a map", [{"pointer": "#", "detail": "expected a map"}])
         try:
-            return apply_patch(self._scene, tree)
+            return apply_patch(self._scene, tree, strict=True)
         except ValidationError as exc:
             raise from_validation_error(exc, prefix) from None
 
     def replace(self, tree: Any) -> Scene:
-        return self._accept(self.validate_replace(tree))
+        return self._accept(self.validate_replace(tree), tree)
 
     def patch(self, tree: Any) -> Scene:
-        return self._accept(self.validate_patch(tree))
+        return self._accept(self.validate_patch(tree), tree)
 
-    def set_validated(self, scene: Scene) -> Scene:
-        """Accept a scene from ``validate_patch``/``validate_replace`` (validated against the current state)."""
-        return self._accept(scene)
+    def set_validated(self, scene: Scene, tree: Any = None) -> Scene:
+        """Accept a scene from ``validate_patch``/``validate_replace`` (validated against the current state);
+        ``tree`` is the message it came from (a ``time.sim_time`` in it hands the clock to the host)."""
+        return self._accept(scene, tree)
+
+
+def at_sim_time(scene: Scene, sim_time: float) -> Scene:
+    if scene.time.sim_time == sim_time:
+        return scene
+    return scene.model_copy(update={"time": scene.time.model_copy(update={"sim_time": sim_time})})

@@ -39,7 +39,8 @@ class LoopbackServer:
     def start(self, timeout: float = 300.0) -> "LoopbackServer":
         self.thread.start()
         deadline = time.monotonic() + timeout
-        while not (self.server.started and self.service.info().get("ready")):
+        # ready as /v1/ready means it: the first frame (and its table precompute) has rendered
+        while not (self.server.started and self.runtime.ready()):
             if not self.thread.is_alive():
                 raise RuntimeError("test server exited during start")
             if self.runtime.start_error:

@@ -1,5 +1,11 @@
 """Camera maths in float64: orientation from heading/pitch/roll, asymmetric projection.
 
+Projection: reversed-Z with the far plane at infinity (render/depth.py): window depth = near / d
+for a point at distance d along the view axis, so nothing is ever clipped far away and a float
+depth buffer keeps the same relative precision at every distance. ``camera.far`` is the draw
+distance of entities, lights and effects (culled by bounding sphere), not a clip plane: the sky and
+the earth's surface are drawn to the horizon whatever its value.
+
 The GPU sees camera-relative coordinates only: world positions minus the camera position,
 subtracted here in float64, so a camera 1e6 m from the origin renders like one at the origin.
 """
@@ -48,6 +54,7 @@ class CameraView:
     far: float
     width: int
     height: int
+    tangents: tuple[float, float, float, float] = (-1.0, 1.0, -1.0, 1.0)  # frustum (left, right, bottom, top)
 
     @property
     def forward(self) -> np.ndarray:
@@ -62,10 +69,13 @@ class CameraView:
         return np.asarray(world_position, dtype=np.float64) - self.position
 
     def sphere_visible(self, world_center, radius: float) -> bool:
-        """Conservative frustum test of a bounding sphere (camera-relative planes from view_proj)."""
+        """Conservative frustum test of a bounding sphere: the four side planes and the near plane
+        (camera-relative, from view_proj; the same in both clip ranges), and the draw distance."""
         c = self.relative(world_center)
+        if float(np.linalg.norm(c)) - radius > self.far:
+            return False
         m = self.view_proj
-        planes = (m[3] + m[0], m[3] - m[0], m[3] + m[1], m[3] - m[1], m[3] + m[2], m[3] - m[2])
+        planes = (m[3] + m[0], m[3] - m[0], m[3] + m[1], m[3] - m[1], m[3] - m[2])
         for plane in planes:
             n = plane[:3]
             length = float(np.linalg.norm(n))
@@ -81,22 +91,43 @@ def gl_matrix(m: np.ndarray) -> bytes:
     return np.ascontiguousarray(m.T, dtype=np.float32).tobytes()
 
 
-def make_view(cam: Camera) -> CameraView:
+def frustum_tangents(cam: Camera) -> tuple[float, float, float, float]:
+    """(left, right, bottom, top) tangents of the frustum's half-angles (signed)."""
+    return tuple(math.tan(math.radians(a)) for a in frustum_half_angles(cam))
+
+
+def reversed_infinite_projection(cam: Camera, zero_to_one: bool = True) -> np.ndarray:
+    """Asymmetric perspective with reversed-Z and no far plane (float64).
+
+    View space looks down -z; d = -z_view. Clip w = d, and clip z is chosen so that
+      zero_to_one (glClipControl on):  NDC z = near / d           (clip z = near)
+      otherwise (clip range [-1, 1]):  NDC z = 2 near / d - 1     (clip z = 2 near - d)
+    both giving window depth near / d: 1 at the near plane, 0 at infinity. A direction (w = 0)
+    lands exactly at window depth 0, where the sky is.
+    """
+    left, right, bottom, top = frustum_tangents(cam)
+    proj = np.zeros((4, 4))
+    proj[0, 0] = 2.0 / (right - left)
+    proj[0, 2] = (right + left) / (right - left)
+    proj[1, 1] = 2.0 / (top - bottom)
+    proj[1, 2] = (top + bottom) / (top - bottom)
+    if zero_to_one:
+        proj[2, 3] = cam.near
+    else:
+        proj[2, 2] = 1.0
+        proj[2, 3] = 2.0 * cam.near
+    proj[3, 2] = -1.0
+    return proj
+
+
+def make_view(cam: Camera, zero_to_one: bool = True) -> CameraView:
+    """The camera's view for a context whose clip depth range is [0, 1] (``zero_to_one``) or not."""
     rot = body_to_world(cam.heading, cam.pitch, cam.roll)
     right, forward, up = rot[:, 0], rot[:, 1], rot[:, 2]
     view = np.eye(4)
     view[0, :3], view[1, :3], view[2, :3] = right, up, -forward
-    left, right_a, bottom, top = (math.tan(math.radians(a)) * cam.near for a in frustum_half_angles(cam))
-    n, f = cam.near, cam.far
-    proj = np.zeros((4, 4))
-    proj[0, 0] = 2 * n / (right_a - left)
-    proj[0, 2] = (right_a + left) / (right_a - left)
-    proj[1, 1] = 2 * n / (top - bottom)
-    proj[1, 2] = (top + bottom) / (top - bottom)
-    proj[2, 2] = -(f + n) / (f - n)
-    proj[2, 3] = -2 * f * n / (f - n)
-    proj[3, 2] = -1.0
     return CameraView(
-        position=np.asarray(cam.position, dtype=np.float64), rotation=rot, view=view, projection=proj,
-        near=n, far=f, width=cam.width, height=cam.height,
+        position=np.asarray(cam.position, dtype=np.float64), rotation=rot, view=view,
+        projection=reversed_infinite_projection(cam, zero_to_one),
+        near=cam.near, far=cam.far, width=cam.width, height=cam.height, tangents=frustum_tangents(cam),
     )

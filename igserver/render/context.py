@@ -1,6 +1,16 @@
 """Headless EGL context: an NVIDIA GPU when one is present, else Mesa llvmpipe.
 
 The context must be created in the thread (and process) that uses it: the render worker does this.
+
+The one rule for GL contexts: **make the owning context current before every use** (``make_current``).
+GL calls go to whichever context is current in the calling thread, and creating a context makes it
+current; moderngl never switches back. So where more than one context can exist in a process (the
+quality tools, the tests, a tool that makes a scratch context), a context created and released after
+another one has been used leaves *no* context current, and the first context's draws, reads and even
+its ``release()`` calls silently go nowhere (or to the wrong context's objects): blank frames, then a
+crash. ``Renderer`` follows the rule in every public method and in its ``ctx`` property; code that
+holds a raw ``moderngl.Context`` calls ``make_current(ctx)`` first. It costs ~2 us (eglMakeCurrent
+with the context already current).
 """
 
 from __future__ import annotations
@@ -69,6 +79,21 @@ def create_context(device_index: int | None = None) -> moderngl.Context:
             f"could not create an EGL OpenGL {REQUIRED_GL // 100}.{REQUIRED_GL % 100 // 10} context ({exc}); "
             f"on Debian/Ubuntu install: {MESA_PACKAGES} (or the NVIDIA driver's EGL for a GPU)"
         ) from exc
+
+
+def make_current(ctx: moderngl.Context) -> moderngl.Context:
+    """Make ``ctx`` the calling thread's current GL context and return it.
+
+    ``moderngl.Context.__enter__`` without the matching ``__exit__``: ``__exit__`` would restore the
+    previously current context, which may be one that has since been released.
+    """
+    ctx.__enter__()
+    return ctx
+
+
+def release_context(ctx: moderngl.Context) -> None:
+    """Release ``ctx`` with itself current, so its objects are deleted from it and not from another."""
+    make_current(ctx).release()
 
 
 def capabilities(ctx: moderngl.Context) -> Capabilities:

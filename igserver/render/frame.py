@@ -11,6 +11,7 @@ import numpy as np
 from ..astro import celestial_state, direction_enu
 from ..scene.model import Scene
 from .camera import CameraView, gl_matrix, make_view
+from .depth import zero_to_one
 from .lights import PointLight, gather_lights, light_uniforms
 from .sky.daylight import SUN_ANGULAR_RADIUS, Daylight
 from .sky.frame_sky import sky_frame
@@ -57,6 +58,8 @@ class FrameContext:
     uniforms: dict = field(default_factory=dict)
     # Shared resources the passes hand each other (e.g. "scene_distance": the copied distance texture).
     resources: dict = field(default_factory=dict)
+    # Quality level in force (presets.knobs(pipeline, frame.quality)): a level name or an auto rung.
+    quality: object = "medium"
 
     @property
     def camera_altitude(self) -> float:
@@ -80,7 +83,7 @@ def auto_ev100(daylight_ev100: float, lights: list[PointLight], view) -> float:
 
 
 def build_frame(ctx: moderngl.Context, scene: Scene) -> FrameContext:
-    view = make_view(scene.camera)
+    view = make_view(scene.camera, zero_to_one(ctx))
     celestial = sun_and_moon(scene)
     altitude = scene.location.altitude + float(view.position[2])
     # Sky: resident atmosphere tables (bound on units 12..15), the light they imply, sky uniforms.
@@ -105,7 +108,11 @@ def common_uniforms(frame: FrameContext) -> dict:
     visibility = scene.atmosphere.visibility
     return {
         "u_view_proj": gl_matrix(view.view_proj),
-        "u_inv_view_proj": gl_matrix(np.linalg.inv(view.view_proj)),
+        "u_inv_view_proj": gl_matrix(np.linalg.inv(view.view_proj)),  # float64 inverse, finite depths
+        "u_camera_right": _vec3(view.rotation[:, 0]),
+        "u_camera_up": _vec3(view.rotation[:, 2]),
+        "u_camera_forward": _vec3(view.rotation[:, 1]),
+        "u_frustum_tangents": tuple(float(t) for t in view.tangents),
         "u_resolution": (float(view.width), float(view.height)),
         "u_camera_altitude": frame.camera_altitude,
         "u_exposure": frame.exposure,

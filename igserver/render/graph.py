@@ -12,6 +12,7 @@ from ..scene.model import Scene
 from .camera import CameraView, make_view
 from .passes import DepthCopyPass, RenderPass
 from .post.post import PostPass
+from .precip.precip import PrecipPass
 from .shaders import ProgramCache
 from .sky.sky import SkyPass
 from .surfaces.surfaces import SurfacesPass
@@ -19,7 +20,7 @@ from .volumes.volumes import VolumesPass
 from .water.water import WaterPass
 
 # Pipelines register here, in drawing order; DepthCopyPass is inserted before the first reader.
-PASS_TYPES: list[type[RenderPass]] = [SurfacesPass, WaterPass, SkyPass, VolumesPass, PostPass]
+PASS_TYPES: list[type[RenderPass]] = [SurfacesPass, WaterPass, SkyPass, VolumesPass, PrecipPass, PostPass]
 
 
 def register_pass(pass_type: type[RenderPass], before: str = "post") -> None:

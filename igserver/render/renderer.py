@@ -1,6 +1,8 @@
 """The in-process renderer: one GL context, resident pipelines, one frame per call.
 
 Used directly by the render worker process (and by tests/tools that own their process).
+Every public method makes the renderer's context current first (context.py: the one rule for GL
+contexts), so another context created or released in the same thread cannot take its calls.
 """
 
 from __future__ import annotations
@@ -12,7 +14,8 @@ import moderngl
 import numpy as np
 
 from ..scene.model import Scene
-from .context import capabilities, create_context
+from . import depth, presets
+from .context import capabilities, create_context, make_current, release_context
 from .frame import build_frame
 from .graph import FrameGraph
 from .shaders import ProgramCache
@@ -25,16 +28,34 @@ class RenderResult:
     passes: list[str]
     pass_ms: dict[str, float] = field(default_factory=dict)  # only when timed
     total_ms: float = 0.0
+    quality: str = "medium"  # the quality level (or auto rung) the frame was rendered at
 
 
 class Renderer:
     def __init__(self, ctx: moderngl.Context | None = None, device_index: int | None = None):
-        self.ctx = ctx or create_context(device_index)
-        self.caps = capabilities(self.ctx)
-        self.programs = ProgramCache(self.ctx)
-        self.graph = FrameGraph(self.ctx, self.programs)
+        self._ctx = make_current(ctx) if ctx is not None else create_context(device_index)
+        self.caps = capabilities(self._ctx)
+        self.reversed_z = depth.enable_reversed_z(self._ctx)  # clip depth [0, 1]; else the fallback
+        self.programs = ProgramCache(self._ctx, depth.shader_defines(self._ctx))
+        self.graph = FrameGraph(self._ctx, self.programs)
         self._targets: Targets | None = None
         self.frames_rendered = 0
+        self.auto_quality: presets.AutoQuality | None = None
+
+    def quality_for(self, scene: Scene):
+        """The level of this frame: the scene's preset, or the auto controller's current rung."""
+        q = scene.quality
+        if q.preset != "auto":
+            return q.preset
+        if self.auto_quality is None or self.auto_quality.target_ms != q.target_ms:
+            self.auto_quality = presets.AutoQuality(q.target_ms)
+        return self.auto_quality.rung
+
+    @property
+    def ctx(self) -> moderngl.Context:
+        """The renderer's GL context, made current: callers that use it directly (quality tools,
+        tests' compute probes) are then on the right context whatever was created meanwhile."""
+        return make_current(self._ctx)
 
     def targets_for(self, width: int, height: int) -> Targets:
         if self._targets is None or self._targets.size != (width, height):
@@ -46,11 +67,14 @@ class Renderer:
     def render(self, scene: Scene, timed: bool = False) -> RenderResult:
         """Render ``scene``; with ``timed`` each pass is bracketed by ctx.finish() and a wall clock."""
         start = time.perf_counter()
+        make_current(self._ctx)
         frame = build_frame(self.ctx, scene)
+        frame.quality = self.quality_for(scene)
         targets = self.targets_for(scene.camera.width, scene.camera.height)
         names = self.graph.plan(scene, frame.view)
         targets.scene_fbo.use()
-        targets.scene_fbo.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
+        targets.scene_fbo.clear(0.0, 0.0, 0.0, 1.0, depth=depth.CLEAR_DEPTH)
+        self.ctx.depth_func = depth.NEAREST_WINS
         pass_ms: dict[str, float] = {}
         if timed:
             self.ctx.finish()
@@ -67,19 +91,26 @@ class Renderer:
         if timed:
             pass_ms["readback"] = (time.perf_counter() - t0) * 1e3
         self.frames_rendered += 1
-        return RenderResult(np.ascontiguousarray(rgba), names, pass_ms, (time.perf_counter() - start) * 1e3)
+        total_ms = (time.perf_counter() - start) * 1e3
+        if scene.quality.preset == "auto":
+            self.auto_quality.observe(total_ms)
+        quality = frame.quality.name if isinstance(frame.quality, presets.Rung) else frame.quality
+        return RenderResult(np.ascontiguousarray(rgba), names, pass_ms, total_ms, quality)
 
     def read_hdr(self) -> np.ndarray:
         """The last frame's pre-exposed linear HDR colour (float32, top row first), for quality tools."""
+        make_current(self._ctx)
         t = self._targets
         data = np.frombuffer(t.hdr.read(), dtype=np.float16).reshape(t.size[1], t.size[0], 4)
         return data[::-1].astype(np.float32)
 
     def read_distance(self) -> np.ndarray:
+        make_current(self._ctx)
         t = self._targets
         return np.frombuffer(t.distance.read(), dtype=np.float32).reshape(t.size[1], t.size[0])[::-1].copy()
 
     def release(self) -> None:
+        make_current(self._ctx)
         if self._targets is not None:
             self._targets.release()
-        self.ctx.release()
+        release_context(self._ctx)

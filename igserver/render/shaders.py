@@ -42,13 +42,18 @@ def assemble(path: str, stage: str, defines: dict[str, object] | None = None) ->
 
 
 class ProgramCache:
-    """One compiled program per (files, defines); pipelines stay resident in the render process."""
+    """One compiled program per (files, defines); pipelines stay resident in the render process.
 
-    def __init__(self, ctx: moderngl.Context):
+    ``context_defines`` go into every program of this context (e.g. its depth clip range).
+    """
+
+    def __init__(self, ctx: moderngl.Context, context_defines: dict | None = None):
         self.ctx = ctx
+        self.context_defines = dict(context_defines or {})
         self._programs: dict[tuple, moderngl.Program | moderngl.ComputeShader] = {}
 
     def program(self, vertex: str, fragment: str, defines: dict | None = None) -> moderngl.Program:
+        defines = {**self.context_defines, **(defines or {})}
         key = ("prog", vertex, fragment, tuple(sorted((defines or {}).items())))
         if key not in self._programs:
             self._programs[key] = self.ctx.program(
@@ -58,6 +63,7 @@ class ProgramCache:
         return self._programs[key]
 
     def compute(self, path: str, defines: dict | None = None) -> moderngl.ComputeShader:
+        defines = {**self.context_defines, **(defines or {})}
         key = ("comp", path, tuple(sorted((defines or {}).items())))
         if key not in self._programs:
             self._programs[key] = self.ctx.compute_shader(assemble(path, "COMPUTE", defines))

@@ -1,8 +1,11 @@
-"""Render targets: HDR colour (RGBA16F) + view distance (R32F, m) + depth; LDR output (RGBA8)."""
+"""Render targets: HDR colour (RGBA16F) + view distance (R32F, m) + depth (float32, reversed-Z:
+render/depth.py); LDR output (RGBA8)."""
 
 from __future__ import annotations
 
 import moderngl
+
+from .depth import float_depth_texture
 
 
 class Targets:
@@ -10,7 +13,7 @@ class Targets:
         self.size = (width, height)
         self.hdr = ctx.texture(self.size, 4, dtype="f2")
         self.distance = ctx.texture(self.size, 1, dtype="f4")  # m along the view ray; 1e30 = sky
-        self.depth = ctx.depth_texture(self.size)
+        self.depth, self.float_depth = float_depth_texture(ctx, self.size)
         self.scene_fbo = ctx.framebuffer([self.hdr, self.distance], self.depth)
         # Passes that blend into the colour while sampling scene distance draw here (no distance target).
         self.color_fbo = ctx.framebuffer([self.hdr], self.depth)

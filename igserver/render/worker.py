@@ -9,6 +9,7 @@ GL out of the server process keeps its event loop free of render-sized stalls.
 
 from __future__ import annotations
 
+import logging
 import multiprocessing as mp
 import os
 import signal
@@ -23,12 +24,20 @@ import numpy as np
 from ..scene.model import Scene
 
 RING_SLOTS = 3
-START_TIMEOUT_S = 300.0  # first start compiles shaders and may precompute atmosphere tables
-RENDER_TIMEOUT_S = 300.0
+START_TIMEOUT_S = 300.0  # first start compiles shaders (tables are built by the first render, with progress)
+RENDER_TIMEOUT_S = 30.0  # a frame silent for this long (no frame, no progress message) is abandoned
+HEARTBEAT_S = 0.25  # the render process stamps a shared clock this often while it waits for work
+STALL_S = 2.0  # an idle render process whose heartbeat is this old is not responding
+
+log = logging.getLogger("igserver.render")
 
 
 class RenderError(RuntimeError):
-    pass
+    """A render failed; the message is safe for a client (no traceback, no server paths)."""
+
+
+class RenderTimeout(RenderError):
+    """A render overran the time limit: the process was killed; the state that caused it is not retried."""
 
 
 @dataclass
@@ -39,6 +48,7 @@ class Frame:
     render_ms: float
     pass_ms: dict[str, float] = field(default_factory=dict)
     passes: list[str] = field(default_factory=list)
+    sim_time: float = 0.0
 
     @property
     def width(self) -> int:
@@ -49,6 +59,18 @@ class Frame:
         return int(self.rgba.shape[0])
 
 
+def release_free_memory() -> None:
+    """Give freed heap back to the OS (glibc ``malloc_trim``). After a big frame, glibc's dynamic mmap
+    threshold has risen to the frame's size, so later frame-sized buffers come from the heap, and freed
+    heap stays in the process: RSS would stay at the big frame's level. Called when the frame size changes."""
+    try:
+        import ctypes
+
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    except (OSError, AttributeError):  # not glibc: nothing to do
+        pass
+
+
 # --------------------------------------------------------------------------- render process side
 
 def _attach(name: str) -> shared_memory.SharedMemory:
@@ -57,16 +79,65 @@ def _attach(name: str) -> shared_memory.SharedMemory:
     return shared_memory.SharedMemory(name=name)
 
 
-def _render_process_main(conn, device_index: int | None) -> None:
+def _heartbeat(stamp) -> None:
+    """Stamp ``time.monotonic()`` while the process runs Python; a stopped (SIGSTOP) process stops stamping.
+    During a GL call the GIL is held, so the parent judges the heartbeat only between renders."""
+    while True:
+        stamp.value = time.monotonic()
+        time.sleep(HEARTBEAT_S)
+
+
+def _report_table_progress(conn) -> None:
+    """Send ("progress", phase, fraction, elapsed_s) while the atmosphere tables are precomputed.
+
+    The precompute runs 3 compute stages plus 3 per scattering order above one; counting the
+    dispatches gives the fraction done (an estimate that cannot pass 1). The messages also prove the
+    process alive, so a long first precompute is not mistaken for a hang.
+    """
+    import moderngl
+
+    from .sky import tables
+
+    original_init = tables.AtmosphereTables.__init__
+    original_run = moderngl.ComputeShader.run
+    current: dict = {}
+
+    def counted_run(self, *args, **kwargs):
+        result = original_run(self, *args, **kwargs)
+        if current:
+            current["done"] += 1
+            fraction = min(current["done"] / current["total"], 0.99)
+            conn.send(("progress", "atmosphere tables", fraction, time.perf_counter() - current["t0"]))
+        return result
+
+    def reporting_init(self, ctx, params):
+        orders = getattr(getattr(params, "sizes", None), "orders", 4)
+        current.update(done=0, total=3 + 3 * max(int(orders) - 1, 0), t0=time.perf_counter())
+        conn.send(("progress", "atmosphere tables", 0.0, 0.0))
+        try:
+            original_init(self, ctx, params)
+        finally:
+            elapsed = time.perf_counter() - current["t0"]
+            current.clear()
+            conn.send(("progress", "atmosphere tables", 1.0, elapsed))
+
+    tables.AtmosphereTables.__init__ = reporting_init
+    moderngl.ComputeShader.run = counted_run
+
+
+def _render_process_main(conn, device_index: int | None, stamp=None) -> None:
     """Entry point of the spawned render process: owns the GL context for its whole life."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when we stop
+    if stamp is not None:
+        threading.Thread(target=_heartbeat, args=(stamp,), daemon=True, name="heartbeat").start()
     from .renderer import Renderer
 
     try:
         renderer = Renderer(device_index=device_index)
     except Exception as exc:
-        conn.send(("error", f"{exc}"))
+        conn.send(("error", f"{type(exc).__name__}: {exc}", traceback.format_exc(limit=8)))
         return
+    _report_table_progress(conn)
     attached: dict[str, shared_memory.SharedMemory] = {}
     conn.send(("ready", renderer.caps.as_dict()))
     while True:
@@ -78,9 +149,13 @@ def _render_process_main(conn, device_index: int | None) -> None:
         if kind == "stop":
             break
         if kind != "render":
-            conn.send(("error", f"unknown command {kind!r}"))
+            conn.send(("error", f"unknown command {kind!r}", ""))
             continue
-        _, scene, timed, shm_name = message
+        _, scene, timed, shm_name, ring_names = message
+        # the parent replaced its ring (frame size changed): unmap the slots it has unlinked
+        stale = [n for n in attached if n not in ring_names]
+        for name in stale:
+            attached.pop(name).close()
         try:
             result = renderer.render(scene, timed=timed)
             if shm_name not in attached:
@@ -89,8 +164,11 @@ def _render_process_main(conn, device_index: int | None) -> None:
             flat = result.rgba.reshape(-1)
             buf[: flat.size] = flat.data
             conn.send(("frame", result.rgba.shape, result.total_ms, result.pass_ms, result.passes))
-        except Exception:
-            conn.send(("error", traceback.format_exc(limit=8)))
+            if stale:  # the frame size changed: the old ring and render targets are free now, after the frame
+                release_free_memory()
+        except Exception as exc:
+            # the client gets the kind of failure; the traceback (with server paths) goes to the log
+            conn.send(("error", f"render failed ({type(exc).__name__})", traceback.format_exc(limit=8)))
     for shm in attached.values():
         shm.close()
 
@@ -98,11 +176,19 @@ def _render_process_main(conn, device_index: int | None) -> None:
 # --------------------------------------------------------------------------- client side
 
 class RenderService:
-    """Thread-safe handle on the render process. The CLI, the service and the tests all use it."""
+    """Thread-safe handle on the render process. The CLI, the service and the tests all use it.
 
-    def __init__(self, scene: Scene | None = None, device_index: int | None = None):
+    Liveness: a render that sends nothing (neither its frame nor a progress message) for
+    ``render_timeout_s`` is abandoned: the process is killed and ``RenderTimeout`` raised, and the
+    scene is not re-sent (the caller falls back to its last good state). ``responsive()`` is the
+    watchdog's view: the process exists, is not stopped by the OS, and stamps its heartbeat.
+    """
+
+    def __init__(self, scene: Scene | None = None, device_index: int | None = None,
+                 render_timeout_s: float = RENDER_TIMEOUT_S):
         self._state = scene or Scene()
         self._device_index = device_index
+        self.render_timeout_s = render_timeout_s
         self._lock = threading.RLock()
         self._mp = mp.get_context("spawn")
         self._process = None
@@ -110,9 +196,14 @@ class RenderService:
         self._caps: dict = {}
         self._ring: list[shared_memory.SharedMemory] = []
         self._next_slot = 0
+        self._heartbeat = self._mp.Value("d", 0.0, lock=False)
         self.ig_frame = 0
         self.restarts = 0
         self.ready = False
+        self.warm = False  # a frame has rendered since the process started (tables built, shaders linked)
+        self.rendering_since: float | None = None  # monotonic start of the render in flight
+        self.progress: dict | None = None  # {"phase", "fraction", "elapsed_s"} while tables are precomputed
+        self.last_progress: dict | None = None  # the last finished phase (for /v1/ready)
 
     # -- lifecycle
     def start(self) -> "RenderService":
@@ -120,8 +211,10 @@ class RenderService:
             if self.alive:
                 return self
             parent, child = self._mp.Pipe()
+            self._heartbeat.value = time.monotonic()
             self._process = self._mp.Process(
-                target=_render_process_main, args=(child, self._device_index), daemon=True, name="igserver-render"
+                target=_render_process_main, args=(child, self._device_index, self._heartbeat), daemon=True,
+                name="igserver-render",
             )
             self._process.start()
             child.close()
@@ -130,14 +223,17 @@ class RenderService:
                 self._terminate()
                 raise RenderError("render process did not start in time")
             try:
-                kind, payload = parent.recv()
+                reply = parent.recv()
             except EOFError as exc:
                 self._terminate()
                 raise RenderError("render process exited during start") from exc
-            if kind != "ready":
+            if reply[0] != "ready":
                 self._terminate()
-                raise RenderError(f"render process failed to start: {payload}")
-            self._caps = payload
+                if len(reply) > 2 and reply[2]:  # the message says what to do; the traceback is for debugging
+                    log.debug("render process failed to start:\n%s", reply[2])
+                raise RenderError(f"render process failed to start: {reply[1]}")
+            self._caps = reply[1]
+            self.warm = False
             self.ready = True
             return self
 
@@ -150,10 +246,7 @@ class RenderService:
                 except (OSError, BrokenPipeError):
                     pass
             self._terminate()
-            for shm in self._ring:
-                shm.close()
-                shm.unlink()
-            self._ring = []
+            self._release_ring()
 
     def __enter__(self) -> "RenderService":
         return self.start()
@@ -177,6 +270,7 @@ class RenderService:
 
     def _terminate(self) -> None:
         self.ready = False
+        self.progress = None
         if self._process is not None and self._process.is_alive():
             self._process.kill()
             self._process.join(5)
@@ -189,6 +283,35 @@ class RenderService:
             self._terminate()
             self.restarts += 1
             self.start()
+
+    def ensure_started(self) -> None:
+        """Start the process if it is down (after an abandoned render); counts as a restart."""
+        with self._lock:
+            if not self.alive:
+                self.restart()
+
+    # -- watchdog
+    def os_state(self) -> str | None:
+        """The kernel's one-letter process state (R, S, D, T = stopped, Z = zombie); None if unknown."""
+        pid = self.pid
+        if pid is None:
+            return None
+        try:
+            with open(f"/proc/{pid}/stat", "rb") as f:
+                # "pid (comm) S ...": comm may hold spaces and parentheses; the state follows the last ')'
+                return f.read().rsplit(b")", 1)[1].split()[0].decode()
+        except (OSError, IndexError):
+            return None
+
+    def unresponsive_reason(self) -> str | None:
+        """Why the render process cannot serve a frame now, or None when it can (cheap, lock-free)."""
+        if not self.alive:
+            return "render process is not running"
+        if self.os_state() in ("T", "t"):
+            return "render process is stopped by the operating system (SIGSTOP)"
+        if self.rendering_since is None and time.monotonic() - self._heartbeat.value > STALL_S:
+            return "render process is not responding (no heartbeat)"
+        return None
 
     # -- state
     @property
@@ -205,18 +328,27 @@ class RenderService:
                 "pid": self.pid, "frames": self.ig_frame}
 
     # -- frames
+    def _release_ring(self) -> None:
+        for shm in self._ring:
+            shm.close()
+            shm.unlink()
+        self._ring = []
+
     def _slot_for(self, nbytes: int) -> shared_memory.SharedMemory:
-        if not self._ring or self._ring[0].size < nbytes:
-            for shm in self._ring:
-                shm.close()
-                shm.unlink()
+        # a new size gets a new ring (also when it shrinks: memory goes back after a big frame); the
+        # render process unmaps the old slots when it sees the new ring's names
+        if not self._ring or not nbytes <= self._ring[0].size <= 2 * nbytes:
+            if self._ring:
+                self._release_ring()
+                release_free_memory()
             self._ring = [shared_memory.SharedMemory(create=True, size=nbytes) for _ in range(RING_SLOTS)]
         slot = self._ring[self._next_slot % len(self._ring)]
         self._next_slot += 1
         return slot
 
     def render(self, scene: Scene | None = None, timed: bool = False) -> Frame:
-        """Render ``scene`` (default: the current state). A dead render process is restarted once."""
+        """Render ``scene`` (default: the current state). A crashed render process is restarted once and
+        the scene re-sent; a render that timed out is not re-sent (``RenderTimeout``)."""
         with self._lock:
             scene = scene or self._state
             try:
@@ -230,17 +362,46 @@ class RenderService:
             raise _Dead()
         cam = scene.camera
         slot = self._slot_for(cam.width * cam.height * 4)
-        self._conn.send(("render", scene, timed, slot.name))
-        if not self._conn.poll(RENDER_TIMEOUT_S):
-            raise _Dead()
-        reply = self._conn.recv()
+        self._conn.send(("render", scene, timed, slot.name, [shm.name for shm in self._ring]))
+        self.rendering_since = time.monotonic()
+        try:
+            reply = self._await_reply()
+        finally:
+            self.rendering_since = None
+            self.progress = None
         if reply[0] == "error":
+            if len(reply) > 2 and reply[2]:
+                log.error("render failed:\n%s", reply[2])
             raise RenderError(reply[1])
         _, shape, total_ms, pass_ms, passes = reply
         rgba = np.ndarray(shape, dtype=np.uint8, buffer=slot.buf).copy()
+        self.warm = True
         self.ig_frame += 1
-        return Frame(rgba, self.ig_frame, scene.host_frame, total_ms, pass_ms, passes)
+        return Frame(rgba, self.ig_frame, scene.host_frame, total_ms, pass_ms, passes, scene.time.sim_time)
+
+    def _await_reply(self):
+        """The render's reply; progress messages on the way extend the deadline (the process is alive)."""
+        deadline = time.monotonic() + self.render_timeout_s
+        while True:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0 or not self._conn.poll(remaining):
+                waited = time.monotonic() - self.rendering_since
+                log.error("render abandoned after %.1f s without an answer: killing the render process", waited)
+                self._terminate()
+                raise RenderTimeout(f"the render exceeded its time limit ({self.render_timeout_s:g} s) and was "
+                                    "abandoned; the render process is restarting")
+            reply = self._conn.recv()
+            if reply[0] != "progress":
+                return reply
+            _, phase, fraction, elapsed = reply
+            self.progress = {"phase": phase, "fraction": round(float(fraction), 3), "elapsed_s": round(elapsed, 2)}
+            if fraction >= 1.0:
+                self.last_progress = self.progress
+                log.info("%s ready in %.1f s", phase, elapsed)
+            elif fraction == 0.0:
+                log.info("%s: precomputing (first use of these atmosphere parameters)", phase)
+            deadline = time.monotonic() + self.render_timeout_s
 
 
 class _Dead(Exception):
-    """The render process is gone or hung."""
+    """The render process is gone."""

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import tomllib
+
+import tomli_w
 from pathlib import Path
 
 from .model import Scene
@@ -18,7 +20,13 @@ def resolve_scene_path(name_or_path: str | Path) -> Path:
     candidate = SCENES_DIR / f"{path.stem}.toml"
     if candidate.exists():
         return candidate
-    raise FileNotFoundError(f"scene file not found: {name_or_path}")
+    available = ", ".join(scene_names())
+    raise FileNotFoundError(f"scene {str(name_or_path)!r} not found: not a file, nor one of the named scenes "
+                            f"({available})")
+
+
+def scene_names() -> list[str]:
+    return sorted(p.stem for p in SCENES_DIR.glob("*.toml"))
 
 
 def load_scene(name_or_path: str | Path) -> Scene:
@@ -26,36 +34,13 @@ def load_scene(name_or_path: str | Path) -> Scene:
         return Scene.model_validate(tomllib.load(fh))
 
 
-def _toml_value(value) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (int, float)):
-        return repr(value)
-    if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    if isinstance(value, dict):
-        return "{ " + ", ".join(f"{k} = {_toml_value(v)}" for k, v in value.items() if v is not None) + " }"
-    raise TypeError(f"cannot write {type(value).__name__} to TOML")
-
-
 def dumps_scene(scene: Scene) -> str:
-    """TOML text for a scene (tables for sections, arrays of tables for effects/lights/entities)."""
-    data = scene.model_dump(mode="json", exclude_none=True)
-    lines: list[str] = []
-    for key, value in data.items():
-        if not isinstance(value, (dict, list)):
-            lines.append(f"{key} = {_toml_value(value)}")
-    for key, value in data.items():
-        if isinstance(value, dict):
-            lines.append(f"\n[{key}]")
-            lines += [f"{k} = {_toml_value(v)}" for k, v in value.items()]
-        elif isinstance(value, list):
-            for item in value:
-                lines.append(f"\n[[{key}]]")
-                lines += [f"{k} = {_toml_value(v)}" for k, v in item.items()]
-    return "\n".join(lines) + "\n"
+    """TOML text for a scene (tables for sections, arrays of tables for effects/lights/entities), by tomli-w.
+
+    tomli-w escapes every string (tabs, newlines, quotes) and writes times as TOML datetimes, so
+    ``load_scene(save_scene(s)) == s``.
+    """
+    return tomli_w.dumps(scene.model_dump(mode="python", exclude_none=True))
 
 
 def save_scene(scene: Scene, path: str | Path) -> None:

@@ -15,7 +15,10 @@ import math
 from datetime import datetime, timezone
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic_core import InitErrorDetails, PydanticCustomError
+
+from ..assets import ASSET_NAME_PATTERN, AssetError, resolve_asset
 
 # Upper bound on any world coordinate (m). 1e7 m is beyond a continent; float64 keeps mm there.
 WORLD_LIMIT_M = 1.0e7
@@ -66,8 +69,12 @@ class Camera(Strict):
     roll: float = Field(0.0, ge=-180.0, le=180.0, description="deg, right wing down positive")
     fov_y: float = Field(60.0, gt=0.1, lt=170.0, description="deg, vertical field of view (symmetric frustum)")
     frustum: Frustum | None = Field(None, description="asymmetric frustum; overrides fov_y when set")
-    near: float = Field(0.1, ge=1e-3, le=1e4, description="m, near clip distance")
-    far: float = Field(1_000_000.0, ge=1.0, le=1e7, description="m, far clip distance")
+    near: float = Field(0.1, ge=1e-3, le=1e4, description="m, near clip distance (depth precision does not depend on it)")
+    far: float = Field(
+        1_000_000.0, ge=1.0, le=1e7,
+        description="m, draw distance of entities, lights and effects; the sky and the earth's surface are "
+        "drawn to the horizon whatever it is (reversed-Z depth, no far clip plane)",
+    )
     width: int = Field(640, ge=16, le=7680, description="px")
     height: int = Field(360, ge=16, le=4320, description="px")
     exposure_ev: float | None = Field(
@@ -102,9 +109,14 @@ class Time(Strict):
     def _aware(cls, value: datetime) -> datetime:
         if value.tzinfo is None:
             value = value.replace(tzinfo=timezone.utc)
+        # check the year after conversion: 1800-01-01T00:00+23:59 is 1799 in UTC
+        try:
+            value = value.astimezone(timezone.utc)
+        except OverflowError:
+            raise ValueError("utc year must be within 1800..2200") from None
         if not (1800 <= value.year <= 2200):
             raise ValueError("utc year must be within 1800..2200")
-        return value.astimezone(timezone.utc)
+        return value
 
 
 class Location(Strict):
@@ -127,8 +139,22 @@ class Atmosphere(Strict):
 
 
 class Precipitation(Strict):
-    type: Literal["none", "rain", "snow"] = "none"
-    rate: float = Field(0.0, ge=0.0, le=200.0, description="mm/h")
+    """Rain or snow (DESIGN §4.5; drawn by render/precip, physics in igserver/weather.py)."""
+
+    type: Literal["none", "rain", "snow"] = Field("none", description="what falls; none = no particle pass")
+    rate: float = Field(
+        0.0, ge=0.0, le=200.0, description="mm/h, liquid-water-equivalent rate (snow too); 0 = nothing falls"
+    )
+    lowers_visibility: bool = Field(
+        True,
+        description="add the rain/snow extinction to atmosphere.visibility (then the visibility of the air "
+        "alone); false = the host's visibility already includes the precipitation",
+    )
+    streak_time: float = Field(
+        1.0 / 60.0, ge=1e-3, le=0.1,
+        description="s, exposure of a streak: each particle is drawn from its position this long ago to now "
+        "(independent of frame rate and camera motion)",
+    )
 
 
 class Weather(Strict):
@@ -209,10 +235,25 @@ class Effect(Strict):
     fade: float = Field(3.0, ge=0.0, le=600.0, description="s, fade-in/out duration")
     emits_smoke: bool = Field(False, description="fire also emits a smoke plume")
     seed: int = Field(1, ge=0, le=2**31 - 1, description="random seed of noise and flicker")
-    profile: str | None = Field(None, max_length=1024, description="optional profile image file")
+    profile: str | None = Field(
+        None, pattern=ASSET_NAME_PATTERN, description="optional profile: the name of a `profiles` asset (PNG; "
+        "a name, never a path: see README, Assets)"
+    )
     changed_at: float | None = Field(
         None, ge=0.0, le=1e12, description="s, sim_time of the last activate/deactivate (set by the IG)"
     )
+
+
+    @field_validator("profile")
+    @classmethod
+    def _profile_asset(cls, value: str | None) -> str | None:
+        # the host names an asset; the server's asset directory decides which file (DESIGN §7b)
+        if value is not None:
+            try:
+                resolve_asset("profiles", value, (".png",))
+            except AssetError as exc:
+                raise ValueError(str(exc)) from None
+        return value
 
 
 class Flicker(Strict):
@@ -267,7 +308,14 @@ class Ground(Strict):
 
 
 class Quality(Strict):
-    preset: Literal["low", "medium", "high"] = "medium"
+    """Quality presets (igserver/render/presets.py): every pipeline's knobs per level, chosen from the
+    error-vs-time curves of ``igserver quality``."""
+
+    preset: Literal["low", "medium", "high", "auto"] = Field(
+        "medium", description="knob set of every pipeline; auto = the highest level whose measured frame time "
+        "fits target_ms, adapted at run time one knob at a time")
+    target_ms: float = Field(
+        40.0, ge=1.0, le=10_000.0, description="ms, frame-time target (render + readback) of the auto preset")
 
 
 def _unique_ids(items: list, what: str) -> list:
@@ -310,6 +358,19 @@ class Scene(Strict):
     @classmethod
     def _entity_ids(cls, v):
         return _unique_ids(v, "entity")
+
+    # -- render budget (svc-runtime): every accepted state renders within a bounded cost (scene/budget.py)
+    @model_validator(mode="after")
+    def _within_budget(self):
+        from .budget import over_budget
+
+        problems = over_budget(self)
+        if problems:
+            raise ValidationError.from_exception_data("Scene", [
+                InitErrorDetails(type=PydanticCustomError("over_budget", message), loc=loc, input=None)
+                for loc, message in problems
+            ])
+        return self
 
 
 def is_finite_tree(value) -> bool:

@@ -10,7 +10,7 @@ from fastapi import APIRouter, Path, Query, Response
 
 from ...scene.model import ID_PATTERN, Effect
 from ..dependencies import Message, ReplyFormat, Runtime, reply
-from ..models import EFFECT_REF, MSGPACK_ALSO, PATCH_SCHEMA, PROBLEM_RESPONSES, body_doc
+from ..models import EFFECT_PATCH_REF, EFFECT_REF, MSGPACK_ALSO, PROBLEM_RESPONSES, body_doc
 from ..problems import ProblemError
 
 router = APIRouter(prefix="/v1/effects", tags=["effects"])
@@ -81,7 +81,7 @@ async def get_effect(runtime: Runtime, fmt: ReplyFormat, effect_id: str = Effect
     "/{effect_id}",
     response_model=Effect,
     summary="Change an effect; {\"active\": false} extinguishes it with a fade, {\"active\": true} reignites",
-    openapi_extra=body_doc(PATCH_SCHEMA, "a partial Effect"),
+    openapi_extra=body_doc(EFFECT_PATCH_REF, "a partial Effect"),
     responses={200: {"content": MSGPACK_ALSO}, **PROBLEM_RESPONSES},
 )
 async def patch_effect(runtime: Runtime, message: Message, fmt: ReplyFormat, effect_id: str = EffectId):
@@ -99,6 +99,7 @@ async def patch_effect(runtime: Runtime, message: Message, fmt: ReplyFormat, eff
 
 @router.delete(
     "/{effect_id}",
+    status_code=202,
     summary="Deactivate with a fade (202, the effect stays until replaced); ?immediate=true removes it (204)",
     responses={202: {"model": Effect, "content": MSGPACK_ALSO}, 204: {"description": "removed"}},
 )

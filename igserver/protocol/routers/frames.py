@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import logging
 import time
 from typing import Literal
 
@@ -15,6 +16,9 @@ from ..frames import EncodedFrame
 from ..imaging import MEDIA_TYPES
 from ..models import PATCH_SCHEMA, PROBLEM_RESPONSES, body_doc
 from ..problems import ProblemError
+from ...render.worker import RenderError
+
+log = logging.getLogger("igserver.protocol")
 
 router = APIRouter(tags=["frames"])
 
@@ -22,6 +26,7 @@ Format = Literal["jpeg", "png", "raw"]
 FRAME_HEADERS_DOC = {
     "X-IG-Host-Frame": {"description": "host_frame of the state the frame shows", "schema": {"type": "integer"}},
     "X-IG-Frame": {"description": "IG frame number", "schema": {"type": "integer"}},
+    "X-IG-Sim-Time": {"description": "sim_time the frame shows (s, the IG clock)", "schema": {"type": "number"}},
     "X-IG-Render-Ms": {"description": "render time in the render process (ms)", "schema": {"type": "number"}},
 }
 IMAGE_CONTENT = {media: {} for media in MEDIA_TYPES.values()}
@@ -59,8 +64,21 @@ async def render_or_503(runtime, coroutine):
         return await coroutine
     except ProblemError:
         raise
+    except RenderError as exc:  # its message is written for clients: no traceback, no server paths
+        raise ProblemError("render_unavailable", str(exc), headers={"Retry-After": "1"}) from None
     except Exception as exc:
-        raise ProblemError("render_unavailable", f"{type(exc).__name__}: {exc}", headers={"Retry-After": "1"}) from None
+        log.exception("render failed")
+        raise ProblemError("render_unavailable", f"render failed ({type(exc).__name__}); see the server log",
+                           headers={"Retry-After": "1"}) from None
+
+
+def check_raw_size(runtime, fmt: str, width: int, height: int, pointer: str = "#/format") -> None:
+    """Raw RGBA frames are bounded (a 7680x4320 raw frame is 133 MB per client per frame)."""
+    limit = runtime.settings.max_raw_frame_bytes
+    if fmt == "raw" and width * height * 4 > limit:
+        raise ProblemError("limits", f"a raw {width}x{height} frame is {width * height * 4} bytes, over the "
+                           f"{limit}-byte limit: ask for jpeg or png, or lower camera.width/height",
+                           [{"pointer": pointer, "detail": "raw frame too large"}])
 
 
 @router.get(
@@ -75,6 +93,8 @@ async def get_frame(
     format: Format = Query("jpeg"),
     quality: int = Query(85, ge=1, le=100, description="JPEG quality"),
 ):
+    camera = runtime.store.scene.camera
+    check_raw_size(runtime, format, camera.width, camera.height)
     encoded = await render_or_503(runtime, runtime.pump.frame_of_current_state())
     return await image_response(runtime, encoded, format, quality, request)
 
@@ -98,7 +118,9 @@ async def render_state(
     quality: int = Query(85, ge=1, le=100),
 ):
     store = runtime.store
-    scene = store.replace(message) if replace else store.patch(message)
+    scene = store.validate_replace(message) if replace else store.validate_patch(message)
+    check_raw_size(runtime, format, scene.camera.width, scene.camera.height)
+    scene = store.set_validated(scene, message)
     runtime.metrics.state_updates.inc(method="render")
     revision, accepted_at = store.revision, store.accepted_at
     encoded = await render_or_503(runtime, runtime.gateway.render(scene, revision, accepted_at))
@@ -126,13 +148,16 @@ async def mjpeg_stream(
     async def parts():
         runtime.stream_clients["mjpeg"] += 1
         sent, last, last_revision = 0, None, -1
+        t_sent = time.perf_counter()
         try:
             with runtime.pump.subscription():
-                while not frames or sent < frames:
-                    # keepalive: resend the last frame when nothing new came, so players see the stream is live
-                    encoded = await runtime.pump.next_frame(last, timeout=runtime.settings.keepalive_s) or last
-                    if encoded is None:
+                while (not frames or sent < frames) and not runtime.stopping.is_set():
+                    # keepalive: resend the last frame when nothing new came, so players see the stream is live;
+                    # the wait is short so that a server shutdown ends the stream at once
+                    encoded = await runtime.pump.next_frame(last, timeout=min(runtime.settings.keepalive_s, 0.25))
+                    if encoded is None and (last is None or time.perf_counter() - t_sent < runtime.settings.keepalive_s):
                         continue
+                    encoded = encoded or last
                     if last is not None and encoded.ig_frame > last.ig_frame + 1:
                         runtime.metrics.frames_dropped.inc(encoded.ig_frame - last.ig_frame - 1, stream="mjpeg")
                     data, _ = await encoded.encoded_async("jpeg", quality, runtime.metrics)

@@ -30,7 +30,7 @@ from ..codec import MSGPACK, decode, encode
 from ..dependencies import get_runtime
 from ..frames import EncodedFrame
 from ..problems import ProblemError
-from .frames import frame_message
+from .frames import check_raw_size, frame_message
 
 router = APIRouter(tags=["stream"])
 
@@ -74,6 +74,14 @@ class Session:
                 encoded = await runtime.pump.next_frame(last, timeout=None)
                 if last is not None and encoded.ig_frame > last.ig_frame + 1:
                     runtime.metrics.frames_dropped.inc(encoded.ig_frame - last.ig_frame - 1, stream="ws")
+                if self.format == "raw":
+                    try:
+                        check_raw_size(runtime, "raw", encoded.frame.width, encoded.frame.height)
+                    except ProblemError as problem:  # the frame grew past the raw limit: go on in jpeg
+                        self.format = "jpeg"
+                        await self.send({"type": "error", "problem": problem.document("/v1/ws")})
+                # one frame in flight per client: send() waits while the client does not read, holding
+                # only this frame; the next one sent is the newest at that moment
                 data, encode_ms = await encoded.encoded_async(self.format, self.quality, runtime.metrics)
                 self.credits -= 1
                 await self.send(frame_message(encoded, self.format, data, encode_ms))
@@ -136,7 +144,7 @@ class Session:
             state = tree.get("state")
             # errors point into the message: #/state/camera/pitch
             scene = (store.validate_patch if kind == "patch" else store.validate_replace)(state, ("state",))
-            store.set_validated(scene)
+            store.set_validated(scene, state)
             self.runtime.metrics.state_updates.inc(method=f"ws_{kind}")
         elif kind == "ack":
             self.add_credits(1)
@@ -167,6 +175,8 @@ class Session:
         if not isinstance(credits, int) or isinstance(credits, bool) or not 0 <= credits <= self.max_credits:
             raise ProblemError("validation", f"credits must be 0..{self.max_credits}",
                                [{"pointer": "#/credits", "detail": "out of range"}])
+        camera = self.runtime.store.scene.camera
+        check_raw_size(self.runtime, fmt, camera.width, camera.height)
         self.format, self.quality = fmt, quality
         self.credits = 0
         self.add_credits(credits)

@@ -1,8 +1,14 @@
 // Per-frame uniforms shared by every pass. Positions are camera-relative ENU metres (x east,
 // y north, z up, origin at the camera), radiance is pre-exposed (multiplied by u_exposure) so that
 // values stay well inside half-float range (the sun's disk is ~1.5e9 cd/m^2 before exposure).
-uniform mat4 u_view_proj;        // camera-relative world -> clip
-uniform mat4 u_inv_view_proj;    // clip -> camera-relative world
+#include "common/depth.glsl"
+uniform mat4 u_view_proj;        // camera-relative world -> clip (reversed-Z, far plane at infinity)
+uniform mat4 u_inv_view_proj;    // clip -> camera-relative world; finite depths only (NDC z at
+                                 // infinity maps to w = 0): view rays come from view_ray()
+uniform vec3 u_camera_right;     // unit camera basis in the camera-relative world frame
+uniform vec3 u_camera_up;
+uniform vec3 u_camera_forward;
+uniform vec4 u_frustum_tangents; // tan of the frustum half-angles: left, right, bottom, top (signed)
 uniform vec2 u_resolution;       // px
 uniform float u_camera_altitude; // m above mean sea level (origin altitude + camera z)
 uniform float u_exposure;        // 1 / (1.2 * 2^EV100): cd/m^2 -> display-referred
@@ -15,17 +21,23 @@ uniform vec3 u_sky_ambient;      // cd/m^2, cosine-weighted mean sky radiance (i
 const float PI = 3.14159265358979;
 const float HALF_MAX = 60000.0;  // keep below float16 max (65504) after pre-exposure
 
-// Direction of the view ray through a pixel (uv in [0,1]^2), camera-relative world frame.
+// Direction of the view ray through a pixel (uv in [0,1]^2), camera-relative world frame: from
+// the camera basis and the frustum tangents (screen position is linear in the tangents), with no
+// matrix inverse, so it is as exact at fov 0.2 deg and at any near/far as at fov 60.
 vec3 view_ray(vec2 uv) {
-    vec4 far_point = u_inv_view_proj * vec4(uv * 2.0 - 1.0, 1.0, 1.0);
-    vec4 near_point = u_inv_view_proj * vec4(uv * 2.0 - 1.0, -1.0, 1.0);
-    return normalize(far_point.xyz / far_point.w - near_point.xyz / near_point.w);
+    vec2 t = mix(u_frustum_tangents.xz, u_frustum_tangents.yw, uv);
+    return normalize(u_camera_forward + t.x * u_camera_right + t.y * u_camera_up);
 }
 
-// Window depth of a camera-relative point (for gl_FragDepth of ray-cast surfaces).
+// Window depth of a camera-relative point (for gl_FragDepth of ray-cast surfaces): near / d,
+// clip z / clip w, in the context's clip range. Relative precision 2^-24 at every distance.
 float window_depth(vec3 rel) {
     vec4 clip = u_view_proj * vec4(rel, 1.0);
+#if DEPTH_ZERO_TO_ONE
+    return clamp(clip.z / clip.w, 0.0, 1.0);
+#else
     return clamp(0.5 * clip.z / clip.w + 0.5, 0.0, 1.0);
+#endif
 }
 
 vec3 pre_expose(vec3 radiance) {

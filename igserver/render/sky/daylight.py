@@ -51,6 +51,9 @@ def sun_transmittance(elevation_deg: float, altitude_m: float, turbidity: float)
     return np.exp(-np.minimum(tau, 80.0)) * visible
 
 
+STARLIGHT_AIRGLOW_LUX = 7.0e-4  # lux, clear moonless night sky background (pi x ~2.1e-4 cd/m^2)
+
+
 def diffuse_illuminance(elevation_deg: float, altitude_m: float = 0.0) -> float:
     """Clear-sky diffuse horizontal illuminance (lux); thinner above the troposphere."""
     log_e = np.interp(elevation_deg, _DIFFUSE_ELEV, np.log(_DIFFUSE_LUX))
@@ -110,5 +113,8 @@ def daylight(
     moon = FULL_MOON_ILLUMINANCE * moon_phase * moon_t
     total = float(np.dot([0.2126, 0.7152, 0.0722], sun)) * max(math.sin(math.radians(sun_elevation)), 0.0)
     total += e_diffuse + float(np.dot([0.2126, 0.7152, 0.0722], moon))
+    # The sky never goes fully dark: starlight and airglow light a horizontal surface by ~7e-4 lux even
+    # where sun, moon and the (vanishing) atmosphere give nothing: a camera in space at night (1e7 m).
+    total += STARLIGHT_AIRGLOW_LUX
     ev100 = max(math.log2(total * 100.0 / 250.0), -4.0)
     return Daylight(sun, sky_ambient, zenith, horizon, below, halo, halo_exponent, sun_disk, moon, ev100)

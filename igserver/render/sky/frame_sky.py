@@ -10,6 +10,7 @@ import moderngl
 import numpy as np
 
 from ...scene.model import Scene
+from ...weather import wind_heading
 from .atmosphere_model import PRESETS, SOLAR_ILLUMINANCE, AtmosphereParameters, atmosphere_parameters
 from .daylight import Daylight, daylight
 from .lighting import MOON_ANGULAR_RADIUS, MOON_SOLID_ANGLE, NIGHT_SKY_LUMINANCE, precomputed_daylight
@@ -36,9 +37,8 @@ def cirrus_offset_units(scene: Scene, camera_xy_m: np.ndarray) -> tuple[float, f
     modulo the noise period in float64 (a week of sim_time or 1e6 m of camera travel stays exact)."""
     w = scene.weather
     speed = w.cirrus_wind_speed if w.cirrus_wind_speed is not None else 4.0 * w.wind_speed
-    # wind_direction is where it blows FROM; the clouds move the other way.
-    to = math.radians(w.wind_direction + 180.0)
-    drift = np.array([math.sin(to), math.cos(to)]) * speed * scene.time.sim_time  # m
+    # The one wind's direction (igserver.weather), stronger aloft; defined in calm air too.
+    drift = wind_heading(scene) * speed * scene.time.sim_time  # m
     # The pattern is fixed in the air mass: a point x of the world sees noise at x - drift.
     pos = (np.asarray(camera_xy_m, dtype=np.float64) - drift) / (CIRRUS_FEATURE_KM * 1000.0)
     pos = np.mod(pos, CIRRUS_PERIOD_UNITS)

@@ -1,4 +1,4 @@
-// Sky pass: fills every pixel no surface covered (drawn at the far plane with depth test LEQUAL):
+// Sky pass: fills every pixel no surface covered (drawn at infinity, where the depth is still the cleared one):
 // sky radiance, the sun's disk (limb-darkened, reddened per pixel by the view transmittance),
 // the moon with its phase, the natural night sky, and the cirrus layer.
 #include "common/frame.glsl"
@@ -33,8 +33,28 @@ vec3 moon_disk(vec3 dir) {
     return u_moon_disk_luminance * smoothstep(-0.04, 0.04, dot(n, u_sun_dir));
 }
 
+// With SURFACE_BELOW (the sea or the ground is ray-cast below the camera), every pixel left to the
+// sky lies above that surface's horizon; the atmosphere's own ground sphere (float32 km, altitude
+// rounded to ~0.5 m) puts its horizon a fraction of a pixel elsewhere, which showed as a dark
+// one-pixel line on the sea horizon at fov <= 1 deg. Such rays are lifted just above the
+// atmosphere's horizon (computed with the same float radii as ray_hits_ground).
+vec3 above_surface_horizon(vec3 dir) {
+#ifdef SURFACE_BELOW
+    if (use_precomputed()) {
+        float r = camera_radius_km();
+        float mu_h = -sqrt(max((r - u_bottom_radius_km) * (r + u_bottom_radius_km), 0.0)) / r;
+        float z = 0.98 * mu_h;  // 2 % of the dip above it: clear of float32 rounding in disc_bottom
+        if (dir.z < z) {
+            vec2 h = dir.xy / max(length(dir.xy), 1e-12);
+            dir = vec3(h * sqrt(1.0 - z * z), z);
+        }
+    }
+#endif
+    return dir;
+}
+
 void main() {
-    vec3 dir = view_ray(v_uv);
+    vec3 dir = above_surface_horizon(view_ray(v_uv));
     vec3 radiance;
     vec3 t_view;  // transmittance from the camera to space along dir (0 into the ground)
     if (use_precomputed()) {

@@ -9,6 +9,7 @@ import moderngl
 import numpy as np
 
 from ...astro import star_field
+from .. import depth
 from ..passes import RenderPass
 from ..shaders import set_uniforms
 
@@ -16,20 +17,31 @@ STAR_POINT_PX = 2.0
 STARS_BELOW_SUN_ELEVATION = -2.0  # deg; above this the day sky hides even Sirius
 
 
+def surface_below(scene) -> bool:
+    """The sea or the ground is drawn below the camera (sky pixels are then above its horizon)."""
+    z = scene.camera.position[2]
+    if scene.ocean.enabled:
+        return z > scene.ocean.level
+    return scene.ground.enabled and z > scene.ground.level
+
+
 class SkyPass(RenderPass):
     name = "sky"
 
     def execute(self, frame, targets) -> None:
         model = frame.scene.atmosphere.model
-        program = self.programs.program("common/fullscreen.vert.glsl", "sky/sky.glsl", {"SKY_" + model.upper(): 1})
+        defines = {"SKY_" + model.upper(): 1}
+        if surface_below(frame.scene):
+            defines["SURFACE_BELOW"] = 1
+        program = self.programs.program("common/fullscreen.vert.glsl", "sky/sky.glsl", defines)
         set_uniforms(program, frame.uniforms)
         targets.scene_fbo.use()
         self.ctx.enable(moderngl.DEPTH_TEST)
-        self.ctx.depth_func = "<="
+        self.ctx.depth_func = depth.AT_INFINITY  # only where nothing nearer was drawn
         self.fullscreen(program)
         if frame.celestial.sun_elevation < STARS_BELOW_SUN_ELEVATION:
             self._stars(frame, model)
-        self.ctx.depth_func = "<"
+        self.ctx.depth_func = depth.NEAREST_WINS
 
     def _stars(self, frame, model: str) -> None:
         scene = frame.scene

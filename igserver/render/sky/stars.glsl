@@ -1,4 +1,4 @@
-// Bright stars as points at the far plane (depth LEQUAL against the sky, additive blending).
+// Bright stars as points at infinity (depth test AT_INFINITY against the sky, additive blending).
 // A star of illuminance E (lux, outside the atmosphere) on a pixel of solid angle omega has the
 // radiance E T(v) / omega over that pixel; a point of size s px spreads it over s^2 pixels.
 #include "common/frame.glsl"
@@ -12,8 +12,7 @@ out vec3 v_radiance;
 void main() {
     vec3 t = dir_visible(in_dir) ? sky_transmittance(in_dir) : vec3(0.0);
     v_radiance = pre_expose(vec3(in_lux) * t / u_star_pixel_solid_angle);
-    vec4 clip = u_view_proj * vec4(in_dir, 0.0);
-    gl_Position = clip.xyww;  // at infinity: window depth 1, the sky's depth
+    gl_Position = u_view_proj * vec4(in_dir, 0.0);  // a direction: window depth 0, the sky's depth
 }
 #endif
 

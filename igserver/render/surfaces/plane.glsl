@@ -6,7 +6,6 @@
 #include "common/lights.glsl"
 
 uniform float u_plane_height;   // m, camera-relative height of the plane
-uniform float u_far;            // m
 uniform vec3 u_base_color;
 uniform float u_roughness;
 
@@ -39,7 +38,8 @@ void main() {
         t = u_plane_height / dir.z;
         n = vec3(0.0, 0.0, -1.0);
     }
-    if (!(t > 0.0) || t > u_far) discard;
+    // No far limit: the earth's surface is drawn out to its horizon (reversed-Z depth holds there).
+    if (!(t > 0.0)) discard;
     vec3 p = dir * t;
     vec3 v = -dir;
     Material m = Material(u_base_color, 0.0, u_roughness);

@@ -52,7 +52,6 @@ class SurfacesPass(RenderPass):
             set_uniforms(program, frame.uniforms)
             set_uniforms(program, {
                 "u_plane_height": scene.ground.level - float(view.position[2]),
-                "u_far": view.far,
                 "u_base_color": tuple(scene.ground.color),
                 "u_roughness": scene.ground.roughness,
             })

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...scene.model import Effect, Scene
+from ...weather import wind_vector
 from ..camera import CameraView
 
 HEAT_RELEASE_PER_AREA = 1500.0  # kW/m^2, hydrocarbon pool fire
@@ -98,9 +99,8 @@ class Volume:
 
 
 def _wind_vector(scene: Scene) -> np.ndarray:
-    """m/s, the direction the wind blows TO (weather gives the direction it comes FROM)."""
-    a = math.radians(scene.weather.wind_direction)
-    return -scene.weather.wind_speed * np.array([math.sin(a), math.cos(a)])
+    """m/s, horizontal: the one wind (igserver.weather.wind_vector) that also slants the rain."""
+    return wind_vector(scene)[:2]
 
 
 def effect_volumes(effect: Effect, scene: Scene) -> list[Volume]:

@@ -3,6 +3,15 @@
 // Ray t in [t0, t1]: t0 = box entry (0 when the camera is inside), t1 = min(box exit, scene
 // distance) so ships, the pier and the water clip the effect. The start is shifted by a fraction
 // of one step from interleaved-gradient noise (no banding, no white-noise clumping).
+// Step length at distance t: step(t) = min(u_step, max(u_voxel, t * u_pixel_angle)), u_step =
+// box diagonal / steps. A step longer than a voxel point-samples detail it cannot resolve; where
+// a pixel's footprint (t * angle per pixel) is smaller than a voxel, neighbouring rays cross the
+// same voxels and differ only by their jitter, so that aliasing became the jitter's own diagonal
+// pattern: the stripes seen from inside a plume. Near the camera the step is therefore one voxel;
+// further out it grows with the footprint (where neighbouring pixels see different voxels
+// anyway) up to the knob's step.
+// With BLEND the texture is a blend of two models of the turbulence (re-modelled at a capped
+// rate, keyframes at sim times k/rate and (k+1)/rate; volumes.py), weight u_blend of the second.
 // Front-to-back, energy conserving per segment of optical depth s = sigma * dt:
 //   L += T * S * (1 - exp(-s)),   T *= exp(-s)
 // with S the segment's source radiance: fire = emitted colour * luminance (optically thick fire
@@ -14,13 +23,19 @@
 #include "common/atmosphere.glsl"
 
 uniform sampler3D u_volume;
+#ifdef BLEND
+uniform sampler3D u_volume_next;
+uniform float u_blend;
+#endif
 uniform sampler2D u_scene_distance;  // m along the view ray, 1e30 = sky
 uniform vec3 u_box_min;              // m, camera-relative AABB of the (bent) container
 uniform vec3 u_box_max;
 uniform vec3 u_base;                 // m, camera-relative base centre
 uniform vec3 u_extent;               // m: radius, radius, height
 uniform vec2 u_lean;                 // m, horizontal offset of the axis at the top (wind)
-uniform int u_steps;                 // samples along the box diagonal
+uniform float u_step;                // m, longest march step (box diagonal / steps)
+uniform float u_voxel;               // m, the texture's voxel size
+uniform float u_pixel_angle;         // rad per pixel of the march's resolution
 uniform float u_sigma;               // 1/m, extinction at density 1
 uniform float u_jitter_offset;       // per-frame shift of the start jitter, in [0,1)
 #ifdef SMOKE
@@ -68,9 +83,7 @@ void main() {
     t1 = min(t1, scene_t);
     if (!(t1 > t0)) discard;
 
-    float dt = length(u_box_max - u_box_min) / float(u_steps);
     float jitter = fract(interleaved_gradient_noise(gl_FragCoord.xy) + u_jitter_offset);
-    int n = int(ceil((t1 - t0) / dt - jitter)) + 1;
 #ifdef SMOKE
     // Scattering angle between the light's propagation (-l) and the ray back to the eye (-dir).
     float phase_sun = henyey_greenstein(dot(dir, u_sun_dir), u_hg_g);
@@ -81,16 +94,20 @@ void main() {
     vec3 radiance = vec3(0.0);
     float transmittance = 1.0;
     float depth_weight = 0.0, depth_sum = 0.0;
-    for (int i = 0; i <= n && i < 4096; ++i) {
-        // Segments end at the jittered points t0 + (i + jitter) dt, clipped to [t0, t1], so they
-        // tile the ray exactly; each is sampled at its midpoint.
-        float sa = max(t0 + (float(i) - 1.0 + jitter) * dt, t0);
-        float sb = min(t0 + (float(i) + jitter) * dt, t1);
-        if (sb <= sa) continue;
+    // Segments tile [t0, t1] exactly: the first is `jitter` of a step long, each next one step(t)
+    // long, the last clipped at t1; each is sampled at its midpoint.
+    float sb = t0;
+    for (int i = 0; i < 4096 && sb < t1; ++i) {
+        float sa = sb;
+        float step_here = min(u_step, max(u_voxel, sa * u_pixel_angle));
+        sb = min(sa + (i == 0 ? max(jitter, 1e-3) : 1.0) * step_here, t1);
         float tc = 0.5 * (sa + sb);
         vec3 uvw = to_volume(dir * tc);
         if (any(lessThan(uvw, vec3(0.0))) || any(greaterThan(uvw, vec3(1.0)))) continue;
         vec4 voxel = textureLod(u_volume, uvw, 0.0);
+#ifdef BLEND
+        voxel = mix(voxel, textureLod(u_volume_next, uvw, 0.0), u_blend);
+#endif
         float s = voxel.a * u_sigma * (sb - sa);
         if (s <= 1e-6) continue;
         float absorbed = 1.0 - exp(-s);

@@ -19,6 +19,7 @@ import numpy as np
 
 PROFILE_U = 64
 PROFILE_V = 128
+MAX_PROFILE_PIXELS = 4096 * 4096  # a profile is resampled to PROFILE_V x PROFILE_U: more is only memory
 WAVELENGTHS_UM = np.array([0.610, 0.550, 0.465])  # representative R, G, B
 C2 = 14388.0  # um K, second radiation constant
 FIRE_SMOKE_ALBEDO = 0.25  # sooty smoke of a hydrocarbon fire
@@ -93,6 +94,8 @@ def _image_profile(path: str, mtime: float) -> np.ndarray:
     from PIL import Image
 
     with Image.open(path) as img:
+        if img.width * img.height > MAX_PROFILE_PIXELS:  # read from the header: refused before decoding
+            raise ValueError(f"profile image over {MAX_PROFILE_PIXELS} pixels")
         has_alpha = "A" in img.getbands()
         rgba = np.asarray(img.convert("RGBA"), dtype=np.float64) / 255.0
     rgb = _srgb_to_linear(rgba[..., :3])

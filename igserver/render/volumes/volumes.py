@@ -9,20 +9,31 @@ Per visible volume (effects.visible_volumes: active or fading, non-zero size, in
 When the modelling stage runs: the texture depends on the effect's parameters and on the noise
 scroll tau (sim_time). It is re-modelled only when that state changed since the last frame, so
 repeated frames of one state (several channels, a paused simulation, the quality study) cost only
-the march; while time runs, every frame re-models (the turbulence moves). Its resolution is the
-smaller of the quality knob and the container's size on screen (about one voxel per 1.5 pixels),
-so far-away fires cost a few thousand voxels.
+the march. While time runs, the turbulence moves: with ``model_hz`` = 0 every frame re-models at
+its exact tau; with a capped rate (``model_hz`` > 0) the textures are keyframes at sim times
+k / rate, two are kept (k and k + 1) and the march blends them by the fraction of the period
+elapsed, so a 30 Hz host pays one modelling every 30 / rate frames and the motion stays
+continuous (a parameter change, e.g. a fade, is picked up at the next keyframe and blends in).
+Its resolution is the smaller of the quality knob and the container's size on screen (about one
+voxel per 1.5 pixels), so far-away fires cost a few thousand voxels.
+
+Reduced-resolution march (``scale`` 2 or 4): the scene distance is reduced to the nearest of each
+block (downsample.frag.glsl), the volumes are marched into a low-resolution premultiplied target,
+and a depth-aware upsampling blends it into the frame (upsample.frag.glsl).
 """
 
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import moderngl
 import numpy as np
 
+from ...assets import AssetError, resolve_asset
 from ...scene.model import Scene
+from .. import presets
 from ..camera import CameraView
 from ..passes import RenderPass
 from ..shaders import set_uniforms
@@ -30,6 +41,7 @@ from .effects import NOISE_PERIOD, NOISE_SCALE, Volume, visible_volumes
 from .fire_lights import fire_light
 from .profiles import FIRE_SMOKE_ALBEDO, SMOKE_ALBEDO, load_profile
 
+MAX_PROFILE_TEXTURES = 32  # profile textures kept resident (LRU); each is small, their number is not
 FIRE_LUMINANCE = 2.0e4  # cd/m^2 of profile colour 1 at intensity 1 (a candle is ~1e4, large flames more)
 FIRE_SIGMA_D = 1.5  # extinction of fire density 1 times the diameter: optical depth across the core
 SMOKE_SIGMA_D = 3.0
@@ -39,25 +51,34 @@ EVICT_AFTER_FRAMES = 120
 
 @dataclass(frozen=True)
 class VolumeSettings:
-    steps: int = 64  # samples along the container's diagonal
+    steps: int = 64  # samples along the container's diagonal (the step is at most one voxel)
     octaves: int = 3  # turbulence octaves (2-4 in the paper)
     resolution: int = 32  # voxels across the container's diameter (height: in proportion)
     min_resolution: int = 8
     lod: bool = True  # lower the resolution for containers small on screen (off: the knob itself)
+    scale: int = 1  # march resolution divisor: 1 full, 2 half, 4 quarter (depth-aware upsampling)
+    model_hz: float = 0.0  # re-modelling keyframes per second of sim time; 0 = every frame
 
 
-# Quality presets: points on the measured curve (igserver quality volumes, close night fire at
-# 640x360 on llvmpipe; errors in 8-bit sRGB levels vs 1024 steps / 4 octaves / 128 voxels):
-#   low    32 / 2 / 16: rmse ~9.5, banding ~3.9, ~40 ms
-#   medium 48 / 3 / 32: rmse ~5.5, banding ~1.9, ~90 ms  (the knee: banding < 2 levels)
-#   high  128 / 4 / 64: rmse ~1.6, banding ~0.5, ~220-440 ms (the 64-voxel modelling dominates)
-# Octaves matter least (the 4th octave has weight 1/8); steps and texture size trade together:
-# a sharper texture needs more steps or it aliases (16 steps: error grows with resolution).
+# Quality presets: points on the measured curves (igserver quality volumes: close night fire on
+# llvmpipe, errors in 8-bit sRGB levels against 1024 steps / 4 octaves / 128 voxels, full
+# resolution, exact modelling time). What the curves showed:
+#   * the modelling stage dominates while time runs: re-modelling at 5-10 Hz with keyframe
+#     blending instead of every frame cut the pass 2-4x for +0.2..2.5 RMSE;
+#   * half-resolution marching cuts the march ~3x for ~+1.5 levels of low-passed error; quarter
+#     resolution shows blocks at fire edges (low only);
+#   * steps matter little once the step follows the pixel footprint; octaves and the texture cap
+#     hardly change the error of a fire seen from outside (3 -> 2 octaves: none measurable, -10 %
+#     time; 32 -> 16 voxels: +0.4 lowpass, -30 % time), but from INSIDE a plume the picture is all
+#     texture detail: lowpass error 22 (3 octaves, 32 voxels) -> 30 (2 octaves) -> 39 (24 voxels),
+#     so medium keeps 3 / 32; a 64-voxel texture makes modelling and the voxel-limited near steps
+#     dominate.
 PRESETS = {
-    "low": VolumeSettings(steps=32, octaves=2, resolution=16),
-    "medium": VolumeSettings(steps=48, octaves=3, resolution=32),
-    "high": VolumeSettings(steps=128, octaves=4, resolution=64),
+    "low": VolumeSettings(steps=32, octaves=2, resolution=16, scale=4, model_hz=5.0),
+    "medium": VolumeSettings(steps=48, octaves=3, resolution=32, scale=2, model_hz=10.0),
+    "high": VolumeSettings(steps=96, octaves=4, resolution=48, scale=1, model_hz=30.0),
 }
+presets.register("volumes", PRESETS)
 
 
 def volumes_needed(scene: Scene, view: CameraView) -> bool:
@@ -77,14 +98,50 @@ def texture_size(vol: Volume, view: CameraView, settings: VolumeSettings) -> tup
     return res_xy, res_xy, res_z
 
 
+def screen_rect(volumes: list[Volume], view: CameraView, width: int, height: int, pad: int):
+    """(x, y, w, h) in pixels (GL's lower-left origin) covering every volume's box, padded; the
+    whole screen when a box reaches behind the near plane. The full-resolution passes of the
+    reduced march (downsample, upsample) run only there."""
+    x0, y0, x1, y1 = width, height, 0, 0
+    for vol in volumes:
+        lo, hi = (view.relative(c) for c in vol.box)
+        corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        clip = corners @ view.view_proj.T
+        if (clip[:, 3] <= view.near).any():
+            return 0, 0, width, height
+        ndc = clip[:, :2] / clip[:, 3:4]
+        px = (ndc * 0.5 + 0.5) * np.array([width, height])
+        x0, y0 = min(x0, float(px[:, 0].min())), min(y0, float(px[:, 1].min()))
+        x1, y1 = max(x1, float(px[:, 0].max())), max(y1, float(px[:, 1].max()))
+    x0, y0 = max(int(math.floor(x0)) - pad, 0), max(int(math.floor(y0)) - pad, 0)
+    x1, y1 = min(int(math.ceil(x1)) + pad, width), min(int(math.ceil(y1)) + pad, height)
+    return x0, y0, max(x1 - x0, 0), max(y1 - y0, 0)
+
+
+class _Model:
+    """One modelled 3D texture and the state (and keyframe) it was modelled for."""
+
+    def __init__(self, texture: moderngl.Texture, size: tuple[int, int, int]):
+        self.texture = texture
+        self.size = size
+        self.state: tuple | None = None
+        self.key: int | None = None  # keyframe index (capped rate), None = exact tau
+
+    def release(self) -> None:
+        self.texture.release()
+
+
 class _Slot:
-    """An effect's 3D texture and the state it was modelled for."""
+    """An effect's modelled textures: one (every frame) or two keyframes (capped rate)."""
 
     def __init__(self):
-        self.texture: moderngl.Texture | None = None
-        self.size: tuple[int, int, int] | None = None
-        self.state: tuple | None = None
+        self.models: list[_Model] = []
         self.last_frame = 0
+
+    def release(self) -> None:
+        for m in self.models:
+            m.release()
+        self.models = []
 
 
 def _unit_cube_corners() -> np.ndarray:
@@ -104,10 +161,11 @@ class VolumesPass(RenderPass):
         self.settings: VolumeSettings | None = None  # None = the scene's quality preset
         self.stats = {"modelled": 0, "drawn": 0, "voxels": 0}
         self._slots: dict[tuple, _Slot] = {}
-        self._profiles: dict[tuple, moderngl.Texture] = {}
+        self._profiles: OrderedDict[tuple, moderngl.Texture] = OrderedDict()  # LRU, at most MAX_PROFILE_TEXTURES
         self._cube_vbo = None
         self._vaos: dict = {}
         self._frame = 0
+        self._low = None  # (size, colour, distance, colour fbo, distance fbo) of the reduced march
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
         return volumes_needed(scene, view)
@@ -115,42 +173,94 @@ class VolumesPass(RenderPass):
     # -- modelling ---------------------------------------------------------------------------
 
     def _profile_texture(self, vol: Volume) -> moderngl.Texture:
+        """The profile's texture, from a bounded LRU cache: hosts naming many distinct profiles cannot grow
+        memory. ``vol.profile`` is an asset name (validated by the scene model); it is resolved again here,
+        in the render process, so only a regular file inside the profiles directory is ever opened."""
         key = (vol.kind, vol.profile)
         tex = self._profiles.get(key)
-        if tex is None:
-            data = load_profile(vol.kind, vol.profile)
-            tex = self.ctx.texture((data.shape[1], data.shape[0]), 4, data.astype("f2").tobytes(), dtype="f2")
-            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
-            tex.repeat_x = tex.repeat_y = False
-            self._profiles[key] = tex
+        if tex is not None:
+            self._profiles.move_to_end(key)
+            return tex
+        path = None
+        if vol.profile is not None:
+            try:
+                path = str(resolve_asset("profiles", vol.profile, (".png",)))
+            except AssetError:  # removed since the state was accepted: the procedural profile
+                path = None
+        data = load_profile(vol.kind, path)
+        tex = self.ctx.texture((data.shape[1], data.shape[0]), 4, data.astype("f2").tobytes(), dtype="f2")
+        tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        tex.repeat_x = tex.repeat_y = False
+        self._profiles[key] = tex
+        while len(self._profiles) > MAX_PROFILE_TEXTURES:
+            self._profiles.popitem(last=False)[1].release()
         return tex
 
-    def _model(self, vol: Volume, frame, settings: VolumeSettings) -> moderngl.Texture:
-        scene = frame.scene
+    def _static_state(self, vol: Volume, frame, settings: VolumeSettings, size) -> tuple[tuple, tuple]:
+        """Everything the texture depends on except the noise scroll, as (hard, soft): a change of
+        a hard part (texture size, octaves, the effect's parameters) re-models at once; the soft
+        part changes continuously while time runs (fade, the sun) and is picked up at the next
+        keyframe of a capped rate, blending in."""
+        sun = tuple(float(x) for x in frame.celestial.sun_dir) if vol.kind == "smoke" else None
+        hard = (size, settings.octaves, vol.seed, vol.kind, vol.profile, vol.effect.diameter,
+                vol.effect.intensity, vol.effect.active)
+        return hard, (vol.radius, vol.height, vol.opacity, vol.level, sun)
+
+    def _models_for(self, vol: Volume, frame, settings: VolumeSettings) -> tuple[moderngl.Texture, moderngl.Texture, float]:
+        """(texture, next texture, blend weight of the next) for this frame, modelling what is missing."""
         slot = self._slots.setdefault(vol.key, _Slot())
         slot.last_frame = self._frame
         size = texture_size(vol, frame.view, settings)
-        tau = vol.noise_offset(scene.time.sim_time)
+        static = self._static_state(vol, frame, settings, size)
+        sim_time = frame.scene.time.sim_time
+        if settings.model_hz <= 0.0:
+            state = (static, vol.noise_offset(sim_time))
+            model = slot.models[0] if slot.models else None
+            if model is None or model.state != state:
+                model = self._model_into(slot, model, vol, frame, settings, size, sim_time)
+                model.state, model.key = state, None
+                slot.models = [model]
+            return model.texture, model.texture, 0.0
+        # Capped rate: keyframes k and k + 1 around sim_time (float64), blended by the fraction.
+        period = 1.0 / settings.model_hz
+        x = sim_time * settings.model_hz
+        k = math.floor(x)
+        if x - k > 1.0 - 1e-6:  # on a keyframe up to rounding (100 + 3/30 s at 10 Hz)
+            k += 1
+        blend = min(max(x - k, 0.0), 1.0)
+        keep = [m for m in slot.models if m.key in (k, k + 1) and m.state[0] == static[0]]
+        for m in slot.models:
+            if m not in keep:
+                m.release()
+        slot.models = keep
+        for key in (k, k + 1):
+            if any(m.key == key for m in slot.models):
+                continue  # modelled already (perhaps with the previous soft state: it blends in)
+            model = self._model_into(slot, None, vol, frame, settings, size, key * period)
+            model.state, model.key = static, key
+            slot.models.append(model)
+        slot.models.sort(key=lambda m: m.key)
+        return slot.models[0].texture, slot.models[1].texture, blend
+
+    def _model_into(self, slot: _Slot, model: "_Model | None", vol: Volume, frame, settings: VolumeSettings,
+                    size, sim_time: float) -> _Model:
+        """Run the modelling stage for ``sim_time`` into ``model``'s texture (or a new one)."""
+        if model is None or model.size != size:
+            if model is not None:
+                model.release()
+            texture = self.ctx.texture3d(size, 4, dtype="f2")
+            texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            texture.repeat_x = texture.repeat_y = texture.repeat_z = False
+            model = _Model(texture, size)
         smoke = vol.kind == "smoke"
         sun = tuple(float(x) for x in frame.celestial.sun_dir) if smoke else None
-        state = (size, tau, settings.octaves, vol.radius, vol.height, vol.opacity, vol.seed, vol.kind,
-                 vol.profile, vol.effect.diameter, vol.effect.intensity, sun)
-        if slot.state == state and slot.texture is not None:
-            return slot.texture
-        if slot.size != size:
-            if slot.texture is not None:
-                slot.texture.release()
-            slot.texture = self.ctx.texture3d(size, 4, dtype="f2")
-            slot.texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
-            slot.texture.repeat_x = slot.texture.repeat_y = slot.texture.repeat_z = False
-            slot.size = size
         program = self.programs.compute("volumes/model.comp.glsl", {"SMOKE": 1} if smoke else None)
         sigma = (SMOKE_SIGMA_D if smoke else FIRE_SIGMA_D) / max(vol.effect.diameter, 1e-3)
         set_uniforms(program, {
             "u_size": size,
             "u_extent": (vol.radius, vol.radius, vol.height),
             "u_wavelength": vol.nominal_radius / NOISE_SCALE,
-            "u_tau": tau,
+            "u_tau": vol.noise_offset(sim_time),
             "u_period": NOISE_PERIOD,
             "u_roughness": ROUGHNESS[vol.kind],
             "u_octaves": settings.octaves,
@@ -162,13 +272,12 @@ class VolumesPass(RenderPass):
             "u_profile": 0,
         })
         self._profile_texture(vol).use(0)
-        slot.texture.bind_to_image(0, read=False, write=True)
-        program.run(*(math.ceil(s / 4) for s in size))
+        model.texture.bind_to_image(0, read=False, write=True)
+        program.run(*(math.ceil(n / 4) for n in size))
         self.ctx.memory_barrier()
-        slot.state = state
         self.stats["modelled"] += 1
         self.stats["voxels"] += size[0] * size[1] * size[2]
-        return slot.texture
+        return model
 
     # -- rendering ---------------------------------------------------------------------------
 
@@ -181,37 +290,105 @@ class VolumesPass(RenderPass):
             self._vaos[id(program)] = vao
         return vao
 
+    def _low_targets(self, size: tuple[int, int]):
+        """Low-resolution colour + distance targets of the reduced-resolution march."""
+        if self._low is None or self._low[0] != size:
+            if self._low is not None:
+                for obj in self._low[1:]:
+                    obj.release()
+            color = self.ctx.texture(size, 4, dtype="f2")
+            distance = self.ctx.texture(size, 1, dtype="f4")
+            for tex in (color, distance):
+                tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+                tex.repeat_x = tex.repeat_y = False
+            self._low = (size, color, distance, self.ctx.framebuffer([color]), self.ctx.framebuffer([distance]))
+        return self._low[1:]
+
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
-        settings = self.settings or PRESETS[scene.quality.preset]
+        settings = self.settings or presets.knobs("volumes", frame.quality)
         self._frame += 1
         self.stats = {"modelled": 0, "drawn": 0, "voxels": 0}
         volumes = visible_volumes(scene, view)
-        textures = [self._model(vol, frame, settings) for vol in volumes]
+        textures = [self._models_for(vol, frame, settings) for vol in volumes]
+        distance = frame.resources["scene_distance"]
+        scale = max(int(settings.scale), 1)
 
-        targets.color_fbo.use()
+        if scale > 1:
+            width, height = targets.size
+            low_size = (-(-width // scale), -(-height // scale))
+            low_color, low_distance, color_fbo, distance_fbo = self._low_targets(low_size)
+            # Full-resolution work only where the boxes are (the upsample reads one low-res texel
+            # around each pixel: the low-resolution rectangle is padded by two).
+            x, y, w, h = screen_rect(volumes, view, width, height, pad=2 * scale)
+            low_rect = (x // scale, y // scale, -(-w // scale) + 2, -(-h // scale) + 2)
+            self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+            distance_fbo.use()
+            distance_fbo.scissor = low_rect
+            down = self.programs.program("common/fullscreen.vert.glsl", "volumes/downsample.frag.glsl")
+            set_uniforms(down, {"u_scene_distance": 1, "u_scale": scale})
+            distance.use(1)
+            self.fullscreen(down)
+            distance_fbo.scissor = None
+            color_fbo.use()
+            color_fbo.clear(0.0, 0.0, 0.0, 0.0)
+            self._march(frame, volumes, textures, settings, low_distance, low_size[1])
+            targets.color_fbo.use()
+            targets.color_fbo.scissor = (x, y, w, h)
+            self.ctx.enable(moderngl.BLEND)
+            self.ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
+            up = self.programs.program("common/fullscreen.vert.glsl", "volumes/upsample.frag.glsl")
+            far = max((float(np.linalg.norm(view.relative(v.bounding_sphere[0]))) + v.bounding_sphere[1]
+                       for v in volumes), default=1.0)
+            set_uniforms(up, {"u_volume_color": 0, "u_volume_distance": 2, "u_scene_distance": 1, "u_scale": scale,
+                              "u_volumes_far": far})
+            low_color.use(0)
+            distance.use(1)
+            low_distance.use(2)
+            self.fullscreen(up)
+            targets.color_fbo.scissor = None
+            self.ctx.disable(moderngl.BLEND)
+        else:
+            targets.color_fbo.use()
+            self._march(frame, volumes, textures, settings, distance, targets.size[1])
+        self._evict()
+
+    def _march(self, frame, volumes, textures, settings: VolumeSettings, distance, march_height: int) -> None:
+        """Draw every volume's box into the bound framebuffer (premultiplied, far to near);
+        ``march_height``: its height in pixels (for the footprint of a pixel)."""
+        scene, view = frame.scene, frame.view
         self.ctx.disable(moderngl.DEPTH_TEST)
         self.ctx.enable(moderngl.BLEND | moderngl.CULL_FACE)
         self.ctx.front_face = "ccw"
         self.ctx.cull_face = "front"
         self.ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
-        distance = frame.resources["scene_distance"]
         distance.use(1)
         jitter_offset = (scene.host_frame * 0.6180339887) % 1.0  # golden-ratio sequence per frame
-        for vol, tex in zip(volumes, textures):
+        _, _, bottom, top = view.tangents
+        pixel_angle = (math.atan(top) - math.atan(bottom)) / max(march_height, 1)  # rad per march pixel
+        for vol, (tex, tex_next, blend) in zip(volumes, textures):
             smoke = vol.kind == "smoke"
-            program = self.programs.program("volumes/march.vert.glsl", "volumes/march.frag.glsl",
-                                            {"SMOKE": 1} if smoke else None)
+            defines = {"SMOKE": 1} if smoke else {}
+            if settings.model_hz > 0.0:
+                defines["BLEND"] = 1
+            program = self.programs.program("volumes/march.vert.glsl", "volumes/march.frag.glsl", defines or None)
             set_uniforms(program, frame.uniforms)
             lo, hi = vol.box
+            size = tex.size
+            # Steps: the knob's share of the diagonal at most, one voxel at least, in between the
+            # pixel footprint at the sample's distance (march.frag.glsl).
+            step = float(np.linalg.norm(hi - lo)) / settings.steps
+            voxel = min(2.0 * vol.radius / size[0], 2.0 * vol.radius / size[1], vol.height / size[2])
             uniforms = {
-                "u_volume": 0, "u_scene_distance": 1,
+                "u_volume": 0, "u_volume_next": 2, "u_blend": blend, "u_scene_distance": 1,
                 "u_box_min": tuple(float(x) for x in view.relative(lo)),
                 "u_box_max": tuple(float(x) for x in view.relative(hi)),
                 "u_base": tuple(float(x) for x in view.relative(vol.base)),
                 "u_extent": (vol.radius, vol.radius, vol.height),
                 "u_lean": (float(vol.lean[0]), float(vol.lean[1])),
-                "u_steps": settings.steps,
+                "u_step": max(step, 1e-4),
+                "u_voxel": max(min(voxel, step), 1e-4),
+                "u_pixel_angle": pixel_angle,
                 "u_sigma": (SMOKE_SIGMA_D if smoke else FIRE_SIGMA_D) / max(vol.effect.diameter, 1e-3),
                 "u_jitter_offset": jitter_offset,
             }
@@ -228,17 +405,16 @@ class VolumesPass(RenderPass):
                 uniforms["u_emission"] = (lum, lum, lum)
             set_uniforms(program, uniforms)
             tex.use(0)
+            tex_next.use(2)
             self._vao(program).render(moderngl.TRIANGLES)
             self.stats["drawn"] += 1
         self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
         self.ctx.cull_face = "back"
-        self._evict()
 
     def _evict(self) -> None:
         """Free the textures of effects not seen for a while (gone, out of view, inactive)."""
         for key in [k for k, s in self._slots.items() if self._frame - s.last_frame > EVICT_AFTER_FRAMES]:
-            if self._slots[key].texture is not None:
-                self._slots[key].texture.release()
+            self._slots[key].release()
             del self._slots[key]
 
 

@@ -1,7 +1,7 @@
 """Python host client for igserver protocol v1 (sync and asyncio), and the ``igclient`` CLI.
 
-    from clients.igclient import IGClient
-    with IGClient("http://127.0.0.1:8600") as ig:
+    from igserver.client import IGClient
+    with IGClient("http://127.0.0.1:8600", token=None) as ig:   # token: the server's IGSERVER_TOKEN, if it has one
         ig.patch_state({"host_frame": 1, "camera": {"heading": 90}})
         frame = ig.get_frame()                 # Frame: .data (JPEG), .host_frame, .frame, .render_ms
         with ig.stream(credits=2) as stream:   # WebSocket, msgpack both ways
@@ -18,12 +18,13 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import os
 import statistics
 import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any, AsyncIterator, Iterator
 
 import httpx
 import msgpack
@@ -116,9 +117,11 @@ def _decode(response: httpx.Response) -> Any:
 class _Requests:
     """What the sync and async clients share: how each call is spelled on the wire."""
 
-    def __init__(self, url: str):
+    def __init__(self, url: str, token: str | None = None):
         self.url = url.rstrip("/")
         self.headers = {"Accept": MSGPACK}
+        if token:
+            self.headers["Authorization"] = f"Bearer {token}"
 
     def body(self, value: Any) -> dict:
         return {"content": _pack(value), "headers": {"Content-Type": MSGPACK, "Accept": MSGPACK}}
@@ -130,12 +133,15 @@ class _Requests:
     def ws_url(self) -> str:
         return "ws" + self.url[len("http"):] + "/v1/ws"
 
+    def auth_headers(self) -> dict:
+        return {k: v for k, v in self.headers.items() if k == "Authorization"}
+
 
 class IGClient(_Requests):
-    """Blocking client (httpx, one keep-alive connection)."""
+    """Blocking client (httpx, one keep-alive connection). ``token``: the server's bearer token, if it has one."""
 
-    def __init__(self, url: str = DEFAULT_URL, timeout: float = 30.0):
-        super().__init__(url)
+    def __init__(self, url: str = DEFAULT_URL, timeout: float = 30.0, token: str | None = None):
+        super().__init__(url, token)
         self.http = httpx.Client(base_url=self.url, timeout=timeout, headers=self.headers)
 
     def __enter__(self) -> "IGClient":
@@ -232,14 +238,14 @@ class IGClient(_Requests):
 
     # -- stream
     def stream(self, credits: int = 2, format: str = "jpeg", quality: int = 85, auto_ack: bool = True) -> "FrameStream":
-        return FrameStream(self.ws_url(), credits, format, quality, auto_ack)
+        return FrameStream(self.ws_url(), credits, format, quality, auto_ack, self.auth_headers())
 
 
 class AsyncIGClient(_Requests):
-    """asyncio client (httpx.AsyncClient). Same methods as IGClient, awaited."""
+    """asyncio client (httpx.AsyncClient). Same methods as IGClient, awaited (``mjpeg`` is an async iterator)."""
 
-    def __init__(self, url: str = DEFAULT_URL, timeout: float = 30.0):
-        super().__init__(url)
+    def __init__(self, url: str = DEFAULT_URL, timeout: float = 30.0, token: str | None = None):
+        super().__init__(url, token)
         self.http = httpx.AsyncClient(base_url=self.url, timeout=timeout, headers=self.headers)
 
     async def __aenter__(self) -> "AsyncIGClient":
@@ -255,8 +261,40 @@ class AsyncIGClient(_Requests):
             return _check(await self.http.request(method, path, **request, **kw))
         return _check(await self.http.request(method, path, headers=headers, **kw))
 
+    async def close(self) -> None:
+        await self.http.aclose()
+
+    async def health(self) -> dict:
+        return _decode(await self._send("GET", "/v1/health"))
+
     async def ready(self) -> dict:
         return (await self.http.get("/v1/ready")).json()
+
+    async def wait_ready(self, timeout: float = 120.0) -> dict:
+        deadline = time.monotonic() + timeout
+        while True:
+            try:
+                info = await self.ready()
+                if info.get("ready"):
+                    return info
+            except httpx.TransportError:
+                pass
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"igserver at {self.url} not ready after {timeout} s")
+            await asyncio.sleep(0.1)
+
+    async def metrics(self) -> str:
+        return (await self.http.get("/metrics")).text
+
+    async def mjpeg(self, frames: int = 0, fps: float = 0) -> AsyncIterator[bytes]:
+        """JPEG images of the MJPEG stream: ``async for jpeg in ig.mjpeg(frames=10)``."""
+        params = {"frames": frames, "fps": fps}
+        async with self.http.stream("GET", "/v1/stream.mjpg", params=params, headers={"Accept": "*/*"}) as response:
+            _check(response)
+            parser = MultipartJpegParser()
+            async for chunk in response.aiter_bytes():
+                for jpeg in parser.feed(chunk):
+                    yield jpeg
 
     async def get_state(self) -> Scene:
         return Scene.model_validate(_decode(await self._send("GET", "/v1/state")))
@@ -298,35 +336,49 @@ class AsyncIGClient(_Requests):
         return _decode(await self._send("DELETE", f"/v1/effects/{effect_id}", params={"immediate": immediate}))
 
     def stream(self, credits: int = 2, format: str = "jpeg", quality: int = 85, auto_ack: bool = True):
-        return AsyncFrameStream(self.ws_url(), credits, format, quality, auto_ack)
+        return AsyncFrameStream(self.ws_url(), credits, format, quality, auto_ack, self.auth_headers())
 
 
-def iter_multipart_jpegs(chunks: Iterator[bytes]) -> Iterator[bytes]:
-    """JPEG payloads of a multipart/x-mixed-replace body (uses each part's Content-Length)."""
-    buffer = b""
-    for chunk in chunks:
-        buffer += chunk
+class MultipartJpegParser:
+    """Incremental parser of a multipart/x-mixed-replace body: ``feed(chunk)`` -> the JPEGs completed by it."""
+
+    def __init__(self) -> None:
+        self.buffer = b""
+
+    def feed(self, chunk: bytes) -> list[bytes]:
+        self.buffer += chunk
+        out = []
         while True:
-            head_end = buffer.find(b"\r\n\r\n")
+            head_end = self.buffer.find(b"\r\n\r\n")
             if head_end < 0:
                 break
-            headers = buffer[:head_end].decode("latin-1").lower()
+            headers = self.buffer[:head_end].decode("latin-1").lower()
             length = next((int(line.split(":", 1)[1]) for line in headers.split("\r\n")
                            if line.startswith("content-length:")), None)
             if length is None:
                 raise ValueError("multipart part without Content-Length")
             end = head_end + 4 + length
-            if len(buffer) < end:
+            if len(self.buffer) < end:
                 break
-            yield buffer[head_end + 4:end]
-            buffer = buffer[end:].lstrip(b"\r\n")
+            out.append(self.buffer[head_end + 4:end])
+            self.buffer = self.buffer[end:].lstrip(b"\r\n")
+        return out
+
+
+def iter_multipart_jpegs(chunks: Iterator[bytes]) -> Iterator[bytes]:
+    """JPEG payloads of a multipart/x-mixed-replace body (uses each part's Content-Length)."""
+    parser = MultipartJpegParser()
+    for chunk in chunks:
+        yield from parser.feed(chunk)
 
 
 # --------------------------------------------------------------------------- WebSocket streams
 
 class _StreamProtocol:
-    def __init__(self, url: str, credits: int, format: str, quality: int, auto_ack: bool):
+    def __init__(self, url: str, credits: int, format: str, quality: int, auto_ack: bool,
+                 headers: dict | None = None):
         self.url, self.credits, self.format, self.quality, self.auto_ack = url, credits, format, quality, auto_ack
+        self.headers = headers or {}
         self._next_id = 0
         self._early_frames: list[Frame] = []  # frames that arrived while waiting for a query result
 
@@ -360,7 +412,8 @@ class FrameStream(_StreamProtocol):
     def __enter__(self) -> "FrameStream":
         from websockets.sync.client import connect
 
-        self._connection = connect(self.url, compression=None, max_size=64 << 20)  # images do not deflate
+        # images do not deflate: no per-message compression
+        self._connection = connect(self.url, compression=None, max_size=64 << 20, additional_headers=self.headers)
         self.ws = self._connection.__enter__()
         self.ws.send(self.hello())
         return self
@@ -404,7 +457,7 @@ class AsyncFrameStream(_StreamProtocol):
     async def __aenter__(self) -> "AsyncFrameStream":
         from websockets.asyncio.client import connect
 
-        self.ws = await connect(self.url, compression=None, max_size=64 << 20)
+        self.ws = await connect(self.url, compression=None, max_size=64 << 20, additional_headers=self.headers)
         await self.ws.send(self.hello())
         return self
 
@@ -437,7 +490,7 @@ def percentile(values: list[float], q: float) -> float:
     return ordered[index]
 
 
-def latency_bench(url: str, frames: int = 200, warmup: int = 10, mode: str = "ws") -> dict:
+def latency_bench(url: str, frames: int = 200, warmup: int = 10, mode: str = "ws", token: str | None = None) -> dict:
     """State sent -> frame of that state received, one at a time (a host stepping frame by frame).
 
     ws: a patch over the WebSocket, wait for the frame carrying its host_frame.
@@ -445,7 +498,7 @@ def latency_bench(url: str, frames: int = 200, warmup: int = 10, mode: str = "ws
     Returns e2e, render (render process) and encode (server) times in ms, per frame.
     """
     e2e, render, encode = [], [], []
-    with IGClient(url) as ig:
+    with IGClient(url, token=token) as ig:
         base = ig.get_state().host_frame + 1
         if mode == "ws":
             with ig.stream(credits=4) as stream:
@@ -499,113 +552,185 @@ def format_summary(s: dict) -> str:
 
 # --------------------------------------------------------------------------- CLI
 
+def _client(args) -> IGClient:
+    return IGClient(args.url, token=args.token)
+
+
 def _cmd_send(args) -> int:
     scene = load_scene(args.scene)
-    with IGClient(args.url) as ig:
+    with _client(args) as ig:
         ig.put_state(scene, minimal=True)
     print(f"sent {args.scene}")
     return 0
 
 
 def _cmd_set(args) -> int:
-    with IGClient(args.url) as ig:
-        reply = ig.patch_state(patch_from_assignments(args.assignments), minimal=True)
+    with _client(args) as ig:
+        # a list item (effects.0.active=false) is set by sending the whole list with that item changed
+        needs_base = any(k.isdigit() for a in args.assignments for k in a.split("=", 1)[0].split("."))
+        base = ig.get_state().model_dump(mode="json") if needs_base else None
+        reply = ig.patch_state(patch_from_assignments(args.assignments, base=base), minimal=True)
     print(json.dumps(reply))
     return 0
 
 
 def _cmd_state(args) -> int:
-    with IGClient(args.url) as ig:
+    with _client(args) as ig:
         print(ig.get_state().model_dump_json(indent=2))
     return 0
 
 
+FRAME_SUFFIXES = {".png": "png", ".jpg": "jpeg", ".jpeg": "jpeg", ".raw": "raw", ".rgba": "raw"}
+
+
 def _cmd_frame(args) -> int:
-    fmt = {"png": "png", "jpg": "jpeg", "jpeg": "jpeg"}.get(Path(args.output).suffix.lstrip(".").lower(), "jpeg")
-    with IGClient(args.url) as ig:
+    suffix = Path(args.output).suffix.lower()
+    if suffix not in FRAME_SUFFIXES:
+        raise ValueError(f"{args.output}: unknown image type {suffix or '(none)'!r}; use .jpg, .png or .raw "
+                         "(.raw: RGBA bytes, top row first)")
+    fmt = FRAME_SUFFIXES[suffix]
+    with _client(args) as ig:
         frame = ig.get_frame(fmt)
     Path(args.output).write_bytes(frame.data)
-    print(f"{args.output}: frame {frame.frame}, host_frame {frame.host_frame}, {frame.width}x{frame.height}, "
+    layout = " RGBA8, top row first" if fmt == "raw" else ""
+    print(f"{args.output}: frame {frame.frame}, host_frame {frame.host_frame}, {frame.width}x{frame.height}{layout}, "
           f"render {frame.render_ms:.1f} ms")
     return 0
 
 
+def read_scenario(path: str) -> list[dict]:
+    """JSON lines, one patch per line; blank lines and lines starting with # or // are comments."""
+    patches = []
+    for number, line in enumerate(Path(path).read_text().splitlines(), 1):
+        text = line.strip()
+        if not text or text.startswith(("#", "//")):
+            continue
+        try:
+            patch = json.loads(text)
+        except ValueError as exc:
+            raise ValueError(f"{path}:{number}: not a JSON patch ({exc.msg}): {text[:60]}") from None
+        if not isinstance(patch, dict):
+            raise ValueError(f"{path}:{number}: a patch is a JSON object, got {type(patch).__name__}")
+        patches.append(patch)
+    return patches
+
+
 def _cmd_play(args) -> int:
     """Scenario file: JSON lines, one patch per line, sent at --rate; host_frame counts up unless given."""
-    lines = [line for line in Path(args.scenario).read_text().splitlines() if line.strip() and not line.startswith("#")]
+    patches = read_scenario(args.scenario)
     period = 1.0 / args.rate
-    with IGClient(args.url) as ig:
+    with _client(args) as ig:
         host_frame = ig.get_state().host_frame
         start = time.perf_counter()
-        for index, line in enumerate(lines * args.loops):
-            patch = json.loads(line)
+        for index, patch in enumerate(patches * args.loops):
+            patch = dict(patch)
             host_frame = patch.get("host_frame", host_frame + 1)
             patch["host_frame"] = host_frame
             ig.patch_state(patch, minimal=True)
             time.sleep(max(0.0, start + (index + 1) * period - time.perf_counter()))
-    print(f"played {len(lines) * args.loops} patches at {args.rate} Hz")
+    print(f"played {len(patches) * args.loops} patches at {args.rate} Hz")
     return 0
 
 
 def _cmd_record(args) -> int:
-    with IGClient(args.url) as ig:
-        if args.mjpeg:
-            count = 0
-            with open(args.mjpeg, "wb") as out:
-                for jpeg in ig.mjpeg(frames=args.frames, fps=args.fps):
-                    # an .mjpg file of concatenated JPEGs: ffmpeg/ffplay read it with -f mjpeg
-                    out.write(jpeg)
-                    count += 1
-            print(f"{args.mjpeg}: {count} frames")
-        else:
-            folder = Path(args.png_dir)
-            folder.mkdir(parents=True, exist_ok=True)
-            with ig.stream(credits=2, format="png") as stream:
-                for n in range(args.frames or 100):
-                    frame = stream.recv()
-                    (folder / f"frame_{n:05d}_{frame.host_frame}.png").write_bytes(frame.data)
-            print(f"{folder}: {args.frames or 100} PNG frames")
+    count = 0
+    target = args.mjpeg or args.png_dir
+    try:
+        with _client(args) as ig:
+            if args.mjpeg:
+                with open(args.mjpeg, "wb") as out:
+                    for jpeg in ig.mjpeg(frames=args.frames, fps=args.fps):
+                        # an .mjpg file of concatenated JPEGs: ffmpeg/ffplay read it with -f mjpeg
+                        out.write(jpeg)
+                        count += 1
+            else:
+                folder = Path(args.png_dir)
+                folder.mkdir(parents=True, exist_ok=True)
+                with ig.stream(credits=2, format="png") as stream:
+                    for n in range(args.frames or 100):
+                        frame = stream.recv()
+                        (folder / f"frame_{n:05d}_{frame.host_frame}.png").write_bytes(frame.data)
+                        count += 1
+    except KeyboardInterrupt:  # Ctrl-C is how an open-ended recording ends: keep what was written
+        print(f"{target}: stopped after {count} frames", file=sys.stderr)
+        return 0
+    print(f"{target}: {count} frames")
+    return 0
+
+
+def _cmd_effects(args) -> int:
+    with _client(args) as ig:
+        action = args.action
+        if action == "list":
+            effects = ig.effects()
+            if not effects:
+                print("no effects")
+            for e in effects:
+                print(f"{e['id']:<20} {e['type']:<8} {'active' if e.get('active') else 'inactive':<8} "
+                      f"intensity {e.get('intensity', 1.0):g}")
+            return 0
+        if not args.id:
+            raise ValueError(f"effects {action}: give the effect id")
+        if action == "add":
+            effect = {**patch_from_assignments(args.fields), "id": args.id}  # type=fire|smoke|gas_burner
+            result = ig.add_effect(effect)
+        elif action == "start":
+            result = ig.patch_effect(args.id, {"active": True})
+        elif action == "stop":
+            result = ig.delete_effect(args.id)  # fades out
+        elif action == "remove":
+            result = ig.delete_effect(args.id, immediate=True)
+        else:  # set
+            result = ig.patch_effect(args.id, patch_from_assignments(args.fields))
+    print(json.dumps(result) if result is not None else f"removed {args.id}")
     return 0
 
 
 def _cmd_bench(args) -> int:
-    with IGClient(args.url) as ig:
+    with _client(args) as ig:
         ig.wait_ready()
-        if args.width or args.height:
-            size = {k: v for k, v in (("width", args.width), ("height", args.height)) if v}
-            ig.patch_state({"camera": size}, minimal=True)
-    for mode in args.modes.split(","):
-        print(format_summary(summarize(latency_bench(args.url, args.frames, mode=mode))))
+        saved = ig.get_state()  # the benchmark moves the camera and host_frame: put the operator's state back
+        try:
+            if args.width or args.height:
+                size = {k: v for k, v in (("width", args.width), ("height", args.height)) if v}
+                ig.patch_state({"camera": size}, minimal=True)
+            for mode in args.modes.split(","):
+                print(format_summary(summarize(latency_bench(args.url, args.frames, mode=mode, token=args.token))))
+        finally:
+            ig.put_state(saved, minimal=True)
     return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="igclient", description="igserver host client")
-    parser.add_argument("--url", default=DEFAULT_URL, help=f"server URL (default {DEFAULT_URL})")
+    parser.add_argument("--url", default=os.environ.get("IGSERVER_URL", DEFAULT_URL),
+                        help=f"server URL (default $IGSERVER_URL or {DEFAULT_URL})")
+    parser.add_argument("--token", default=os.environ.get("IGSERVER_TOKEN"),
+                        help="bearer token (default $IGSERVER_TOKEN)")
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("send", help="replace the state with a scene file")
     p.add_argument("scene")
     p.set_defaults(run=_cmd_send)
 
-    p = sub.add_parser("set", help="patch fields: igclient set camera.pitch=5 weather.wind_speed=12")
-    p.add_argument("assignments", nargs="+")
+    p = sub.add_parser("set", help="patch fields: igclient set camera.pitch=5 weather.wind_speed=12 effects.0.active=false")
+    p.add_argument("assignments", nargs="+", metavar="PATH=VALUE")
     p.set_defaults(run=_cmd_set)
 
     p = sub.add_parser("state", help="print the current state")
     p.set_defaults(run=_cmd_state)
 
-    p = sub.add_parser("frame", help="save a frame of the current state (.jpg or .png)")
+    p = sub.add_parser("frame", help="save a frame of the current state (.jpg, .png or .raw RGBA)")
     p.add_argument("output")
     p.set_defaults(run=_cmd_frame)
 
-    p = sub.add_parser("play", help="play a scenario (JSON lines of patches) at a rate")
+    p = sub.add_parser("play", help="play a scenario (JSON lines of patches; # comments) at a rate")
     p.add_argument("scenario")
     p.add_argument("--rate", type=float, default=30.0, help="patches per second")
     p.add_argument("--loops", type=int, default=1)
     p.set_defaults(run=_cmd_play)
 
-    p = sub.add_parser("record", help="record the stream to an MJPEG file or a PNG sequence")
+    p = sub.add_parser("record", help="record the stream to an MJPEG file or a PNG sequence (Ctrl-C stops)")
     target = p.add_mutually_exclusive_group(required=True)
     target.add_argument("--mjpeg", help="output .mjpg file")
     target.add_argument("--png-dir", help="output folder for PNG frames")
@@ -613,7 +738,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fps", type=float, default=0, help="MJPEG rate cap")
     p.set_defaults(run=_cmd_record)
 
-    p = sub.add_parser("bench", help="latency statistics: state sent -> frame received")
+    p = sub.add_parser("effects", help="list, add, start, stop (fade), remove or change effects",
+                       description="igclient effects list | add ID [type=smoke] [PATH=VALUE...] | start ID | "
+                                   "stop ID | remove ID | set ID PATH=VALUE...")
+    p.add_argument("action", nargs="?", default="list", choices=["list", "add", "start", "stop", "remove", "set"])
+    p.add_argument("id", nargs="?")
+    p.add_argument("fields", nargs="*", metavar="PATH=VALUE")
+    p.set_defaults(run=_cmd_effects)
+
+    p = sub.add_parser("bench", help="latency statistics: state sent -> frame received (the state is restored)")
     p.add_argument("--frames", type=int, default=200)
     p.add_argument("--modes", default="ws,http", help="ws, http or both")
     p.add_argument("--width", type=int)
@@ -629,9 +762,16 @@ def main(argv: list[str] | None = None) -> int:
     except IGError as exc:
         print(f"igclient: rejected: {exc}", file=sys.stderr)
         return 2
-    except (httpx.TransportError, OSError) as exc:
+    except ValueError as exc:  # bad assignment, scenario line, file type
         print(f"igclient: {exc}", file=sys.stderr)
+        return 2
+    except (httpx.TransportError, OSError) as exc:
+        print(f"igclient: cannot reach {args.url}: {exc}" if isinstance(exc, httpx.TransportError)
+              else f"igclient: {exc}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        print("igclient: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

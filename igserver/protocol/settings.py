@@ -1,0 +1,105 @@
+"""Server settings: one pydantic-settings model, filled from CLI flags, ``IGSERVER_*`` variables and defaults.
+
+Precedence: ``igserver serve --flag`` > environment (``IGSERVER_MAX_FPS=30``; nested limits as
+``IGSERVER_LIMITS__MAX_BODY_BYTES``) > the defaults below. The README's settings table is this model
+(``settings_table()`` writes it; a test keeps the two in step).
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import json
+from pathlib import Path
+from typing import Annotated
+
+from pydantic import Field, SecretStr, field_validator
+from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
+
+from .codec import Limits
+
+# Host names that always mean this machine. A browser can only reach a loopback-bound server under one of
+# these, so any other Host header on a loopback server is a DNS-rebinding attempt.
+LOOPBACK_NAMES = frozenset({"localhost", "127.0.0.1", "::1", "localhost.localdomain", "ip6-localhost"})
+WILDCARD_HOSTS = frozenset({"0.0.0.0", "::", ""})
+
+
+def is_loopback(host: str) -> bool:
+    if host.lower() in LOOPBACK_NAMES or host.lower().endswith(".localhost"):
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+class ServerSettings(BaseSettings):
+    model_config = SettingsConfigDict(
+        env_prefix="IGSERVER_", env_nested_delimiter="__", frozen=True, extra="ignore",
+        cli_kebab_case=True, cli_implicit_flags=True,
+    )
+
+    host: str = Field("127.0.0.1", description="address to bind; a non-loopback one requires a token")
+    port: int = Field(8600, ge=0, le=65535, description="TCP port")
+    token: SecretStr | None = Field(
+        None, description="bearer token every request must carry (except /v1/health and the docs)")
+    token_file: Path | None = Field(None, description="read the token from this file (Docker/Kubernetes secrets)")
+    allowed_hosts: Annotated[list[str], NoDecode] = Field(
+        default_factory=list,
+        description="Host header names served besides the loopback names and the bind address "
+        "(DNS-rebinding guard); '*' serves any")
+    allowed_origins: Annotated[list[str], NoDecode] = Field(
+        default_factory=list,
+        description="browser origins (scheme://host:port) allowed besides the server's own, for writes and WebSocket")
+    max_fps: float = Field(60.0, gt=0, le=1000, description="stream render rate cap (frames/s)")
+    keepalive_s: float = Field(1.0, gt=0, le=60, description="a static scene is re-rendered and re-sent this often (s)")
+    jpeg_quality: int = Field(85, ge=1, le=100, description="JPEG quality of streams")
+    limits: Limits = Field(default_factory=Limits, description="message bounds (body bytes, depth, string, array, map)")
+    ws_initial_credits: int = Field(2, ge=0, le=1024, description="frames a WebSocket client gets before its first ack")
+    ws_max_credits: int = Field(16, ge=1, le=1024, description="most credits a WebSocket client may hold")
+    timed_passes: bool = Field(True, description="time each render pass for /metrics")
+    animation_fps: float = Field(
+        30.0, gt=0, le=1000, description="stream render rate while the IG clock runs (sim_time animates the scene)")
+    render_timeout_s: float = Field(
+        30.0, gt=0, le=3600,
+        description="a render silent this long (s; no frame, no progress) is abandoned and its state falls back")
+    watchdog_interval_s: float = Field(0.5, gt=0, le=60, description="how often the render process's liveness is checked (s)")
+    max_raw_frame_bytes: int = Field(
+        32 * 2**20, ge=0, description="raw (RGBA) frames above this are refused (413): ask for jpeg or png")
+
+    @field_validator("allowed_hosts", "allowed_origins", mode="before")
+    @classmethod
+    def _comma_list(cls, value):
+        # IGSERVER_ALLOWED_HOSTS=a.example,b.example as well as the JSON list pydantic-settings reads
+        if isinstance(value, str):
+            if value.lstrip().startswith("["):
+                return json.loads(value)
+            return [item.strip() for item in value.split(",") if item.strip()]
+        return value
+
+    def bearer_token(self) -> str | None:
+        """The configured token (``token`` wins over ``token_file``); None when authentication is off."""
+        if self.token is not None and self.token.get_secret_value():
+            return self.token.get_secret_value()
+        if self.token_file is not None:
+            text = self.token_file.read_text(encoding="utf-8").strip()
+            return text or None
+        return None
+
+    def binds_beyond_loopback(self) -> bool:
+        return not is_loopback(self.host)
+
+
+def settings_table() -> str:
+    """The README table: variable, CLI flag, default, meaning."""
+    rows = ["| environment variable | `igserver serve` flag | default | meaning |", "| --- | --- | --- | --- |"]
+    for name, field in ServerSettings.model_fields.items():
+        default = field.get_default(call_default_factory=True)
+        if isinstance(default, Limits):  # one row per nested bound: IGSERVER_LIMITS__MAX_DEPTH, --limits.max-depth
+            for key, value in default.model_dump().items():
+                meaning = Limits.model_fields[key].description
+                rows.append(f"| `IGSERVER_LIMITS__{key.upper()}` | `--limits.{key.replace('_', '-')}` | `{value}` "
+                            f"| message bound: {meaning} |")
+            continue
+        shown = "—" if default in (None, []) else f"`{default}`"
+        rows.append(f"| `IGSERVER_{name.upper()}` | `--{name.replace('_', '-')}` | {shown} | {field.description} |")
+    return "\n".join(rows)

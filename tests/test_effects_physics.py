@@ -1,0 +1,122 @@
+"""Effect and light physics without GL: flame height, container, wind lean, draw order, host lights,
+light selection, fire-light placement. Written to pin what mutation testing showed the suite left free
+(scripts/mutation.sh); each expected value is computed here from the published formula or geometry."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from igserver.render.camera import make_view
+from igserver.render.lights import gather_lights, host_lights
+from igserver.render.volumes.effects import effect_volumes, heskestad_height, visible_volumes
+from igserver.render.volumes.fire_lights import fire_light
+from igserver.scene import Scene
+
+G = 9.81  # m/s^2
+
+
+def heskestad_reference(diameter: float, intensity: float) -> float:
+    """Heskestad's mean flame height L = 0.235 Q^(2/5) - 1.02 D (m, Q in kW) of a pool fire releasing
+    1500 kW per m^2 of pool (hydrocarbon) times the effect's intensity, at least half a diameter."""
+    q = intensity * 1500.0 * math.pi * diameter**2 / 4.0
+    return max(0.235 * q**0.4 - 1.02 * diameter, 0.5 * diameter)
+
+
+@pytest.mark.parametrize("diameter, intensity", [(0.5, 1.0), (2.0, 1.0), (3.0, 0.5), (10.0, 2.0), (5.0, 1e-3)])
+def test_flame_height_is_heskestads(diameter, intensity):
+    assert heskestad_height(diameter, intensity) == pytest.approx(heskestad_reference(diameter, intensity), rel=1e-9)
+
+
+def test_flame_height_edges():
+    assert heskestad_height(0.0, 1.0) == 0.0  # no pool, no flame
+    assert heskestad_height(5.0, 1e-3) == pytest.approx(2.5)  # a smouldering pool keeps half a diameter
+    assert heskestad_height(2.0, 0.0) == pytest.approx(heskestad_reference(2.0, 1e-6))  # finite at zero
+
+
+def _scene(effects, wind_speed=0.0, wind_direction=0.0, camera=None) -> Scene:
+    return Scene.model_validate({"camera": camera or {"position": [0.0, -20.0, 2.0]}, "time": {"sim_time": 100.0},
+                                 "weather": {"wind_speed": wind_speed, "wind_direction": wind_direction},
+                                 "effects": effects})
+
+
+def test_fire_container_at_full_fade():
+    scene = _scene([{"id": "f", "diameter": 2.0}])
+    (fire,) = effect_volumes(scene.effects[0], scene)
+    assert fire.height == pytest.approx(1.4 * heskestad_reference(2.0, 1.0))  # room for intermittent tips
+    assert fire.radius == pytest.approx(0.55 * 2.0)  # the base flares a little beyond the pool
+    assert fire.opacity == 1.0 and np.allclose(fire.lean, 0.0)
+
+
+@pytest.mark.parametrize("direction, downwind", [(270.0, (1.0, 0.0)), (0.0, (0.0, -1.0)), (90.0, (-1.0, 0.0))])
+def test_wind_leans_the_fire_downwind_by_the_froude_tilt(direction, downwind):
+    """Wind *from* 270 deg (west) blows to the east: the flame tips east by tan(theta) = 0.45 u / sqrt(g D)."""
+    u, d = 3.0, 2.0
+    scene = _scene([{"id": "f", "diameter": d}], wind_speed=u, wind_direction=direction)
+    (fire,) = effect_volumes(scene.effects[0], scene)
+    tilt = 0.45 * u / math.sqrt(G * d)
+    assert fire.lean == pytest.approx(np.array(downwind) * tilt * fire.height, abs=1e-9)
+
+
+def test_volumes_are_drawn_far_to_near():
+    effects = [{"id": "near", "position": [0.0, 0.0, 0.0]}, {"id": "far", "position": [0.0, 60.0, 0.0]},
+               {"id": "mid", "position": [0.0, 30.0, 0.0]}]
+    scene = _scene(effects)
+    order = [v.key[0] for v in visible_volumes(scene, make_view(scene.camera))]
+    assert order == ["far", "mid", "near"]  # back to front, as blending needs
+
+
+def test_host_lights_colour_intensity_and_spot_axis():
+    scene = Scene.model_validate({"lights": [
+        {"id": "p", "position": [1.0, 2.0, 3.0], "color": [1.0, 0.5, 0.25], "intensity": 400.0, "range": 50.0},
+        {"id": "s", "type": "spot", "heading": 90.0, "pitch": -30.0, "cone_inner": 10.0, "cone_outer": 20.0},
+    ]})
+    point, spot = host_lights(scene)
+    assert point.position.tolist() == [1.0, 2.0, 3.0] and point.range == 50.0
+    assert point.color == pytest.approx([400.0, 200.0, 100.0]) and point.spot_dir is None
+    # heading 90 (east), pitch -30: the axis points east and down
+    assert spot.spot_dir == pytest.approx([math.cos(math.radians(30.0)), 0.0, -0.5], abs=1e-12)
+    assert spot.cos_inner == pytest.approx(math.cos(math.radians(10.0)))
+    assert spot.cos_outer == pytest.approx(math.cos(math.radians(20.0)))
+
+
+def test_host_light_flicker_varies_the_intensity_around_its_mean():
+    def intensity(t: float) -> float:
+        scene = Scene.model_validate({"time": {"sim_time": t}, "lights": [
+            {"id": "l", "intensity": 100.0, "color": [1.0, 1.0, 1.0], "flicker": {"enabled": True, "amplitude": 0.3}}]})
+        return float(host_lights(scene)[0].color[0])
+
+    values = np.array([intensity(t) for t in np.arange(0.0, 20.0, 0.05)])
+    assert values.std() > 5.0 and abs(values.mean() - 100.0) < 5.0
+
+
+def test_gather_lights_keeps_the_brightest_at_the_camera():
+    camera = {"position": [0.0, 0.0, 2.0], "heading": 0.0}
+    lights = [  # (intensity, distance ahead): importance = intensity / d^2
+        {"id": "a", "position": [0.0, 10.0, 2.0], "intensity": 100.0, "range": 1000.0},   # 1.0
+        {"id": "b", "position": [0.0, 100.0, 2.0], "intensity": 50000.0, "range": 1000.0},  # 5.0
+        {"id": "c", "position": [0.0, 20.0, 2.0], "intensity": 1200.0, "range": 1000.0},  # 3.0
+        {"id": "off", "position": [0.0, 5.0, 2.0], "intensity": 0.0},
+        {"id": "behind", "position": [0.0, -500.0, 2.0], "intensity": 1e6, "range": 10.0},
+    ]
+    scene = Scene.model_validate({"camera": camera, "lights": lights, "ground": {"enabled": False}})
+    chosen = gather_lights(scene, make_view(scene.camera), 2)
+    assert [l.position[1] for l in chosen] == [100.0, 20.0]
+    near = Scene.model_validate({"camera": camera, "lights": [
+        {"id": "x", "position": [0.0, 0.5, 2.0], "intensity": 10.0}, {"id": "y", "position": [0.0, 0.9, 2.0], "intensity": 20.0}]})
+    # inside 1 m the distance no longer counts (no blow-up): the brighter one first
+    assert [l.position[1] for l in gather_lights(near, make_view(near.camera), 2)] == [0.9, 0.5]
+
+
+def test_fire_light_sits_in_the_flame_and_gas_burners_light_blue():
+    scene = _scene([{"id": "f", "diameter": 2.0, "position": [5.0, 6.0, 1.0]},
+                    {"id": "g", "type": "gas_burner", "diameter": 1.0}])
+    fire = fire_light(scene.effects[0], scene)
+    flame = heskestad_reference(2.0, 1.0)
+    assert fire.position == pytest.approx([5.0, 6.0, 1.0 + 0.3 * flame])  # glow centroid at 30 % of the flame
+    gas = fire_light(scene.effects[1], scene)
+    assert gas is not None and gas.color[2] > gas.color[0]
+    smoke = _scene([{"id": "s", "type": "smoke"}])
+    assert fire_light(smoke.effects[0], smoke) is None

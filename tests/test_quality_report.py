@@ -1,0 +1,33 @@
+"""The combined quality report (issue 12): every study module is found, the report has a table per
+pipeline and a PNG plot of error against ms with the presets marked."""
+
+from __future__ import annotations
+
+from PIL import Image
+
+from igserver.cli import main
+from igserver.quality.report import Point, Study, study_modules, write_report
+
+
+def test_every_study_module_is_found():
+    names = study_modules()
+    assert {"sky", "volumes"} <= set(names) and "report" not in names and "reference_sky" not in names
+
+
+def test_report_has_tables_and_plots(tmp_path):
+    study = Study("volumes", "RMSE", "ms", [
+        Point("steps", "steps=16", 9.0, 10.0), Point("steps", "steps=48", 5.0, 20.0, None, {"lowpass": 2.0}),
+        Point("preset", "medium", 5.0, 20.0, "medium"), Point("scale", "scale=2", 6.0, 8.0)], ["a note"], "llvmpipe")
+    path = write_report([study], tmp_path, {"weather": "no study() for the combined report yet"})
+    text = path.read_text()
+    assert "## volumes" in text and "![volumes: error against ms](volumes.png)" in text
+    assert "**medium**" in text and "| steps | steps=48 | 5 | 20 | 2 |" in text and "## weather" in text
+    with Image.open(tmp_path / "volumes.png") as png:
+        assert png.size[0] > 300 and png.getextrema()[0][0] < 50  # drawn, with dark lines on white
+    assert (tmp_path / "report.json").exists()
+
+
+def test_quality_without_a_study_name_takes_report_flags(tmp_path, capsys):
+    # --only with an unknown study: the run fails cleanly and says so in the report.
+    assert main(["quality", "--only", "no_such_study", "--out", str(tmp_path)]) == 1
+    assert "no_such_study" in (tmp_path / "report.md").read_text()
