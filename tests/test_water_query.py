@@ -18,7 +18,7 @@ STATE = {"ocean": {"enabled": True, "level": 2.5}, "weather": {"wind_speed": 11.
 
 @pytest.fixture(scope="module")
 def client():
-    return TestClient(create_app(scene=Scene.model_validate(STATE)))
+    return TestClient(create_app(scene=Scene.model_validate(STATE)), base_url="http://127.0.0.1")
 
 
 def expected(points, t):
@@ -56,13 +56,13 @@ def test_rest_query_rejects_bad_input(client, body, pointer):
 
 
 def test_query_without_sea_is_a_conflict():
-    client = TestClient(create_app(scene=Scene()))
+    client = TestClient(create_app(scene=Scene()), base_url="http://127.0.0.1")
     reply = client.post("/v1/query/water-height", json={"points": [[0.0, 0.0]]})
     assert reply.status_code == 409
 
 
 def test_websocket_query(client):
-    with client.websocket_connect("/v1/ws") as ws:
+    with client.websocket_connect("ws://127.0.0.1/v1/ws") as ws:
         ws.send_bytes(msgpack.packb({"type": "query", "query": "water-height", "points": [[5.0, 6.0]],
                                      "sim_time": 40.0, "id": 9}))
         while True:
