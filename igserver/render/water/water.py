@@ -37,6 +37,7 @@ DETAIL_RATIO = 23.7  # tile sizes L, L/23.7, L/23.7² (not a power of two: no al
 FIELD_UNIT = 4
 FIELD_SCALAR_UNIT = 5
 DETAIL_UNIT0 = 6
+WATER_BODY_COLOR = (0.004, 0.016, 0.022)  # deep-water albedo, as DEEP_ALBEDO in water.frag.glsl
 
 
 def hull_boxes(scene: Scene, view: CameraView) -> list[np.ndarray]:
@@ -266,6 +267,22 @@ class WaterPass(RenderPass):
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
         vao.render(moderngl.TRIANGLES, instances=len(selection.nodes))
+        self._fill_under_crests(frame, selection.error_sphere)
+
+    def _fill_under_crests(self, frame, sphere: float) -> None:
+        """A camera inside the wave envelope (lower than the crests) looks under the mesh in places, and one
+        closer to the water than the near plane sees the mesh clipped below it: those rays meet the water
+        body. Draw the surfaces' ray-cast sphere below every trough (level − ΣA, no near clip) in
+        deep-water colour; the depth test keeps the mesh wherever it is nearer. Only then: it costs a
+        full-screen pass."""
+        height = float(frame.view.position[2]) - frame.scene.ocean.level
+        if height > 1.05 * sphere + frame.view.near:
+            return
+        program = self.programs.program("common/fullscreen.vert.glsl", "surfaces/plane.glsl")
+        set_uniforms(program, frame.uniforms)
+        set_uniforms(program, {"u_plane_height": -height - 1.05 * sphere, "u_base_color": WATER_BODY_COLOR,
+                               "u_roughness": 1.0})
+        self.fullscreen(program)
 
     def capture(self, scene: Scene) -> tuple[lod.LodSelection, np.ndarray]:
         """The displaced mesh the GPU would draw for ``scene``: the water vertex shader run by transform
