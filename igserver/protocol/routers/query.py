@@ -12,19 +12,20 @@ from __future__ import annotations
 from typing import Annotated
 
 import numpy as np
-from fastapi import APIRouter
+from fastapi import APIRouter, Depends, Request
 from starlette.concurrency import run_in_threadpool
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ...scene.model import WORLD_LIMIT_M, Scene
-from ..dependencies import Message, ReplyFormat, Runtime, reply
+from ..dependencies import ReplyFormat, Runtime, decode_message, reply
 from ..models import MSGPACK_ALSO, PROBLEM_RESPONSES, body_doc
 from ..problems import ProblemError, from_validation_error
 
 router = APIRouter(prefix="/v1/query", tags=["query"])
 
 MAX_QUERY_POINTS = 10_000
-Coordinate = Annotated[float, Field(ge=-WORLD_LIMIT_M, le=WORLD_LIMIT_M, allow_inf_nan=False)]
+# strict: numbers only (JSON true/"1" are not coordinates), ints accepted as floats
+Coordinate = Annotated[float, Field(strict=True, ge=-WORLD_LIMIT_M, le=WORLD_LIMIT_M, allow_inf_nan=False)]
 
 
 class WaterHeightQuery(BaseModel):
@@ -32,8 +33,19 @@ class WaterHeightQuery(BaseModel):
 
     points: list[tuple[Coordinate, Coordinate]] = Field(
         ..., min_length=1, max_length=MAX_QUERY_POINTS, description="ENU (x, y) in m")
-    sim_time: float | None = Field(None, ge=0.0, le=1e12, allow_inf_nan=False,
+    sim_time: float | None = Field(None, ge=0.0, le=1e12, allow_inf_nan=False, strict=True,
                                    description="s; None = the current state's sim_time")
+
+
+async def query_body(request: Request, runtime: Runtime):
+    """The body under the server's limits, arrays widened to twice the point bound: a longer list of
+    points is a validation error of this route (422 with its pointer), not a generic array limit."""
+    limits = runtime.settings.limits
+    return await decode_message(request, limits.model_copy(
+        update={"max_array": max(limits.max_array, 2 * MAX_QUERY_POINTS)}))
+
+
+QueryMessage = Annotated[object, Depends(query_body)]
 
 
 class WaterHeightReply(BaseModel):
@@ -68,6 +80,6 @@ def water_height(scene: Scene, tree, prefix: tuple = ()) -> dict:
     openapi_extra=body_doc(WaterHeightQuery.model_json_schema(), "points and optional sim_time"),
     responses={200: {"content": MSGPACK_ALSO}, **PROBLEM_RESPONSES},
 )
-async def query_water_height(runtime: Runtime, message: Message, fmt: ReplyFormat):
+async def query_water_height(runtime: Runtime, message: QueryMessage, fmt: ReplyFormat):
     # numpy work off the event loop: streams keep flowing while a big query is answered
     return reply(await run_in_threadpool(water_height, runtime.store.scene, message), fmt)
