@@ -73,8 +73,9 @@ def select(view: CameraView, cam_height: float, k: np.ndarray, amplitude: np.nda
     spacing = 2.0 ** round(math.log2(min(max(2.0 * math.pi / kmax / 8.0, 4.0 * px, 0.125), 64.0)))
     s0 = spacing * PATCH_QUADS
     pixels_per_rad = (view.height / 2.0) / math.tan(math.radians(fov_y_deg) / 2.0)
+    # To the geometric horizon (reversed-Z depth has no far clip; ``max_distance`` only bounds a
+    # camera so high that even the horizon is beyond it — never nearer than the horizon itself).
     reach = max(horizon_distance(h_abs) + 2.0 * sphere, 4.0 * s0)
-    reach = min(reach, max_distance)
     ranges = []
     for level in range(MAX_LEVELS):
         err = level_error(k, amplitude, spacing * 2**level)
