@@ -1,7 +1,8 @@
 """Per-module kill rates of the last mutation run (reads mutmut's mutants/**/*.py.meta).
 
-Kill rate = killed / (killed + survived + timeout): mutants that no selected test reaches ("no tests")
-are listed apart; they are code the GL-free selection does not exercise, not equivalent mutants.
+Kill rate = (killed + timeout) / (killed + timeout + survived): a mutant that makes the tests hang is
+detected too. Mutants that no selected test reaches ("no tests") are listed apart (code the GL-free
+selection does not exercise), as are those not checked before the time box ended.
 Usage: python scripts/mutation_report.py [--survivors] [MUTANTS_DIR]
 """
 
@@ -29,7 +30,7 @@ def main(argv: list[str]) -> int:
         counts = Counter(STATUS.get(code, "suspicious") for code in codes.values())
         module = str(meta.relative_to(root))[: -len(".meta")]
         tested = counts["killed"] + counts["survived"] + counts["timeout"]
-        rate = counts["killed"] / tested if tested else float("nan")
+        rate = (counts["killed"] + counts["timeout"]) / tested if tested else float("nan")
         rows.append((module, len(codes), counts, rate))
         survivors += [name for name, code in codes.items() if STATUS.get(code) == "survived"]
     print(f"{'module':45} {'mutants':>7} {'killed':>6} {'survived':>8} {'timeout':>7} {'no tests':>8} "
@@ -42,7 +43,8 @@ def main(argv: list[str]) -> int:
     tested = total["killed"] + total["survived"] + total["timeout"]
     if tested:
         print(f"{'all':45} {sum(r[1] for r in rows):7d} {total['killed']:6d} {total['survived']:8d} "
-              f"{total['timeout']:7d} {total['no tests']:8d} {total['not checked']:9d} {total['killed'] / tested:9.1%}")
+              f"{total['timeout']:7d} {total['no tests']:8d} {total['not checked']:9d} "
+              f"{(total['killed'] + total['timeout']) / tested:9.1%}")
     if show_survivors:
         print("\nsurvivors (inspect with: .venv/bin/mutmut show NAME):")
         print("\n".join(survivors))

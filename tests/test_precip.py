@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from igserver.render.camera import make_view
+from igserver.render.precip.particles import PRESETS
 from igserver.scene import apply_patch
 from igserver.weather import fall_speed
 
@@ -75,8 +76,8 @@ def expected_angle(s):
 
 
 def _particles(s):
-    from igserver.render.precip.particles import ParticlePool, PrecipSettings, particle_frame
-    return particle_frame(s, make_view(s.camera), PrecipSettings(), ParticlePool())
+    from igserver.render.precip.particles import ParticlePool, particle_frame
+    return particle_frame(s, make_view(s.camera), PRESETS[s.quality.preset], ParticlePool())
 
 
 @pytest.mark.parametrize("wind", [(0.0, 270.0), (6.0, 270.0), (6.0, 90.0), (12.0, 270.0)])
@@ -160,7 +161,7 @@ def test_extremes_stay_finite_and_bounded(renderer, patch):
     s = scene(patch)
     c = contribution(renderer, s)
     assert np.abs(c).mean() > 0.0
-    assert renderer.graph.passes["precip"].stats["streaks"] <= renderer.graph.passes["precip"].settings.max_streaks
+    assert renderer.graph.passes["precip"].stats["streaks"] <= PRESETS["medium"].max_streaks
 
 
 def test_snow_in_the_picture_is_slower_and_whiter_than_rain(renderer):

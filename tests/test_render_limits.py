@@ -61,11 +61,18 @@ def test_budget_mirrors_the_renderer_presets():
     from igserver.render.sky.atmosphere_model import PRESETS as TABLES
     from igserver.render.volumes.volumes import PRESETS as VOLUMES
 
-    for name, (steps, octaves, resolution) in budget.VOLUME_PRESETS.items():
-        assert (VOLUMES[name].steps, VOLUMES[name].octaves, VOLUMES[name].resolution) == (steps, octaves, resolution)
+    for name, knobs in budget.VOLUME_PRESETS.items():
+        assert (VOLUMES[name].steps, VOLUMES[name].octaves, VOLUMES[name].resolution, VOLUMES[name].scale) == knobs
     for name, (texels, density) in budget.TABLE_PRESETS.items():
         sizes = TABLES[name]
         assert sizes.nu * sizes.mu_s * sizes.mu * sizes.r == texels and sizes.density_samples == density
+
+
+def test_auto_quality_is_costed_at_high():
+    tree = {"camera": {"width": 640, "height": 360}, "effects": [{"id": f"f{i}", "emits_smoke": True} for i in range(8)]}
+    auto = budget.estimate(Scene.model_validate({**tree, "quality": {"preset": "auto"}}))
+    high = budget.estimate(Scene.model_validate({**tree, "quality": {"preset": "high"}}))
+    assert auto.frame == high.frame
 
 
 def test_example_scenes_fit_the_budget():

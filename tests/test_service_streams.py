@@ -259,29 +259,30 @@ def _host_running(server, rate_hz: float, start_frame: int):
 
 
 def test_mjpeg_fps_cap_holds_and_shows_the_newest_state(server):
-    fps = 5.0
-    stop, host, latest = _host_running(server, 30.0, 50_000)
+    fps, start = 5.0, 50_000
+    stop, host, latest = _host_running(server, 30.0, start)
     reader = _MjpegReader(server, f"fps={fps:g}")
     try:
-        time.sleep(0.3)
         parts = []
-        for _ in range(11):
+        while len(parts) < 10:
             ig_frame, host_frame = reader.next_part()
-            parts.append((time.perf_counter(), ig_frame, host_frame, latest[0]))
+            if host_frame >= start:  # earlier parts show a state from before this test's host
+                parts.append((time.perf_counter(), ig_frame, host_frame, latest[0]))
     finally:
         reader.close()
         stop.set()
         host.join(10)
-    times = [p[0] for p in parts[1:]]  # the first part may be a frame the pump already held
+    times = [p[0] for p in parts]
     # The server waits 1/fps after each part; 10 % covers loopback delivery and scheduling jitter of a
     # loaded machine, and only one way: parts closer together than the cap allows are a violation.
     assert times[-1] - times[0] >= (len(times) - 1) / fps * 0.9, np.diff(times)
-    # At 5 parts/s against 30 states/s every part skips to the newest state: host frames jump ahead by
-    # ~6, and what is shown is at most a render (~ms) plus a host period old.
-    jumps = np.diff([p[2] for p in parts[1:]])
-    assert np.all(jumps > 0) and np.median(jumps) >= 3, jumps
-    staleness = [newest - shown for _, _, shown, newest in parts[1:]]
-    assert max(staleness) <= 3, staleness
+    # Each part shows the newest state when it is encoded (the IG clock may re-render the same state, so a
+    # host frame can repeat, never go back): it is one render plus the part's delivery old, ~3 host frames
+    # at 30 states/s with ~100 ms renders on a loaded machine; 6 leaves the host's own jitter.
+    shown = [p[2] for p in parts]
+    assert np.all(np.diff(shown) >= 0), shown
+    staleness = [newest - host_frame for _, _, host_frame, newest in parts]
+    assert max(staleness) <= 6, staleness
 
 
 @pytest.mark.xfail(strict=True, reason="MJPEG parts queue in the server's transport and socket buffers behind a "

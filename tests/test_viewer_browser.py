@@ -45,16 +45,12 @@ def page(server):
         browser.open(server.url + "/")
         browser.wait_for("document.querySelector('tr[data-effect=\"pool_fire\"]') !== null")
         browser.wait_for("document.getElementById('status').textContent.startsWith('ready')")
+        browser.wait_for("document.getElementById('stream').naturalWidth > 0", timeout=60)  # first MJPEG part shown
         yield browser
 
 
 def row_button(effect_id: str, action: str) -> str:
     return f"document.querySelector('tr[data-effect={json.dumps(effect_id)}] button[data-action={action}]')"
-
-
-def picture(page, settle_s: float = 0.0) -> np.ndarray:
-    time.sleep(settle_s)
-    return page.screenshot("#stream")
 
 
 def wait_for_picture(page, condition, timeout: float = 30.0) -> np.ndarray:
@@ -64,6 +60,11 @@ def wait_for_picture(page, condition, timeout: float = 30.0) -> np.ndarray:
         if condition(shot) or time.monotonic() > deadline:
             return shot
         time.sleep(0.3)
+
+
+def picture(page, settle_s: float = 0.0) -> np.ndarray:
+    time.sleep(settle_s)
+    return page.screenshot("#stream")
 
 
 def state(server) -> dict:

@@ -168,7 +168,7 @@ def test_wrapping_keeps_the_cube_uniform():
     faces), and between two nearby times every particle moves by its own velocity modulo L:
     a particle leaving one face re-enters at the opposite face, none appears or vanishes."""
     # Many particles per cube (4 flakes per particle, no cap) so that the slab counts are precise.
-    settings = PrecipSettings(drops_per_streak={"rain": 4.0, "snow": 4.0}, max_streaks=10**9)
+    settings = PrecipSettings(rain_drops=4.0, snow_drops=4.0, max_streaks=10**9)
     L = settings.tile_size
     pool = ParticlePool()
     for t, camera in ((0.0, (0.0, 0.0, 10.0)), (123.456, (17.3, -4.2, 3.3)), (1e9, (1e6, -1e6, 250.0))):
@@ -274,3 +274,16 @@ def test_extreme_rates_stay_finite(kind, rate):
         assert np.all(np.isfinite(array))
     assert frame.streak_count <= PrecipSettings().max_streaks
     assert math.isfinite(effective_visibility(scene)) and effective_visibility(scene) >= 50.0
+
+
+def test_presets_trade_particles_for_graininess():
+    """low / medium / high draw half / the measured default / twice the streaks: one knob each."""
+    from igserver.render import presets
+    from igserver.render.precip.particles import PRESETS
+    assert presets.registered()["precip"] == PRESETS
+    scene = rain(3.0)  # light enough that the cost cap does not bind at high
+    view = make_view(scene.camera)
+    counts = {level: particle_frame(scene, view, PRESETS[level], ParticlePool()).streak_count
+              for level in ("low", "medium", "high")}
+    assert counts["low"] < counts["medium"] < counts["high"]
+    assert counts["high"] == pytest.approx(2 * counts["medium"], rel=0.1)

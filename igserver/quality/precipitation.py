@@ -1,5 +1,5 @@
-"""``igserver quality weather`` (particle part; also ``igserver quality precipitation``): error of the
-rain/snow particles against run time (DESIGN §6).
+"""``igserver quality weather`` (the particle part; quality/weather.py is the study's entry): error of
+the rain/snow particles against run time (DESIGN §6).
 
 Knobs: drops per streak m (the particle count per cube is the visible drops in it over m, so the
 drawn count goes like 1/m) x cube (tile) size L. Reference: the same frame with m = 8 and 8 m cubes
@@ -21,7 +21,7 @@ the few bright streaks near a lamp). Time: median ms of the precipitation pass (
 + light compute + streak draw) over the same frames.
 
 Usage: igserver quality weather [--out out/quality_weather.md] [--size 640x360] [--frames 4]
-       [--drops 16,32,64,128,256] [--tiles 2,4,8] [--scene rain_harbour|snow]
+       [--drops 16,32,64,128,256] [--tiles 2,4,8] [--scene rain_harbour|snow] [--quick]
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ from __future__ import annotations
 import argparse
 import json
 import statistics
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -59,11 +60,7 @@ def block_cv(contribution: np.ndarray, block: int = 32) -> float:
     return float(means.std() / max(means.mean(), 1e-12))
 
 
-def run(argv: list[str]) -> int:
-    from ..render.precip.particles import PrecipSettings, particle_count
-    from ..render.renderer import Renderer
-    from ..scene import apply_patch, load_scene
-
+def parse_args(argv: list[str]) -> argparse.Namespace:
     ap = argparse.ArgumentParser(prog="igserver quality weather")
     ap.add_argument("--out", default="out/quality_weather.md")
     ap.add_argument("--size", default="640x360")
@@ -71,7 +68,50 @@ def run(argv: list[str]) -> int:
     ap.add_argument("--drops", default="16,32,64,128,256")
     ap.add_argument("--tiles", default="2,4,8")
     ap.add_argument("--scene", default="rain_harbour")
+    ap.add_argument("--quick", action="store_true", help="320x180, 2 frames, 4 m cubes, 4 points (a minute)")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.size, args.frames, args.drops, args.tiles = "320x180", 2, "32,64,128,256", "4"
+    return args
+
+
+def main(argv: list[str]) -> int:
+    """The CLI (igserver quality weather): table and JSON under --out."""
+    args = parse_args(argv)
+    report, text = measure(args)
+    print(text)
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(text)
+    out.with_suffix(".json").write_text(json.dumps(report, indent=2))
+    return 0
+
+
+def study(quick: bool = False):
+    """Points for the combined report (igserver quality): lowpass error against the pass's ms per
+    cube size, presets marked (low / medium / high = m x 2, m, m / 2 in 4 m cubes)."""
+    from ..render.precip.particles import PRESETS
+    from .report import Point, Study
+
+    args = parse_args(["--quick"] if quick else ["--tiles", "4,8"])
+    report, _ = measure(args)
+    kind = report["kind"]
+    marks = {getattr(settings, f"{kind}_drops"): level for level, settings in PRESETS.items()}
+    points = [Point(f"m, {r['tile']:g} m cubes", f"m={r['drops_per_streak']:g} L={r['tile']:g}", r["lowpass"], r["ms"],
+                    marks.get(r["drops_per_streak"]) if r["tile"] == PRESETS["medium"].tile_size else None,
+                    {"bias": r["bias"], "rmse": r["rmse"], "streaks": r["streaks"]})
+              for r in report["rows"]]
+    return Study("precipitation", "8-bit sRGB RMSE after a 9x9 blur of the rain's contribution vs 8 drops/streak",
+                 f"ms, precipitation pass ({report['size']}, {args.scene})", points,
+                 [f"recommended: {report['recommended']['drops_per_streak']:g} drops per streak, "
+                  f"{report['recommended']['tile']:g} m cubes"], report["renderer"])
+
+
+def measure(args: argparse.Namespace) -> tuple[dict, str]:
+    from ..render.precip.particles import PrecipSettings, particle_count
+    from ..render.renderer import Renderer
+    from ..scene import apply_patch, load_scene
+
     width, height = (int(v) for v in args.size.lower().split("x"))
     drops = [float(v) for v in args.drops.split(",")]
     tiles = [float(v) for v in args.tiles.split(",")]
@@ -83,8 +123,7 @@ def run(argv: list[str]) -> int:
     default = PrecipSettings()
 
     def settings(m: float, tile: float, cap: int = default.max_streaks) -> PrecipSettings:
-        return PrecipSettings(tile_size=tile, drops_per_streak={kind: m}, max_streaks=cap,
-                              fade_distance=default.fade_distance, lod_distance=default.lod_distance)
+        return replace(default, tile_size=tile, max_streaks=cap, **{f"{kind}_drops": m})
 
     def frame(s, config):
         ppass.settings = config
@@ -131,7 +170,7 @@ def run(argv: list[str]) -> int:
             print(f"L {tile:4.1f} m {m:6.1f}  particles/tile {r['particles_per_tile']:6d}  streaks {r['streaks']:7d}  "
                   f"bias {r['bias']:+.3f}  lowpass {r['lowpass']:5.2f}  rmse {r['rmse']:5.2f}  "
                   f"cv {r['block_cv']:.2f}  ms {r['ms']:7.1f}", flush=True)
-    ppass.settings = PrecipSettings()
+    ppass.settings = None
 
     good = [r for r in rows if r["streaks"] <= STREAK_BUDGET and abs(r["bias"]) <= BIAS_LIMIT
             and r["tile"] >= MIN_TILE]
@@ -162,11 +201,5 @@ def run(argv: list[str]) -> int:
     lines += ["", f"Recommended ({rule}): "
                   f"{choice['drops_per_streak']:g} drops per streak, {choice['tile']:g} m cubes. "
                   f"Default in use: {default.drops(kind):g} drops per streak, {default.tile_size:g} m cubes."]
-    text = "\n".join(lines) + "\n"
-    print(text)
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(text)
-    out.with_suffix(".json").write_text(json.dumps(report, indent=2))
     renderer.release()
-    return 0
+    return report, "\n".join(lines) + "\n"

@@ -1,9 +1,11 @@
 """``igserver quality weather``: error against run time of the weather (DESIGN §6).
 
 The particle part (rain and snow: particle count and cube size against a dense reference) lives in
-quality/precipitation.py; the fog part (against a multiple-scattering reference) joins here.
+quality/precipitation.py (a library module, so the combined ``igserver quality`` runs it once, here);
+the fog part (against a multiple-scattering reference) joins here.
 
-Usage: igserver quality weather [precipitation options, see igserver quality precipitation --help]
+Usage: igserver quality weather [options of quality/precipitation.py: --scene --size --frames --drops
+       --tiles --quick --out]
 """
 
 from __future__ import annotations
@@ -12,4 +14,9 @@ from . import precipitation
 
 
 def run(argv: list[str]) -> int:
-    return precipitation.run(argv)
+    return precipitation.main(argv)
+
+
+def study(quick: bool = False):
+    """The combined report's points (igserver quality)."""
+    return precipitation.study(quick)

@@ -6,13 +6,15 @@ estimate below bounds the work of a frame *for any camera pose* (a host may fly 
 "work units" of about one ray-march sample (~3 ns on 2 llvmpipe cores):
 
   frame  = P * BASE_PER_PIXEL                       sky, ground, water, post (~80 march samples/px)
-         + P * sum over volumes of steps            the march: in the worst pose every box covers the
-                                                    screen and every ray crosses every box
+         + P / scale^2 * sum over volumes of steps  the march (at 1/scale of the resolution): in the worst
+                                                    pose every box covers the screen and every ray
+                                                    crosses every box
          + sum over volumes of 4 res^3 * octaves    re-modelling (res_z <= 4 res_xy), every frame
   tables = texels * 2 n^2 * (orders - 1)            multiple scattering: each order integrates the
          (texels = nu mu_s mu r, n = density_samples)  density over the sphere at every scattering texel
 
-where P = width * height and a fire that emits smoke is two volumes. ``tables`` is paid once per new
+where P = width * height and a fire that emits smoke is two volumes; ``auto`` quality is costed at
+``high`` (the controller may climb there). ``tables`` is paid once per new
 set of atmosphere parameters (cached, with progress in /v1/ready), ``frame`` every frame. A state over
 either budget is rejected with a problem naming the fields to lower. ``IGSERVER_BUDGET_SCALE`` scales
 both budgets (a GPU renders ~100x more per second than llvmpipe).
@@ -33,7 +35,8 @@ TABLE_BUDGET = 1.0e9
 
 # Mirrors of the renderer's presets (igserver.render.volumes.volumes.PRESETS and
 # igserver.render.sky.atmosphere_model.PRESETS); a test keeps them equal.
-VOLUME_PRESETS = {"low": (32, 2, 16), "medium": (48, 3, 32), "high": (128, 4, 64)}  # steps, octaves, resolution
+# steps, octaves, resolution, scale (the march runs at 1/scale of the frame's resolution)
+VOLUME_PRESETS = {"low": (32, 2, 16, 4), "medium": (48, 3, 32, 2), "high": (96, 4, 48, 1)}
 TABLE_PRESETS = {  # (scattering texels, density_samples)
     "low": (8 * 8 * 32 * 8, 6),
     "medium": (8 * 32 * 64 * 16, 8),
@@ -65,15 +68,22 @@ class Cost:
         return TABLE_BUDGET * budget_scale()
 
 
+def volume_level(scene) -> str:
+    """The preset whose knobs bound the cost: ``auto`` may reach ``high``."""
+    preset = scene.quality.preset
+    return preset if preset in VOLUME_PRESETS else "high"
+
+
 def volume_count(scene) -> int:
     return sum(2 if effect.type == "fire" and effect.emits_smoke else 1 for effect in scene.effects)
 
 
 def estimate(scene) -> Cost:
     pixels = scene.camera.width * scene.camera.height
-    steps, octaves, resolution = VOLUME_PRESETS[scene.quality.preset]
+    steps, octaves, resolution, scale = VOLUME_PRESETS[volume_level(scene)]
     volumes = volume_count(scene)
-    frame = pixels * BASE_PER_PIXEL + volumes * (pixels * steps + 4 * resolution**3 * octaves)
+    march = pixels / scale**2 * steps
+    frame = pixels * BASE_PER_PIXEL + volumes * (march + 4 * resolution**3 * octaves)
     texels, density = TABLE_PRESETS[scene.atmosphere.quality]
     tables = texels * 2 * density**2 * max(scene.atmosphere.scattering_orders - 1, 0)
     return Cost(frame, tables, volumes, pixels)
@@ -85,7 +95,8 @@ def over_budget(scene) -> list[tuple[tuple, str]]:
     problems = []
     if cost.frame > cost.frame_budget:
         share = cost.frame / cost.frame_budget
-        if cost.volumes and cost.volumes * cost.pixels * VOLUME_PRESETS[scene.quality.preset][0] > cost.frame / 2:
+        steps, _, _, scale = VOLUME_PRESETS[volume_level(scene)]
+        if cost.volumes and cost.volumes * cost.pixels / scale**2 * steps > cost.frame / 2:
             where = ("effects",)
             lower = ("use fewer effects (a fire with emits_smoke counts twice), a lower quality.preset or a "
                      "smaller camera.width/height")

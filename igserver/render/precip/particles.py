@@ -49,6 +49,7 @@ from ...scene.model import Scene
 from ...weather import (
     FLAKE_OVER_MELTED, VISIBLE_DIAMETER, fall_speed, size_distribution, visible_number_density, wind_vector,
 )
+from .. import presets
 from ..camera import CameraView
 
 BLOCK = 4096  # particles per random block: the pool grows in blocks, so a prefix never changes
@@ -59,25 +60,34 @@ SNOW_FLUTTER_HZ = (0.4, 1.2)  # Hz: flutter speeds 0.05-0.6 m/s, below the fall 
 
 @dataclass(frozen=True)
 class PrecipSettings:
+    """The particle knobs (scalars, so the quality ladder can step one at a time)."""
+
     tile_size: float = 4.0  # m, side of the wrapped cube
-    drops_per_streak: dict | None = None  # per kind; None = DEFAULT_DROPS_PER_STREAK
+    rain_drops: float = 64.0  # real drops per drawn streak, rain (the quality knob)
+    snow_drops: float = 128.0  # real flakes per drawn streak, snow
     max_streaks: int = 32768  # cost cap: drawn streaks per frame (tiles x particles per tile)
-    fade_distance: dict | None = None  # per kind, m; None = DEFAULT_FADE
-    lod_distance: float = 8.0  # m, r0: shell l = [r0 2^(l-1), r0 2^l), cubes of L 2^l, density / 4^l
+    rain_fade: float = 30.0  # m, streaks fade out by here; beyond, the extinction carries the rain
+    snow_fade: float = 40.0
+    lod_distance: float = 8.0  # m, r0: level l holds tiles r0 2^(l-1) .. r0 2^l away
 
     def drops(self, kind: str) -> float:
-        return (self.drops_per_streak or DEFAULT_DROPS_PER_STREAK)[kind]
+        return self.rain_drops if kind == "rain" else self.snow_drops
 
     def fade(self, kind: str) -> float:
-        return (self.fade_distance or DEFAULT_FADE)[kind]
+        return self.rain_fade if kind == "rain" else self.snow_fade
 
 
-# Real drops per drawn streak (the knob): chosen with igserver quality weather (quality/precipitation.py):
-# the lowest image error within 16 000 streaks at 640x360 in the rain_harbour and snow scenes.
-DEFAULT_DROPS_PER_STREAK = {"rain": 64.0, "snow": 128.0}
-# Streaks fade out to this distance; beyond, the precipitation is a veil carried by its extinction
-# (weather.effective_visibility). A 2 mm drop at 30 m is 1/40 px at 640x360: only the sum shows.
-DEFAULT_FADE = {"rain": 30.0, "snow": 40.0}
+# Quality presets (igserver/render/presets.py). medium: chosen with igserver quality weather - the
+# lowest image error within 16 000 streaks at 640x360 in the rain_harbour and snow scenes (rain 64,
+# snow 128 drops per streak, 4 m cubes); low and high halve and double the drawn count (error
+# ~1/sqrt(count), cost ~count). A 2 mm drop at 30 m is 1/40 px at 640x360: beyond the fade only the
+# sum shows, which the visibility's extinction carries.
+PRESETS = {
+    "low": PrecipSettings(rain_drops=128.0, snow_drops=256.0),
+    "medium": PrecipSettings(),
+    "high": PrecipSettings(rain_drops=32.0, snow_drops=64.0),
+}
+presets.register("precip", PRESETS)
 
 
 def _block(kind: str, level: int, index: int, tile_size: float) -> dict[str, np.ndarray]:
@@ -291,4 +301,4 @@ def _flutter(radius: np.ndarray, phase: np.ndarray) -> np.ndarray:
 
 
 __all__ = ["PrecipSettings", "ParticlePool", "ParticleFrame", "Level", "particle_frame", "particle_count",
-           "level_tiles", "level_tile_size", "level_count", "diameters", "DEFAULT_DROPS_PER_STREAK", "DEFAULT_FADE"]
+           "level_tiles", "level_tile_size", "level_count", "diameters", "PRESETS"]

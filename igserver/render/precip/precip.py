@@ -19,6 +19,7 @@ import numpy as np
 from ...scene.model import Scene
 from ...weather import precipitation_falls
 from ..camera import CameraView
+from .. import presets
 from ..passes import RenderPass
 from ..shaders import set_uniforms
 from .particles import ParticleFrame, ParticlePool, PrecipSettings, particle_frame
@@ -34,7 +35,7 @@ class PrecipPass(RenderPass):
 
     def __init__(self, ctx, programs):
         super().__init__(ctx, programs)
-        self.settings = PrecipSettings()
+        self.settings: PrecipSettings | None = None  # None = the scene's quality preset
         self.pool = ParticlePool()
         self.stats = {"particles": 0, "tiles": 0, "streaks": 0, "drops_per_streak": 0.0}
         self._buffers: dict[str, moderngl.Buffer] = {}
@@ -62,7 +63,8 @@ class PrecipPass(RenderPass):
 
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
-        particles = particle_frame(scene, view, self.settings, self.pool)
+        settings = self.settings or presets.knobs("precip", frame.quality)
+        particles = particle_frame(scene, view, settings, self.pool)
         near = particles.levels[0].particles if particles.levels else 0
         self.stats = {"particles": near, "tiles": len(particles.tiles),
                       "streaks": particles.streak_count, "drops_per_streak": particles.drops_per_streak}

@@ -8,7 +8,8 @@
 // (time-averaged coverage of a moving disk), so spread over the quad's area w (l + w):
 //     alpha = m D_px^2 / (w (l_px + w)),   w = max(D_px, 1 px).
 // Where that would exceed 1 (m slow snowflakes on a short streak), the quad widens instead until
-// w (l + w) = m D_px^2 at alpha 1, so the coverage is kept rather than clipped away. Streaks wider
+// w (l + w) = m D_px^2 at alpha 1, so the coverage is kept rather than clipped away - up to 4x its
+// width (beyond, at extreme rates under the cost cap, opacity clips at 1 and coverage is lost). Streaks wider
 // than 2 px are drawn as capsules (round flakes and drop ends), their opacity over the capsule's
 // area w l + pi w^2 / 4.
 // It fades out toward u_fade (beyond, the extinction in the visibility carries the rain) and near
@@ -57,7 +58,8 @@ void main() {
     float d_px = particle.pos_diameter.w / dist * u_px_per_tan;
     float w = max(d_px, 1.0);
     float area = u_drops_per_streak * d_px * d_px;  // px^2 of coverage this streak carries
-    if (area > w * (l_px + w)) w = 0.5 * (sqrt(l_px * l_px + 4.0 * area) - l_px);
+    // Widened at most 4x (16x the flake's area): fill cost stays bounded when the cap makes m huge.
+    if (area > w * (l_px + w)) w = min(0.5 * (sqrt(l_px * l_px + 4.0 * area) - l_px), 4.0 * w);
     vec2 s = mix(s_tail, s_head, corner.x) + along * (corner.x * 2.0 - 1.0) * 0.5 * w + across * corner.y * 0.5 * w;
     vec4 clip = mix(clip_tail, clip_head, corner.x);
     gl_Position = vec4((s / u_resolution * 2.0 - 1.0) * clip.w, clip.z, clip.w);
