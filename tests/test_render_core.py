@@ -168,8 +168,6 @@ def test_horizon_row_is_where_geometry_puts_it(renderer, height_m, pitch, tan_bo
     assert -0.1 <= row + 0.5 - horizon_y < 1.1, (row, horizon_y)
 
 
-@pytest.mark.xfail(strict=True, reason="camera.far = 1e7 m (accepted by the model) renders a black frame with "
-                   "no surface: far/near = 1e8 exhausts the float depth buffer; reversed-Z is issue 12 (depth)")
 def test_far_plane_at_its_maximum_still_renders(renderer):
     """From 100 km the horizon is 1130 km away: only a far plane beyond 1e6 m shows it (dip 10.1 deg)."""
     patch = {"camera": {"position": [0.0, 0.0, 100_000.0], "pitch": -5.0, "fov_y": 40.0, "far": 1e7},
