@@ -17,8 +17,9 @@ def renderer():
     r.release()
 
 
-# Tests that start other processes (a real server, the render process, the CLI).
-PROCESS_MODULES = {"test_cli", "test_client", "test_protocol", "test_service_streams", "test_worker"}
+# A module that can start other processes (a real server, the render process, the CLI, a browser)
+# names one of these: its tests are marked ``process``.
+PROCESS_NAMES = ("LoopbackServer", "RenderService", "subprocess", "cdp")
 
 
 def pytest_collection_modifyitems(config, items):
@@ -27,5 +28,6 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if "renderer" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.gl)
-        if item.module is not None and item.module.__name__.rsplit(".", 1)[-1] in PROCESS_MODULES:
+        module = getattr(item, "module", None)
+        if module is not None and any(hasattr(module, name) for name in PROCESS_NAMES):
             item.add_marker(pytest.mark.process)

@@ -120,3 +120,38 @@ def test_fire_light_sits_in_the_flame_and_gas_burners_light_blue():
     assert gas is not None and gas.color[2] > gas.color[0]
     smoke = _scene([{"id": "s", "type": "smoke"}])
     assert fire_light(smoke.effects[0], smoke) is None
+
+
+def _luminance(rgb) -> float:
+    return float(np.dot([0.2126, 0.7152, 0.0722], rgb))
+
+
+def test_fire_light_range_is_where_its_illuminance_falls_to_the_threshold():
+    """Inverse square law: the range is the distance where I / r^2 = 0.02 lux (fire_lights.MIN_ILLUMINANCE)."""
+    scene = _scene([{"id": "f", "diameter": 2.0}])
+    light = fire_light(scene.effects[0], scene)
+    intensity = _luminance(light.color)  # the colour is normalised to unit luminance
+    assert intensity > 0.0 and intensity / light.range**2 == pytest.approx(0.02, rel=1e-9)
+
+
+def test_fire_light_scales_with_flame_area_and_sqrt_intensity():
+    """I ~ sqrt(intensity) x projected flame area (0.55 D wide x Heskestad L tall): quadrupling the
+    intensity doubles the first factor and lengthens the flame; same seed and time, same flicker."""
+    def intensity(i: float) -> float:
+        scene = _scene([{"id": "f", "diameter": 2.0, "intensity": i}])
+        return _luminance(fire_light(scene.effects[0], scene).color)
+
+    expected = 2.0 * heskestad_reference(2.0, 4.0) / heskestad_reference(2.0, 1.0)
+    assert intensity(4.0) / intensity(1.0) == pytest.approx(expected, rel=1e-9)
+
+
+def test_a_dying_fire_light_reddens_and_dims():
+    def light(active: bool, sim_time: float):
+        scene = Scene.model_validate({"time": {"sim_time": sim_time}, "effects": [
+            {"id": "f", "diameter": 2.0, "active": active, "changed_at": 100.0, "fade": 4.0}]})
+        return fire_light(scene.effects[0], scene)
+
+    burning, dying = light(True, 110.0), light(False, 102.0)  # dying: half-way through its fade-out
+    assert dying.color[0] / dying.color[2] > 1.5 * burning.color[0] / burning.color[2]
+    growing = light(True, 102.0)  # growing at the same level keeps the burning colour
+    assert growing.color[0] / growing.color[2] == pytest.approx(burning.color[0] / burning.color[2])

@@ -120,8 +120,8 @@ def _centre(rgba: np.ndarray) -> np.ndarray:
 
 
 def test_no_water_inside_a_hull(renderer):
-    ship = {"id": "ship", "model": "ship", "position": [0.0, 0.0, -4.0], "scale": [30.0, 150.0, 12.0],
-            "color": [0.6, 0.6, 0.6]}
+    # A closed box hull (the built-in box, base at its z) 4 m deep in the water, 8 m above it.
+    ship = {"id": "ship", "model": "box", "position": [0.0, 0.0, -4.0], "scale": [30.0, 150.0, 12.0]}
     # Camera inside the hull above the waterline, looking down at its floor 4 m below the sea level.
     view = {"camera": {"position": [0.0, -20.0, 3.0], "pitch": -80.0, "fov_y": 50.0}, "entities": [ship],
             "weather": {"wind_speed": 18.0}}

@@ -73,7 +73,8 @@ def test_codec_limits_each_bound_at_its_edge():
     raises_kind("limits", decode, pack(["x" * 6]), MSGPACK, limits)  # refused by the msgpack decoder itself
     raises_kind("limits", decode, pack(list(range(5))), MSGPACK, limits)
     problem = raises_kind("validation", check_tree, {"a": [b"bin"]})
-    assert problem.errors[0]["pointer"] == "#/a/0"
+    assert [set(e) for e in problem.errors] == [{"pointer", "detail"}]  # the documented shape of errors[]
+    assert problem.errors[0]["pointer"] == "#/a/0" and problem.errors[0]["detail"]
     raises_kind("malformed", check_tree, {1: 2})
 
 

@@ -50,7 +50,7 @@ vec3 glint(vec3 e, vec3 n, vec3 v, vec3 l, float alpha) {
     vec3 h = normalize(v + l);
     float n_dot_v = max(dot(n, v), 1e-4);
     vec3 f = fresnel_schlick(max(dot(v, h), 0.0), vec3(WATER_R0));
-    return e * f * ggx_distribution(max(dot(n, h), 0.0), alpha) * smith_visibility(n_dot_v, n_dot_l, alpha) * n_dot_l;
+    return e * f * ggx_distribution(n, h, max(dot(n, h), 0.0), alpha) * smith_visibility(n_dot_v, n_dot_l, alpha) * n_dot_l;
 }
 
 void main() {
@@ -85,13 +85,8 @@ void main() {
     vec3 direct = glint(u_sun_illuminance, n, v, u_sun_dir, alpha) + glint(u_moon_illuminance, n, v, u_moon_dir, alpha);
     vec3 e_local = vec3(0.0);  // local-light irradiance on a horizontal surface (lux), for body/foam
     for (int i = 0; i < u_light_count; ++i) {
-        vec3 to_light = u_light_pos[i].xyz - v_rel;
-        float d2 = max(dot(to_light, to_light), 1e-4);
-        float d = sqrt(d2);
-        vec3 l = to_light / d;
-        float factor = range_window(d, u_light_pos[i].w) / d2;
-        if (u_light_color[i].w > 0.5) factor *= smoothstep(u_light_dir[i].w, u_light_cos_inner[i], dot(-l, u_light_dir[i].xyz));
-        vec3 e = u_light_color[i].rgb * factor;
+        vec3 l;
+        vec3 e = light_illuminance(i, v_rel, l);  // the shared light loop's falloff and spot cone
         direct += glint(e, n, v, l, alpha);
         e_local += e * max(l.z, 0.0);
     }

@@ -5,10 +5,10 @@ state: integrated once per bathymetry + wave set); phases are reduced in float64
 as good as 100 s); the LOD selection picks the blocks (lod.py); the detail normal maps are rendered
 for the frame's time (three tiles, summed in the water shader).
 
-Hulls keep the sea out: every ship / pier entity's hull box (MODELS part 0, below the deck) is passed
-as an inverse box matrix and the water fragment shader discards fragments inside it — cheap (a few
-multiply-adds per fragment, 16 hulls at most), exact for the box hulls we draw, and needs no
-extra pass or buffer.
+Hulls keep the sea out: every entity's hull box (the glTF nodes named ``*hull*``, or the whole built-in
+box) is passed as an inverse box matrix and the water fragment shader discards fragments inside it —
+cheap (a few multiply-adds per fragment, 16 hulls at most) and no extra pass or buffer; a box is
+conservative for a tapered bow (a little sea is cut beside it, none is drawn inside).
 """
 
 from __future__ import annotations
@@ -25,13 +25,11 @@ from ...water.surface import SeaSurface
 from ..camera import CameraView, body_to_world
 from ..passes import RenderPass
 from ..shaders import assemble, set_uniforms
-from ..surfaces.models import MODELS
 from . import lod
 
 MAX_WAVES = 64
 MAX_DETAIL = 48
 MAX_HULLS = 16
-HULL_MODELS = ("ship", "pier", "box")
 DETAIL_MAPS = 3
 DETAIL_RATIO = 23.7  # tile sizes L, L/23.7, L/23.7² (not a power of two: no aligned repetition)
 FIELD_UNIT = 4
@@ -40,20 +38,49 @@ DETAIL_UNIT0 = 6
 WATER_BODY_COLOR = (0.004, 0.016, 0.022)  # deep-water albedo, as DEEP_ALBEDO in water.frag.glsl
 
 
+_HULL_CACHE: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
+
+
+def model_hulls(name: str) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(centre, half extent) in the entity frame of a model's hull boxes: the glTF nodes named ``*hull*``
+    (their axis-aligned box in the entity frame), or the whole built-in box. Other parts (decks, piles,
+    superstructure) let the sea show between them."""
+    if name not in _HULL_CACHE:
+        from ..surfaces.loader import load_model
+        from ..surfaces.models import BUILTIN, box_model
+
+        try:
+            model = box_model() if name in BUILTIN else load_model(name)
+        except Exception:  # noqa: BLE001 - a model the surfaces pass cannot draw has no hull either
+            _HULL_CACHE[name] = []
+            return []
+        matrices = model.node_matrices()
+        boxes = []
+        for prim in model.primitives:
+            if name not in BUILTIN and "hull" not in model.nodes[prim.node].name.lower():
+                continue
+            p = np.c_[prim.vertices[:, :3].astype(np.float64), np.ones(len(prim.vertices))] @ matrices[prim.node].T
+            lo, hi = p[:, :3].min(axis=0), p[:, :3].max(axis=0)
+            boxes.append((0.5 * (lo + hi), 0.5 * (hi - lo)))
+        _HULL_CACHE[name] = boxes
+    return _HULL_CACHE[name]
+
+
 def hull_boxes(scene: Scene, view: CameraView) -> list[np.ndarray]:
-    """Inverse 4x4 matrices (camera-relative world → [-1, 1]³) of the hull parts in the water."""
+    """Inverse 4x4 matrices (camera-relative world → [-1, 1]³) of the hulls standing or floating in the sea."""
     boxes = []
     for entity in scene.entities:
-        if entity.model not in HULL_MODELS:
+        if not entity.visible:
             continue
         rot = body_to_world(entity.heading, entity.pitch, entity.roll)
         scale = np.asarray(entity.scale)
-        parts = MODELS[entity.model]
-        # The hull is the first part of a ship; every part of a pier and a box (piles stand in the sea).
-        for centre, half, _ in parts[:1] if entity.model == "ship" else parts:
+        for centre, half in model_hulls(entity.model):
             m = np.eye(4)
-            m[:3, :3] = rot @ np.diag(scale * np.asarray(half))
-            m[:3, 3] = view.relative(entity.position) + rot @ (scale * np.asarray(centre))
+            m[:3, :3] = rot @ np.diag(scale * half)
+            m[:3, 3] = view.relative(entity.position) + rot @ (scale * centre)
+            lowest = m[2, 3] - np.sum(np.abs(m[2, :3]))
+            if lowest + view.position[2] > scene.ocean.level + 30.0:  # well above any sea: not in it
+                continue
             boxes.append(np.linalg.inv(m))
     return boxes[:MAX_HULLS]
 
