@@ -319,6 +319,16 @@ def test_numeric_strings_and_ints_for_bools_are_rejected(http, patch, pointer):
     assert state(http) == before
 
 
+@pytest.mark.parametrize("body,pointer", [({"sim_time": False}, "#/sim_time"), ({"rate": "2"}, "#/rate"),
+                                          ({"paused": 1}, "#/paused")])
+def test_clock_changes_are_strict_too(http, body, pointer):
+    before = http.get("/v1/clock").json()
+    response = http.patch("/v1/clock", json=body)
+    assert response.status_code == 422 and response.json()["errors"][0]["pointer"] == pointer, response.text
+    after = http.get("/v1/clock").json()
+    assert (after["mode"], after["rate"], after["paused"]) == (before["mode"], before["rate"], before["paused"])
+
+
 def test_time_offset_cannot_leave_the_allowed_years(http):
     before = state(http)
     response = http.patch("/v1/state", json={"time": {"utc": "1800-01-01T00:00:00+23:59"}})

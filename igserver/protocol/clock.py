@@ -34,7 +34,8 @@ class ClockState(BaseModel):
 class ClockChange(BaseModel):
     """``PATCH /v1/clock`` body: any subset; a rejected body changes nothing."""
 
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    # strict, as every message at the protocol edge: false is not a sim_time, "2" is not a rate
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
 
     mode: Literal["free", "host"] | None = Field(
         None, description="free: run by itself; host: hold until the host sends sim_time")

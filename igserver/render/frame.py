@@ -16,7 +16,10 @@ from .lights import PointLight, gather_lights, light_uniforms
 from .sky.daylight import SUN_ANGULAR_RADIUS, Daylight
 from .sky.frame_sky import sky_frame
 
-MAX_LIGHTS = 16
+# Point/spot lights per frame (uniform arrays in common/lights.glsl, which must match): the
+# brightest at the camera first. The light loop skips lights out of range, so the cost per pixel
+# is bounded by MAX_LIGHTS and usually far below it.
+MAX_LIGHTS = 64
 
 
 @dataclass(frozen=True)

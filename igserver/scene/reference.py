@@ -62,13 +62,14 @@ def _rows(model: type[BaseModel], prefix: str, rows: list[str]) -> None:
         default = info.get_default(call_default_factory=False) if info.default_factory is None else "…"
         if nested is not None:
             sub.append((path, nested, info))
-            if typing.get_origin(info.annotation) is not list:
+            if typing.get_origin(info.annotation) not in (list, dict):
                 continue
         desc = (info.description or "").replace("|", "\\|")
         default_text = "required" if info.is_required() else f"`{default}`"
         rows.append(f"| `{path}` | {_type_name(info.annotation)} | {default_text} | {_range(info.metadata)} | {desc} |")
     for path, nested, info in sub:
-        suffix = "[]." if typing.get_origin(info.annotation) is list else "."
+        origin = typing.get_origin(info.annotation)
+        suffix = "[]." if origin is list else ".<name>." if origin is dict else "."
         _rows(nested, path + suffix, rows)
 
 

@@ -1,13 +1,37 @@
-// Light loop shared by every lit surface: sun, moon, sky ambient, point and spot lights.
-// Point/spot lights arrive camera-relative, nearest/brightest first, at most MAX_LIGHTS.
+// Light loop shared by every lit surface: sky ambient, sun, moon, point and spot lights, with the
+// paper's shadow terms (DESIGN 4.4, seed 002):
+//   I = Ra*Ia + sum_j E_j * ( Rd_j * ((1 - k_j) + k_j * c_sh) + (1 - f_j) * Rs_j ),   k_j = d_sh * f_j
+// where Rd_j, Rs_j are the diffuse and specular BRDF lobes times N.L (common/brdf.glsl), f_j in
+// [0,1] is how much light j is blocked at the point (soft shadow maps), d_sh the shadow density
+// and c_sh the shadow colour (the part of the diffuse light a full shadow leaves). We read c_sh
+// as multiplying the diffuse lobe, so a black surface stays black in a coloured shadow.
+// Point/spot lights arrive camera-relative, brightest-at-the-camera first, at most MAX_LIGHTS; the
+// loop stops at u_light_count and skips lights out of range, so cost grows with the lights present.
+// Passes that define SURFACE_SHADOWS get shadow maps (common/shadows.glsl); others (water, rain)
+// include this file unchanged and see no shadows.
 #ifndef MAX_LIGHTS
-#define MAX_LIGHTS 16
+#define MAX_LIGHTS 64
 #endif
 uniform int u_light_count;
 uniform vec4 u_light_pos[MAX_LIGHTS];    // xyz camera-relative m, w = range m
 uniform vec4 u_light_color[MAX_LIGHTS];  // rgb = colour * intensity (cd), w = 1 spot / 0 point
 uniform vec4 u_light_dir[MAX_LIGHTS];    // xyz spot axis, w = cos(outer cone)
 uniform float u_light_cos_inner[MAX_LIGHTS];
+uniform float u_shadow_density;          // d_sh in [0,1] (0 when unset: no shadow terms)
+uniform vec3 u_shadow_color;             // c_sh, linear
+
+// Light ids for light_shadow(): the directional lights; point/spot lights use their index.
+const int SUN_LIGHT = -1;
+const int MOON_LIGHT = -2;
+// Fraction of the sky's light reflected by the ground toward surfaces that face down (a
+// typical soil/concrete/sea albedo; the ground itself is lit by the sun and the sky).
+const float GROUND_BOUNCE_ALBEDO = 0.15;
+
+#ifdef SURFACE_SHADOWS
+#include "common/shadows.glsl"
+#else
+float light_shadow(int light, vec3 p, vec3 n, vec3 l) { return 0.0; }
+#endif
 
 // Smooth range window: inverse-square falloff that reaches exactly 0 at the light's range.
 float range_window(float d, float range) {
@@ -31,14 +55,42 @@ vec3 light_illuminance(int i, vec3 p, out vec3 l) {
     return u_light_color[i].rgb * factor;
 }
 
-vec3 shade_surface(Material m, vec3 p, vec3 n, vec3 v) {
-    vec3 radiance = m.base_color * (1.0 - m.metallic) * u_sky_ambient;  // Ra * Ia
-    radiance += u_sun_illuminance * brdf_cos(m, n, v, u_sun_dir);
-    radiance += u_moon_illuminance * brdf_cos(m, n, v, u_moon_dir);
+// One light of illuminance e (lux per channel at the point, before N.L) with blocked fraction f.
+vec3 shadowed_light(Material m, vec3 n, vec3 v, vec3 l, vec3 e, float f) {
+    BrdfTerms t = brdf_terms(m, n, v, l);
+    float k = u_shadow_density * f;
+    return e * (t.diffuse * ((1.0 - k) + k * u_shadow_color) + (1.0 - f) * t.specular);
+}
+
+// Sky ambient: u_sky_ambient is the sky's irradiance / pi on an up-facing surface. A surface
+// tilted by theta sees (1 + cos theta)/2 of the sky and the rest of the (lit) ground; ao in [0,1]
+// is the material's ambient occlusion.
+vec3 ambient_light(Material m, vec3 n, vec3 v, float ao) {
+    float sky_view = 0.5 + 0.5 * n.z;
+    vec3 ground = GROUND_BOUNCE_ALBEDO * (u_sky_ambient + u_sun_illuminance * max(u_sun_dir.z, 0.0) / PI);
+    vec3 l_amb = u_sky_ambient * sky_view + ground * (1.0 - sky_view);
+    vec3 spec = specular_albedo(m, dot(n, v));
+    vec3 diffuse = m.base_color * (1.0 - m.metallic) * (1.0 - spec);
+    return ao * l_amb * (diffuse + spec);
+}
+
+vec3 shade_surface_ao(Material m, vec3 p, vec3 n, vec3 v, float ao) {
+    vec3 radiance = ambient_light(m, n, v, ao);  // Ra * Ia
+    if (u_sun_dir.z > -0.1)
+        radiance += shadowed_light(m, n, v, u_sun_dir, u_sun_illuminance, light_shadow(SUN_LIGHT, p, n, u_sun_dir));
+    if (u_moon_dir.z > -0.1)
+        radiance += shadowed_light(m, n, v, u_moon_dir, u_moon_illuminance, light_shadow(MOON_LIGHT, p, n, u_moon_dir));
     for (int i = 0; i < u_light_count; ++i) {
+        vec3 d = u_light_pos[i].xyz - p;
+        if (dot(d, d) >= u_light_pos[i].w * u_light_pos[i].w) continue;  // out of range: no cost
         vec3 l;
         vec3 e = light_illuminance(i, p, l);
-        radiance += e * brdf_cos(m, n, v, l);
+        if (max(e.r, max(e.g, e.b)) <= 0.0 || dot(n, l) <= 0.0) continue;
+        radiance += shadowed_light(m, n, v, l, e, light_shadow(i, p, n, l));
     }
     return radiance;
+}
+
+vec3 shade_surface(Material m, vec3 p, vec3 n, vec3 v) {
+    return shade_surface_ao(m, p, n, v, 1.0);
 }

@@ -1,34 +1,14 @@
-"""Built-in models as lists of boxes (local frame: x starboard, y forward, z up; unit size).
-
-Each part: (centre, half-extent, colour multiplier) in units of the entity's scale.
-"""
+"""The built-in model: ``box``, a 1 m cube standing on z = 0 (entity frame: x starboard, y
+forward, z up), drawn through the same path as glTF models. Its material comes from the
+entity's ``color``/``metallic``/``roughness`` (per-instance factors on a white material)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-Part = tuple[tuple[float, float, float], tuple[float, float, float], float]
+from .loader import GLTF_TO_ENTITY, MaterialData, ModelData, NodeData, PrimitiveData, _bounds
 
-MODELS: dict[str, list[Part]] = {
-    "box": [((0.0, 0.0, 0.5), (0.5, 0.5, 0.5), 1.0)],
-    # A ship: hull, bow taper block, superstructure, funnel (scale = beam, length, hull height).
-    "ship": [
-        ((0.0, -0.05, 0.5), (0.5, 0.42, 0.5), 1.0),
-        ((0.0, 0.42, 0.55), (0.32, 0.08, 0.45), 1.0),
-        ((0.0, -0.25, 1.3), (0.38, 0.12, 0.3), 1.6),
-        ((0.0, -0.28, 1.9), (0.1, 0.04, 0.3), 0.4),
-    ],
-    # A pier: deck on piles.
-    "pier": [
-        ((0.0, 0.0, 0.9), (0.5, 0.5, 0.1), 1.0),
-        ((-0.4, -0.4, 0.4), (0.04, 0.02, 0.5), 0.6),
-        ((0.4, -0.4, 0.4), (0.04, 0.02, 0.5), 0.6),
-        ((-0.4, 0.4, 0.4), (0.04, 0.02, 0.5), 0.6),
-        ((0.4, 0.4, 0.4), (0.04, 0.02, 0.5), 0.6),
-        ((-0.4, 0.0, 0.4), (0.04, 0.02, 0.5), 0.6),
-        ((0.4, 0.0, 0.4), (0.04, 0.02, 0.5), 0.6),
-    ],
-}
+BUILTIN = ("box",)
 
 
 def unit_cube() -> np.ndarray:
@@ -44,3 +24,15 @@ def unit_cube() -> np.ndarray:
             corners = [n + a * u + b * v for a, b in ((-1, -1), (1, -1), (1, 1), (-1, -1), (1, 1), (-1, 1))]
             faces += [np.concatenate([c, n]) for c in corners]
     return np.asarray(faces, dtype=np.float32)
+
+
+def box_model() -> ModelData:
+    cube = unit_cube().astype(np.float64)
+    to_gltf = GLTF_TO_ENTITY[:3, :3].T  # the loader maps glTF axes to entity axes above the roots
+    positions = (cube[:, :3] * 0.5 + [0.0, 0.0, 0.5]) @ to_gltf.T
+    normals = cube[:, 3:] @ to_gltf.T
+    vertices = np.hstack([positions, normals, np.zeros((len(cube), 2))]).astype(np.float32)
+    model = ModelData("box", [NodeData("box", -1, np.eye(4))],
+                      [PrimitiveData(0, vertices, np.arange(len(cube), dtype=np.uint32), MaterialData())])
+    _bounds(model)
+    return model

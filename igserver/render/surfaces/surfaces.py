@@ -1,35 +1,88 @@
-"""Surfaces pass: the ground plane (when there is no sea) and the entities' meshes."""
+"""Surfaces pass: shadow maps, the ground plane (when there is no sea) and the entities' models.
+
+Per frame: the visible entities become instances (one camera-relative matrix per entity and glTF
+node, articulated parts posed by name); the key light (sun, or moon when brighter) and the
+brightest spot light render depth-only shadow maps of the casters, but only when something casts
+and the light is up (FrameGraph philosophy: no casters, no shadow pass); then the ground plane and
+every primitive are drawn once, instanced, opaque and masked first, blended last.
+"""
 
 from __future__ import annotations
 
-import math
+from dataclasses import dataclass, field
 
 import moderngl
 import numpy as np
 
-from ...scene.model import Scene
+from ...scene.model import Entity, Scene
+from .. import depth
 from ..camera import CameraView, body_to_world, gl_matrix
 from ..passes import RenderPass
 from ..shaders import set_uniforms
-from .models import MODELS, unit_cube
+from .gpu_models import INSTANCE_FLOATS, SAMPLER_UNITS, GpuModel, ModelCache
+from .shadow_fit import ShadowProjection, fit_directional, fit_spot
+
+SHADOW_UNIT_KEY = 10   # texture units of the shadow maps (materials use 0..4, the sky 12..15)
+SHADOW_UNIT_SPOT = 11
+SPOT_SHADOW_RESOLUTION = 1024
+DEFAULT_SHADOW_TAPS = 4  # from `igserver quality surfaces`: 8 and 16 taps lower the error by < 1 % (README)
+SUN_LIGHT, MOON_LIGHT = -1, -2
+# Slope-scaled depth offset in the shadow pass (factor x max depth slope + units x depth ulp):
+# removes acne on surfaces at a grazing light without a large constant bias (peter-panning).
+# Negative: depth is reversed (render/depth.py), so "away from the light" is smaller.
+POLYGON_OFFSET = (-2.0, -4.0)
 
 
-def entity_parts(scene: Scene, view: CameraView):
-    """Yield (camera-relative model matrix, normal matrix, colour, metallic, roughness) per box."""
-    for entity in scene.entities:
-        rot = body_to_world(entity.heading, entity.pitch, entity.roll)
-        scale = np.asarray(entity.scale)
-        origin = view.relative(entity.position)  # float64 subtraction
-        radius = float(np.linalg.norm(scale)) * 2.0
-        if not view.sphere_visible(entity.position, radius):
-            continue
-        for centre, half, shade in MODELS[entity.model]:
-            model = np.eye(4)
-            model[:3, :3] = rot @ np.diag(scale * np.asarray(half))
-            model[:3, 3] = origin + rot @ (scale * np.asarray(centre))
-            normal = np.linalg.inv(model[:3, :3]).T
-            colour = np.clip(np.asarray(entity.color) * shade, 0.0, 1.0)
-            yield model, normal, colour, entity.metallic, entity.roughness
+@dataclass
+class Batch:
+    """Instances of one model: rows (instances, primitives, 24) per use, 'view' (in the camera
+    frustum) and 'shadow' (casters near the camera), and the casters' bounds (n, 4: centre, radius)."""
+    model: GpuModel
+    rows: dict[str, np.ndarray] = field(default_factory=dict)
+    caster_bounds: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+
+
+def part_poses(entity: Entity) -> dict[str, np.ndarray]:
+    poses = {}
+    for name, pose in entity.parts.items():
+        m = np.eye(4)
+        m[:3, :3] = body_to_world(pose.heading, pose.pitch, pose.roll)
+        m[:3, 3] = pose.offset
+        poses[name] = m
+    return poses
+
+
+def model_instances(entities: list[Entity], model: GpuModel, view: CameraView) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Instance rows (entities, primitives, 24) float32, world bounding-sphere centres (n, 3) and
+    radii (n,) of the entities drawing ``model``, all entities of a model at once."""
+    data = model.model
+    prim_nodes = model.primitive_nodes
+    n, p = len(entities), len(prim_nodes)
+    scales = np.array([e.scale for e in entities], dtype=np.float64)
+    positions = np.array([e.position for e in entities], dtype=np.float64)
+    worlds = np.zeros((n, 4, 4))
+    worlds[:, 3, 3] = 1.0
+    for i, e in enumerate(entities):
+        worlds[i, :3, :3] = body_to_world(e.heading, e.pitch, e.roll) * scales[i]  # R @ diag(scale)
+    worlds[:, :3, 3] = positions - view.position  # float64 subtraction: camera-relative
+    posed = np.array([bool(e.parts) for e in entities])
+    nodes = np.broadcast_to(data.node_stack()[prim_nodes], (n, p, 4, 4))
+    if posed.any():
+        nodes = nodes.copy()
+        for i in np.nonzero(posed)[0]:
+            nodes[i] = data.node_stack(part_poses(entities[i]))[prim_nodes]
+    rows = np.empty((n, p, INSTANCE_FLOATS), np.float32)
+    # world @ node per entity and primitive, written column-major (transposed) into 16 floats
+    rows[..., :16] = np.einsum("eij,epjk->epki", worlds, nodes).reshape(n, p, 16)
+    if data.name == "box":  # the built-in box takes its material from the entity
+        rows[..., 16:20] = np.array([(*e.color, e.metallic) for e in entities])[:, None, :]
+        rows[..., 20] = np.array([e.roughness for e in entities])[:, None]
+    else:
+        rows[..., 16:21] = 1.0
+    rows[..., 21:] = 0.0
+    centres = positions + np.einsum("eij,j->ei", worlds[:, :3, :3], data.bounds_center)
+    radii = data.bounds_radius * scales.max(axis=1) * np.where(posed, 1.25, 1.0)
+    return rows, centres, radii
 
 
 class SurfacesPass(RenderPass):
@@ -37,37 +90,180 @@ class SurfacesPass(RenderPass):
 
     def __init__(self, ctx, programs):
         super().__init__(ctx, programs)
-        self._cube = None
+        self.models = ModelCache(ctx)
+        self._shadow_maps: dict[str, tuple[moderngl.Texture, moderngl.Framebuffer]] = {}
+        self.last_shadow_passes: list[str] = []  # which shadow maps the last frame drew
+        self.shadow_taps = DEFAULT_SHADOW_TAPS  # PCF taps per lookup (quality knob: igserver quality surfaces)
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
-        return (scene.ground.enabled and not scene.ocean.enabled) or bool(scene.entities)
+        return (scene.ground.enabled and not scene.ocean.enabled) or any(e.visible for e in scene.entities)
+
+    # --- instances --------------------------------------------------------------------------
+    def _batches(self, scene: Scene, view: CameraView) -> dict[str, Batch]:
+        groups: dict[str, list[Entity]] = {}
+        for entity in scene.entities:
+            if entity.visible:
+                groups.setdefault(entity.model, []).append(entity)
+        batches: dict[str, Batch] = {}
+        for name, entities in groups.items():
+            model = self.models.get(name)
+            if model is None or not model.primitives:
+                continue
+            rows, centres, radii = model_instances(entities, model, view)
+            in_view = np.array([view.sphere_visible(c, r) for c, r in zip(centres, radii)])
+            casts = np.linalg.norm(centres - view.position, axis=1) - radii < scene.shadows.distance
+            batches[name] = Batch(model, {"view": rows[in_view], "shadow": rows[casts]},
+                                  np.column_stack([centres[casts], radii[casts]]))
+        return batches
+
+    # --- shadows ----------------------------------------------------------------------------
+    def _shadow_target(self, key: str, size: int):
+        held = self._shadow_maps.get(key)
+        if held is None or held[0].size != (size, size):
+            if held is not None:
+                held[1].release()
+                held[0].release()
+            tex, _ = depth.float_depth_texture(self.ctx, (size, size))
+            tex.compare_func = ">="  # lit where the receiver is at least as near the light (reversed depth)
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)  # hardware 2x2 PCF per tap
+            tex.repeat_x = tex.repeat_y = False
+            self._shadow_maps[key] = (tex, self.ctx.framebuffer(depth_attachment=tex))
+        return self._shadow_maps[key]
+
+    def _render_shadow_map(self, key: str, size: int, projection: ShadowProjection, batches) -> moderngl.Texture:
+        tex, fbo = self._shadow_target(key, size)
+        fbo.use()
+        fbo.clear(depth=depth.CLEAR_DEPTH)
+        opaque = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl", {"SHADOW_PASS": 1})
+        tested = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl",
+                                       {"SHADOW_PASS": 1, "ALPHA_TEST": 1})
+        for program in (opaque, tested):
+            program["u_light_view_proj"].write(gl_matrix(projection.view_proj))
+            self._set_samplers(program)
+        self.ctx.enable(moderngl.DEPTH_TEST)
+        self.ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
+        # Same depth convention as the view (reversed, the renderer's NEAREST_WINS stays set).
+        self.ctx.polygon_offset = POLYGON_OFFSET
+        try:
+            self._draw_batches(opaque, batches, "shadow", alpha_tested=False)
+            self._draw_batches(tested, batches, "shadow", alpha_tested=True)
+        finally:
+            self.ctx.polygon_offset = (0.0, 0.0)
+        return tex
+
+    def _shadows(self, frame, batches, scene: Scene) -> dict:
+        """Render the shadow maps this frame needs; return the receivers' uniforms."""
+        uniforms = {"u_key_shadow_light": 0, "u_spot_shadow_light": -1,
+                    "u_shadow_density": scene.shadows.density, "u_shadow_color": tuple(scene.shadows.color),
+                    "u_shadow_softness": scene.shadows.softness,
+                    "u_key_shadow_map": SHADOW_UNIT_KEY, "u_spot_shadow_map": SHADOW_UNIT_SPOT}
+        self.last_shadow_passes = []
+        bounds = np.concatenate([b.caster_bounds for b in batches.values()] or [np.zeros((0, 4))])
+        if not scene.shadows.enabled or len(bounds) == 0:
+            return uniforms
+        view = frame.view
+        key = self._key_light(frame)
+        if key is not None:
+            which, direction = key
+            projection = fit_directional(bounds[:, :3], bounds[:, 3], direction, view.position,
+                                         scene.shadows.resolution, depth.zero_to_one(self.ctx))
+            tex = self._render_shadow_map("key", scene.shadows.resolution, projection, batches)
+            tex.use(location=SHADOW_UNIT_KEY)
+            uniforms.update({"u_key_shadow_light": which, "u_key_shadow_texel": projection.texel})
+            uniforms["u_key_shadow_matrix"] = gl_matrix(projection.map_matrix())
+            self.last_shadow_passes.append("sun" if which == SUN_LIGHT else "moon")
+        spot = self._shadow_spot(frame)
+        if spot is not None:
+            index, light = spot
+            projection = fit_spot(view.relative(light.position), light.spot_dir, light.cos_outer, light.range,
+                                  SPOT_SHADOW_RESOLUTION, depth.zero_to_one(self.ctx))
+            tex = self._render_shadow_map("spot", SPOT_SHADOW_RESOLUTION, projection, batches)
+            tex.use(location=SHADOW_UNIT_SPOT)
+            uniforms.update({"u_spot_shadow_light": index, "u_spot_shadow_texel": projection.texel,
+                             "u_spot_shadow_matrix": gl_matrix(projection.map_matrix())})
+            self.last_shadow_passes.append("spot")
+        return uniforms
+
+    @staticmethod
+    def _key_light(frame):
+        """The directional light worth a shadow map: the sun by day, the moon on a moonlit night."""
+        sun = float(np.max(frame.light.sun_illuminance))
+        moon = float(np.max(frame.light.moon_illuminance))
+        if sun > 0.0 and sun >= moon and frame.celestial.sun_elevation > -1.0:
+            return SUN_LIGHT, frame.celestial.sun_dir
+        if moon > 0.0 and frame.celestial.moon_elevation > -1.0:
+            return MOON_LIGHT, frame.celestial.moon_dir
+        return None
+
+    @staticmethod
+    def _shadow_spot(frame):
+        """The brightest spot light (lights arrive brightest-at-the-camera first)."""
+        for index, light in enumerate(frame.lights):
+            if light.spot_dir is not None:
+                return index, light
+        return None
+
+    # --- drawing ----------------------------------------------------------------------------
+    @staticmethod
+    def _set_samplers(program) -> None:
+        set_uniforms(program, SAMPLER_UNITS)
+
+    def _draw_batches(self, program, batches: dict[str, Batch], use: str, blended: bool | None = None,
+                      alpha_tested: bool | None = None) -> None:
+        """Draw the ``use`` instances of every primitive; ``blended`` / ``alpha_tested`` select
+        primitives by alpha mode (BLEND; MASK or BLEND) when not None."""
+        for batch in batches.values():
+            stacked = batch.rows[use]  # (instances, primitives, 24)
+            if len(stacked) == 0:
+                continue
+            for p, prim in enumerate(batch.model.primitives):
+                mode = prim.material.data.alpha_mode
+                if blended is not None and (mode == 2) != blended:
+                    continue
+                if alpha_tested is not None and (mode != 0) != alpha_tested:
+                    continue
+                set_uniforms(program, prim.material.uniforms)
+                prim.material.bind()
+                prim.draw(program, use, stacked[:, p, :])
+
+    def _receiver_defines(self) -> dict:
+        return {"SURFACE_SHADOWS": 1, "SHADOW_TAPS": self.shadow_taps}
 
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
+        batches = self._batches(scene, view)
+        shadow_uniforms = self._shadows(frame, batches, scene)
         targets.scene_fbo.use()
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
         if scene.ground.enabled and not scene.ocean.enabled:
-            program = self.programs.program("common/fullscreen.vert.glsl", "surfaces/plane.glsl")
+            program = self.programs.program("common/fullscreen.vert.glsl", "surfaces/plane.glsl",
+                                            self._receiver_defines())
             set_uniforms(program, frame.uniforms)
+            set_uniforms(program, shadow_uniforms)
             set_uniforms(program, {
                 "u_plane_height": scene.ground.level - float(view.position[2]),
                 "u_base_color": tuple(scene.ground.color),
                 "u_roughness": scene.ground.roughness,
             })
             self.fullscreen(program)
-        if scene.entities:
-            self._draw_entities(frame)
-
-    def _draw_entities(self, frame) -> None:
-        program = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl")
+        if not any(len(batch.rows["view"]) for batch in batches.values()):
+            return
+        program = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl", self._receiver_defines())
         set_uniforms(program, frame.uniforms)
-        if self._cube is None:
-            vbo = self.ctx.buffer(unit_cube().tobytes())
-            self._cube = self.ctx.vertex_array(program, [(vbo, "3f 3f", "in_position", "in_normal")])
-        for model, normal, colour, metallic, roughness in entity_parts(frame.scene, frame.view):
-            program["u_model"].write(gl_matrix(model))
-            program["u_normal_matrix"].write(gl_matrix(normal))
-            set_uniforms(program, {"u_base_color": tuple(float(c) for c in colour),
-                                   "u_metallic": metallic, "u_roughness": roughness})
-            self._cube.render(moderngl.TRIANGLES)
+        set_uniforms(program, shadow_uniforms)
+        self._set_samplers(program)
+        self._draw_batches(program, batches, "view", blended=False)
+        if any(p.material.data.alpha_mode == 2 for b in batches.values() if len(b.rows["view"])
+               for p in b.model.primitives):
+            # Blended surfaces over the opaque ones: colour only, depth tested but not written.
+            targets.color_fbo.use()
+            self.ctx.enable(moderngl.BLEND)
+            self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+            self.ctx.depth_mask = False
+            try:
+                self._draw_batches(program, batches, "view", blended=True)
+            finally:
+                self.ctx.depth_mask = True
+                self.ctx.disable(moderngl.BLEND)
+                targets.scene_fbo.use()
