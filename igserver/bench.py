@@ -41,8 +41,12 @@ def bench_scene(renderer, scene, frames: int, warmup: int = 3) -> dict:
             per_pass.setdefault(name, []).append(ms)
         totals.append(sum(result.pass_ms.values()))
         frame_ms.append(untimed)
+    # Passes that report geometry (e.g. water: triangles drawn, LOD error bound) add it to the row.
+    stats = {name: dict(p.stats) for name, p in renderer.graph.passes.items()
+             if name in result.passes and getattr(p, "stats", None)}
     return {
         "passes": result.passes,
+        "stats": stats,
         "pass_ms": {k: {"median": statistics.median(v), "p99": percentile(v, 99)} for k, v in per_pass.items()},
         "total_ms": {"median": statistics.median(totals), "p99": percentile(totals, 99)},
         "frame_ms": {"median": statistics.median(frame_ms), "p99": percentile(frame_ms, 99)},
@@ -84,9 +88,11 @@ def run(scenes: list[str], resolutions: list[tuple[int, int]], frames: int, assi
                 row.update(scene=name, resolution=f"{width}x{height}", preset=preset)
                 report["runs"].append(row)
                 passes = "  ".join(f"{k} {v['median']:.2f} ({v['p99']:.2f})" for k, v in row["pass_ms"].items())
+                extra = "".join(f"  |  {k}: " + ", ".join(f"{sk} {sv:.4g}" if isinstance(sv, float) else f"{sk} {sv}"
+                                                           for sk, sv in v.items()) for k, v in row["stats"].items())
                 print(f"{name:18s} {width}x{height} {preset:6s}  frame {row['frame_ms']['median']:.2f} "
                       f"({row['frame_ms']['p99']:.2f})  sum-of-passes {row['total_ms']['median']:.2f} "
-                      f"({row['total_ms']['p99']:.2f})  |  {passes}", flush=True)
+                      f"({row['total_ms']['p99']:.2f})  |  {passes}{extra}", flush=True)
     if json_path:
         with open(json_path, "w") as fh:
             json.dump(report, fh, indent=2)

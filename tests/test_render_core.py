@@ -153,7 +153,10 @@ def test_horizon_row_is_where_geometry_puts_it(renderer, height_m, pitch, tan_bo
     else:
         bottom, top = tan_bottom_top
         camera["frustum"] = {"left": -20.0, "right": 20.0, "bottom": bottom, "top": top}
-    patch = {"camera": camera, "ocean": {"enabled": True}, "ground": {"enabled": False}}
+    # Wind 0: a glassy sea (Hs 0), so the sphere's geometry alone sets the horizon (waves would hide
+    # it from a camera 1 mm above the mean level, as they do at sea).
+    patch = {"camera": camera, "ocean": {"enabled": True}, "ground": {"enabled": False},
+             "weather": {"wind_speed": 0.0}}
     dip = np.arccos(EARTH_RADIUS / (EARTH_RADIUS + height_m))
     tb, tt = np.tan(np.radians(bottom)), np.tan(np.radians(top))
     ndc = (2.0 * np.tan(-dip - np.radians(pitch)) - tt - tb) / (tt - tb)

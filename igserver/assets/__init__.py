@@ -16,7 +16,7 @@ import re
 import stat
 from pathlib import Path
 
-ASSET_KINDS = ("models", "profiles")
+ASSET_KINDS = ("models", "profiles", "bathymetry")
 ASSET_NAME_PATTERN = r"^[A-Za-z0-9_][A-Za-z0-9_.-]{0,63}$"
 MAX_ASSET_BYTES = 256 * 1024 * 1024
 _NAME_RE = re.compile(ASSET_NAME_PATTERN)
@@ -68,7 +68,7 @@ def resolve_asset(kind: str, name: str, suffixes: tuple[str, ...] = ()) -> Path:
             if st.st_size > MAX_ASSET_BYTES:
                 raise AssetError(f"asset {name!r} is larger than {MAX_ASSET_BYTES // 2**20} MiB")
             return real
-    raise AssetError(f"no {kind[:-1]} asset named {name!r} (available: {', '.join(list_assets(kind)) or 'none'})")
+    raise AssetError(f"no {kind.removesuffix('s')} asset named {name!r} (available: {', '.join(list_assets(kind)) or 'none'})")
 
 
 def list_assets(kind: str) -> list[str]:

@@ -225,6 +225,14 @@ class IGClient(_Requests):
     def delete_effect(self, effect_id: str, immediate: bool = False) -> dict | None:
         return _decode(self._send("DELETE", f"/v1/effects/{effect_id}", params={"immediate": immediate}))
 
+    def water_height(self, points, sim_time: float | None = None) -> dict:
+        """Sea surface at ENU points [(x, y), ...]: {"sim_time", "height", "normal", "velocity"} (the
+        renderer's own wave maths and bathymetry; sim_time None = the current state's)."""
+        body = {"points": [list(map(float, p)) for p in points]}
+        if sim_time is not None:
+            body["sim_time"] = float(sim_time)
+        return _decode(self._send("POST", "/v1/query/water-height", body))
+
     def metrics(self) -> str:
         return self.http.get("/metrics").text
 
@@ -309,6 +317,12 @@ class AsyncIGClient(_Requests):
                                     params={"replace": replace, "format": format, "quality": quality})
         return Frame.from_message(_unpack(response.content))
 
+    async def water_height(self, points, sim_time: float | None = None) -> dict:
+        body = {"points": [list(map(float, p)) for p in points]}
+        if sim_time is not None:
+            body["sim_time"] = float(sim_time)
+        return _decode(await self._send("POST", "/v1/query/water-height", body))
+
     async def effects(self) -> list[dict]:
         return _decode(await self._send("GET", "/v1/effects"))
 
@@ -366,6 +380,15 @@ class _StreamProtocol:
         self.url, self.credits, self.format, self.quality, self.auto_ack = url, credits, format, quality, auto_ack
         self.headers = headers or {}
         self._next_id = 0
+        self._early_frames: list[Frame] = []  # frames that arrived while waiting for a query result
+
+    def query_message(self, points, sim_time: float | None) -> tuple[int, bytes]:
+        self._next_id += 1
+        body = {"type": "query", "query": "water-height", "points": [list(map(float, p)) for p in points],
+                "id": self._next_id}
+        if sim_time is not None:
+            body["sim_time"] = float(sim_time)
+        return self._next_id, _pack(body)
 
     def hello(self) -> bytes:
         return _pack({"type": "hello", "credits": self.credits, "format": self.format, "quality": self.quality})
@@ -409,10 +432,25 @@ class FrameStream(_StreamProtocol):
 
     def recv(self, timeout: float | None = 30.0) -> Frame:
         """The next frame (raises IGError when the server rejected one of our messages)."""
+        if self._early_frames:
+            return self._early_frames.pop(0)
         frame = self.parse(self.ws.recv(timeout))
         if self.auto_ack:
             self.ack(frame)
         return frame
+
+    def water_height(self, points, sim_time: float | None = None, timeout: float | None = 30.0) -> dict:
+        """Sea height / normal / velocity at ENU points [(x, y), ...] over the stream (see IGClient)."""
+        qid, message = self.query_message(points, sim_time)
+        self.ws.send(message)
+        while True:
+            reply = _unpack(self.ws.recv(timeout))
+            if reply.get("type") == "query_result" and reply.get("id") == qid:
+                return reply
+            frame = self.parse(_pack(reply))  # an error raises; a frame waits for recv()
+            if self.auto_ack:
+                self.ack(frame)
+            self._early_frames.append(frame)
 
 
 class AsyncFrameStream(_StreamProtocol):

@@ -28,7 +28,7 @@ from ..scene.model import Scene
 from .codec import MSGPACK, PROBLEM_JSON, PROBLEM_MSGPACK, encode, negotiate
 from .openapi import complete_schema
 from .problems import ProblemError, json_pointer
-from .routers import clock, docs, effects, frames, health, state, viewer, ws
+from .routers import clock, docs, effects, frames, health, query, state, viewer, ws
 from .runtime import IGRuntime
 from .security import EdgeGuard
 from .settings import ServerSettings
@@ -131,7 +131,7 @@ def create_app(
     )
     app.state.runtime = runtime
     _install_error_handlers(app)
-    for module in (health, state, frames, ws, effects, clock, viewer, docs):
+    for module in (health, state, frames, ws, effects, clock, query, viewer, docs):
         app.include_router(module.router)
     app.add_middleware(EdgeGuard, settings=runtime.settings)
 

@@ -40,11 +40,15 @@ async def read_limited_body(request: Request, max_bytes: int) -> bytes:
 async def message_body(request: Request, runtime: Runtime) -> Any:
     """The decoded body of a write. The content type is checked first, before a byte is read: a write without
     a JSON or msgpack type is how a foreign web page would send one without a CORS preflight (security.py)."""
+    return await decode_message(request, runtime.settings.limits)
+
+
+async def decode_message(request: Request, limits) -> Any:
+    """``message_body`` under explicit limits (a route with longer arrays, e.g. query points, widens them)."""
     media = base_media_type(request.headers.get("content-type"))
     if not (is_json(media) or is_msgpack(media)):
         raise ProblemError("unsupported_media_type", f"a {request.method} needs Content-Type application/json "
                            f"or {MSGPACK} (got {media or 'none'!r})")
-    limits = runtime.settings.limits
     body = await read_limited_body(request, limits.max_body_bytes)
     if not body:
         raise ProblemError("malformed", "empty body: send a msgpack or JSON map")

@@ -188,11 +188,44 @@ class Weather(Strict):
 
 
 class Bathymetry(Strict):
-    type: Literal["uniform", "slope"] = "uniform"
-    depth: float = Field(1000.0, ge=0.001, le=11_000.0, description="m, depth (offshore depth for slope)")
+    """Sea floor under the water (DESIGN §4.2): depth shortens, refracts, shoals and breaks waves."""
+
+    type: Literal["uniform", "slope", "map"] = Field(
+        "uniform", description="uniform depth; a plane beach (slope); a height-map image asset (map)")
+    depth: float = Field(1000.0, ge=0.001, le=11_000.0,
+                         description="m, depth (offshore depth for slope; depth around the map for map)")
     shore_distance: float = Field(500.0, ge=0.0, le=1e6, description="m, origin-to-shoreline distance (slope)")
     shore_heading: float = Field(0.0, ge=0.0, le=360.0, description="deg, direction from origin to shore")
     slope: float = Field(0.02, gt=0.0, le=1.0, description="bottom slope dz/dx (slope)")
+    map: str | None = Field(None, max_length=64, description="bathymetry asset name: a grey PNG (map)")
+    map_center: tuple[Coordinate, Coordinate] = Field((0.0, 0.0), description="m, ENU (x, y) of the image centre (map)")
+    map_size: tuple[
+        Annotated[float, Field(ge=1.0, le=1e6)], Annotated[float, Field(ge=1.0, le=1e6)]
+    ] = Field((2000.0, 2000.0), description="m, ground size of the image across x (width) and y (height) (map)")
+    map_heading: float = Field(0.0, ge=0.0, le=360.0, description="deg, compass direction of the image's top (map)")
+    map_elevation: tuple[
+        Annotated[float, Field(ge=-11_000.0, le=9000.0)], Annotated[float, Field(ge=-11_000.0, le=9000.0)]
+    ] = Field((-50.0, 10.0), description="m, bottom elevation above the water level of black and of white (map)")
+
+    @model_validator(mode="after")
+    def _map(self) -> "Bathymetry":
+        if self.type == "map" and self.map is None:
+            raise ValueError("bathymetry.type 'map' needs bathymetry.map (an asset name)")
+        if self.map is not None:
+            from ..assets import resolve_asset  # plain names only; the asset must exist (checked here,
+                                                # at the protocol edge, not at render time)
+            resolve_asset("bathymetry", self.map, (".png",))
+        if not self.map_elevation[1] > self.map_elevation[0]:
+            raise ValueError("bathymetry.map_elevation must be (lower, higher)")
+        return self
+
+
+class Swell(Strict):
+    """Long waves from a distant storm, travelling in their own direction (0 m = none)."""
+
+    height: float = Field(0.0, ge=0.0, le=20.0, description="m, significant height of the swell")
+    period: float = Field(10.0, ge=4.0, le=25.0, description="s, peak period")
+    direction: float = Field(270.0, ge=0.0, le=360.0, description="deg, direction the swell comes FROM")
 
 
 class Ocean(Strict):
@@ -200,6 +233,12 @@ class Ocean(Strict):
     sea_state: int | None = Field(None, ge=0, le=9, description="WMO sea state; None = derived from wind")
     level: float = Field(0.0, ge=-500.0, le=9000.0, description="m, mean water level (ENU z)")
     bathymetry: Bathymetry = Field(default_factory=Bathymetry)
+    swell: Swell = Field(default_factory=Swell)
+    steepness: float = Field(
+        0.6, ge=0.0, le=1.0, description="Gerstner steepness Q in deep water (0 round, 1 sharpest without loops)")
+    wave_count: int = Field(24, ge=4, le=64, description="Gerstner waves displaced by the mesh (and the queries)")
+    lod_error: float = Field(1.0, ge=0.25, le=16.0, description="px, screen-space error bound of the sea mesh LOD")
+    detail_resolution: int = Field(128, ge=32, le=512, description="texels per side of each detail normal map")
 
 
 class Effect(Strict):

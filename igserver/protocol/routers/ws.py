@@ -5,9 +5,12 @@ Client -> server (binary msgpack maps):
   ``{"type": "patch", "state": {...}, "id": 7}``   merge a partial state (``"replace"``: a whole state)
   ``{"type": "ack", "frame": 123}``                 one frame consumed: one credit back
   ``{"type": "credit", "n": 4}``                    grant more credits
+  ``{"type": "query", "query": "water-height", "points": [[x, y], ...], "sim_time": t?, "id": 8}``
+                                                    sea height/normal/velocity (routers/query.py)
 Server -> client:
   ``{"type": "frame", "frame", "host_frame", "width", "height", "format", "data", "render_ms", "encode_ms", "ev100", "illuminance_lux"}``
   ``{"type": "error", "id": 7, "problem": {...}}``  a rejected message (RFC 9457 members); nothing changed
+  ``{"type": "query_result", "id": 8, "query": "water-height", "sim_time", "height", "normal", "velocity"}``
 
 Frames flow once the client's first message has arrived (a hello, or the first patch: then the window is
 ``ws_initial_credits``, 2 by default). Each frame sent costs one credit. With none left the server sends nothing; when a credit comes back it
@@ -104,7 +107,10 @@ class Session:
                 tree = decode(message["bytes"], MSGPACK, limits)
                 if isinstance(tree, dict):
                     request_id = tree.get("id")
-                self.handle(tree)
+                if isinstance(tree, dict) and tree.get("type") == "query":
+                    await self.send(await self.answer_query(tree))
+                else:
+                    self.handle(tree)
             except ProblemError as problem:
                 self.runtime.metrics.protocol_errors.inc(kind=problem.kind)
                 reply = {"type": "error", "problem": problem.document("/v1/ws")}
@@ -113,6 +119,20 @@ class Session:
                 await self.send(reply)
             finally:
                 self.greeted.set()
+
+    async def answer_query(self, tree: dict) -> dict:
+        from starlette.concurrency import run_in_threadpool
+
+        from .query import water_height
+
+        if tree.get("query") != "water-height":
+            raise ProblemError("validation", "unknown query", [{"pointer": "#/query", "detail": "expected water-height"}])
+        body = {k: v for k, v in tree.items() if k not in ("type", "query", "id")}
+        result = await run_in_threadpool(water_height, self.runtime.store.scene, body)
+        answer = {"type": "query_result", "query": "water-height", **result}
+        if isinstance(tree.get("id"), (int, str)):
+            answer["id"] = tree["id"]
+        return answer
 
     def handle(self, tree) -> None:
         if not isinstance(tree, dict) or not isinstance(tree.get("type"), str):
@@ -138,7 +158,7 @@ class Session:
             self.configure(tree)
         else:
             raise ProblemError("validation", f"unknown message type {kind!r}",
-                               [{"pointer": "#/type", "detail": "expected hello, patch, replace, ack or credit"}])
+                               [{"pointer": "#/type", "detail": "expected hello, patch, replace, ack, credit or query"}])
 
     def configure(self, tree: dict) -> None:
         unknown = set(tree) - {"type", "credits", "format", "quality", "id"}

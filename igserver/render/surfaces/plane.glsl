@@ -1,5 +1,5 @@
-// Infinite horizontal plane at z = u_plane_height (ENU), ray-cast per pixel: the ground, or
-// with WATER defined the (flat, until the wave pipeline lands) sea surface that reflects the sky.
+// Infinite horizontal plane at z = u_plane_height (ENU), ray-cast per pixel: the ground (the sea
+// is the water pass's Gerstner mesh, render/water/).
 #include "common/frame.glsl"
 #include "common/atmosphere.glsl"
 #include "common/brdf.glsl"
@@ -14,7 +14,6 @@ layout(location = 0) out vec4 out_color;
 layout(location = 1) out float out_distance;
 
 const float EARTH_RADIUS = 6.371e6;  // m
-const float WATER_R0 = 0.02037;  // Fresnel reflectance of air-water at normal incidence (seed 001)
 
 void main() {
     vec3 dir = view_ray(v_uv);
@@ -43,26 +42,8 @@ void main() {
     if (!(t > 0.0)) discard;
     vec3 p = dir * t;
     vec3 v = -dir;
-#ifdef WATER
-    float cos_v = max(dot(n, v), 0.0);
-    float fresnel = WATER_R0 + (1.0 - WATER_R0) * pow(1.0 - cos_v, 5.0);
-    vec3 r = reflect(dir, n);
-    vec3 reflected = sky_radiance(r) + sun_disk(r);
-    // Water body: light scattered back up from below the surface, tinted by absorption.
-    vec3 body = u_base_color * (u_sky_ambient + u_sun_illuminance * max(u_sun_dir.z, 0.0) / PI);
-    Material m = Material(vec3(0.0), 0.0, 0.08);
-    vec3 lit = fresnel * reflected + (1.0 - fresnel) * body;
-    // Point lights glint on the water (specular only).
-    for (int i = 0; i < u_light_count; ++i) {
-        vec3 to_light = u_light_pos[i].xyz - p;
-        float d2 = max(dot(to_light, to_light), 1e-4);
-        vec3 l = to_light * inversesqrt(d2);
-        lit += u_light_color[i].rgb * range_window(sqrt(d2), u_light_pos[i].w) / d2 * brdf_cos(m, n, v, l);
-    }
-#else
     Material m = Material(u_base_color, 0.0, u_roughness);
     vec3 lit = shade_surface(m, p, n, v);
-#endif
     out_color = vec4(pre_expose(apply_aerial_perspective(lit, p)), 1.0);
     out_distance = t;
     gl_FragDepth = window_depth(p);

@@ -1,34 +1,356 @@
-"""Water pass: the sea surface at the ocean level, reflecting the sky (Fresnel, R0 = 0.02037).
+"""Water pass (DESIGN §4.2): the wind-driven Gerstner sea on a CDLOD mesh, shaded with the sky.
 
-Flat for now: the wave pipeline (Gerstner, depth effects, LOD) replaces the surface shape.
+CPU side per frame: the wave set and its bathymetry field come from igserver.water (cached per
+state: integrated once per bathymetry + wave set); phases are reduced in float64 (sim_time 1e9 s is
+as good as 100 s); the LOD selection picks the blocks (lod.py); the detail normal maps are rendered
+for the frame's time (three tiles, summed in the water shader).
+
+Hulls keep the sea out: every entity's hull box (the glTF nodes named ``*hull*``, or the whole built-in
+box) is passed as an inverse box matrix and the water fragment shader discards fragments inside it —
+cheap (a few multiply-adds per fragment, 16 hulls at most) and no extra pass or buffer; a box is
+conservative for a tapered bow (a little sea is cut beside it, none is drawn inside).
 """
 
 from __future__ import annotations
 
+import math
+
 import moderngl
+import numpy as np
 
 from ...scene.model import Scene
-from ..camera import CameraView
+from ...water import sea_surface
+from ...water.spectrum import WaveSet
+from ...water.surface import SeaSurface
+from ..camera import CameraView, body_to_world
 from ..passes import RenderPass
-from ..shaders import set_uniforms
+from ..shaders import assemble, set_uniforms
+from . import lod
 
-# Deep-water body colour (linear albedo of light scattered back out of the water column).
-WATER_BODY_COLOR = (0.004, 0.016, 0.022)
+MAX_WAVES = 64
+MAX_DETAIL = 48
+MAX_HULLS = 16
+DETAIL_MAPS = 3
+DETAIL_RATIO = 23.7  # tile sizes L, L/23.7, L/23.7² (not a power of two: no aligned repetition)
+FIELD_UNIT = 4
+FIELD_SCALAR_UNIT = 5
+DETAIL_UNIT0 = 6
+WATER_BODY_COLOR = (0.004, 0.016, 0.022)  # deep-water albedo, as DEEP_ALBEDO in water.frag.glsl
+
+
+_HULL_CACHE: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
+
+
+def model_hulls(name: str) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(centre, half extent) in the entity frame of a model's hull boxes: the glTF nodes named ``*hull*``
+    (their axis-aligned box in the entity frame), or the whole built-in box. Other parts (decks, piles,
+    superstructure) let the sea show between them."""
+    if name not in _HULL_CACHE:
+        from ..surfaces.loader import load_model
+        from ..surfaces.models import BUILTIN, box_model
+
+        try:
+            model = box_model() if name in BUILTIN else load_model(name)
+        except Exception:  # noqa: BLE001 - a model the surfaces pass cannot draw has no hull either
+            _HULL_CACHE[name] = []
+            return []
+        matrices = model.node_matrices()
+        boxes = []
+        for prim in model.primitives:
+            if name not in BUILTIN and "hull" not in model.nodes[prim.node].name.lower():
+                continue
+            p = np.c_[prim.vertices[:, :3].astype(np.float64), np.ones(len(prim.vertices))] @ matrices[prim.node].T
+            lo, hi = p[:, :3].min(axis=0), p[:, :3].max(axis=0)
+            boxes.append((0.5 * (lo + hi), 0.5 * (hi - lo)))
+        _HULL_CACHE[name] = boxes
+    return _HULL_CACHE[name]
+
+
+def hull_boxes(scene: Scene, view: CameraView) -> list[np.ndarray]:
+    """Inverse 4x4 matrices (camera-relative world → [-1, 1]³) of the hulls standing or floating in the sea."""
+    boxes = []
+    for entity in scene.entities:
+        if not entity.visible:
+            continue
+        rot = body_to_world(entity.heading, entity.pitch, entity.roll)
+        scale = np.asarray(entity.scale)
+        for centre, half in model_hulls(entity.model):
+            m = np.eye(4)
+            m[:3, :3] = rot @ np.diag(scale * half)
+            m[:3, 3] = view.relative(entity.position) + rot @ (scale * centre)
+            lowest = m[2, 3] - np.sum(np.abs(m[2, :3]))
+            if lowest + view.position[2] > scene.ocean.level + 30.0:  # well above any sea: not in it
+                continue
+            boxes.append(np.linalg.inv(m))
+    return boxes[:MAX_HULLS]
+
+
+def detail_tiles(sea: SeaSurface, t: float) -> list[tuple[float, np.ndarray]]:
+    """Per detail map: (tile side L in m, waves (m, n, A k, phase) snapped to that tile's lattice)."""
+    d: WaveSet = sea.detail
+    if d.n == 0:
+        return [(1.0, np.zeros((0, 4)))] * DETAIL_MAPS
+    longest = 2.0 * math.pi / float(np.min(d.k))
+    sizes = [longest * 1.01 / DETAIL_RATIO**c for c in range(DETAIL_MAPS)]
+    wavelengths = 2.0 * math.pi / d.k
+    tiles = []
+    for c, size in enumerate(sizes):
+        lower = sizes[c + 1] if c + 1 < DETAIL_MAPS else 0.0
+        pick = (wavelengths <= size) & (wavelengths > lower)
+        kvec = d.k[pick, None] * d.direction[pick]
+        cycles = np.rint(kvec * size / (2.0 * math.pi))
+        cycles[np.all(cycles == 0, axis=1)] = (1.0, 0.0)
+        k_snap = np.linalg.norm(cycles, axis=1) * 2.0 * math.pi / size
+        omega = np.sqrt(9.80665 * k_snap)
+        phase = np.mod(d.phase[pick] - np.mod(omega * t, 2.0 * math.pi), 2.0 * math.pi)
+        tiles.append((size, np.column_stack([cycles, d.amplitude[pick] * k_snap, phase])[:MAX_DETAIL]))
+    return tiles
+
+
+_FOAM_CACHE: dict[int, float] = {}
+
+
+def _foam_threshold(sea: SeaSurface, wind: float) -> float:
+    key = id(sea)
+    if key not in _FOAM_CACHE:
+        if len(_FOAM_CACHE) > 16:
+            _FOAM_CACHE.clear()
+        _FOAM_CACHE[key] = sea.foam_jacobian(wind)
+    return _FOAM_CACHE[key]
 
 
 class WaterPass(RenderPass):
     name = "water"
 
+    def __init__(self, ctx, programs):
+        super().__init__(ctx, programs)
+        self._patch = None
+        self._field_key = None
+        self._field_tex = None
+        self._detail = None
+        self._detail_fbos = None
+        self._instances = None
+        self.stats: dict = {}
+
     def needed(self, scene: Scene, view: CameraView) -> bool:
         return scene.ocean.enabled
 
+    # ---- resources ------------------------------------------------------------------------------
+    def _program(self, field: bool, hulls: bool = False) -> moderngl.Program:
+        defines = {"MAX_WAVES": MAX_WAVES, "MAX_HULLS": MAX_HULLS}
+        if field:
+            defines["WATER_FIELD"] = 1
+        if hulls:
+            defines["WATER_HULLS"] = 1
+        return self.programs.program("water/water.vert.glsl", "water/water.frag.glsl", defines)
+
+    def capture_program(self, field: bool) -> moderngl.Program:
+        """The water vertex shader alone, capturing v_rel by transform feedback (tests, quality)."""
+        key = ("water-capture", field)
+        cache = self.programs._programs
+        if key not in cache:
+            defines = {"MAX_WAVES": MAX_WAVES, "MAX_HULLS": MAX_HULLS, **({"WATER_FIELD": 1} if field else {})}
+            cache[key] = self.ctx.program(vertex_shader=assemble("water/water.vert.glsl", "VERTEX", defines),
+                                          varyings=["v_rel"])
+        return cache[key]
+
+    def _patch_buffer(self) -> moderngl.Buffer:
+        if self._patch is None:
+            g = lod.PATCH_QUADS
+            i, j = np.meshgrid(np.arange(g + 1), np.arange(g + 1), indexing="ij")
+            verts = np.column_stack([i.ravel(), j.ravel()]).astype(np.float32)
+            idx = []
+            for a in range(g):
+                for b in range(g):
+                    v00, v10, v01, v11 = a * (g + 1) + b, (a + 1) * (g + 1) + b, a * (g + 1) + b + 1, (a + 1) * (g + 1) + b + 1
+                    idx += [v00, v10, v11, v00, v11, v01]
+            self._patch = (self.ctx.buffer(verts.tobytes()), self.ctx.buffer(np.asarray(idx, dtype=np.int32).tobytes()))
+        return self._patch
+
+    def _upload_field(self, sea: SeaSurface) -> None:
+        if self._field_key is sea:
+            return
+        if self._field_tex is not None:
+            for tex in self._field_tex:
+                tex.release()
+            self._field_tex = None
+        self._field_key = sea
+        f = sea.field
+        if f is None:
+            return
+        n, nu, nv = f.residual.shape
+        data = np.stack([f.residual, f.factor, f.kvec[..., 0], f.kvec[..., 1]], axis=-1)  # (n, nu, nv, 4)
+        data = np.ascontiguousarray(np.transpose(data, (0, 2, 1, 3)), dtype=np.float32)  # rows = v
+        field = self.ctx.texture_array((nu, nv, n), 4, data.tobytes(), dtype="f4")
+        scalar = np.stack([f.steepness, f.depth, f.breaking, np.zeros_like(f.depth)], axis=-1)
+        scalar = np.ascontiguousarray(scalar.transpose(1, 0, 2), dtype=np.float32)
+        scalar_tex = self.ctx.texture((nu, nv), 4, scalar.tobytes(), dtype="f4")
+        for tex in (field, scalar_tex):
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self._field_tex = (field, scalar_tex)
+
+    def _render_detail(self, sea: SeaSurface, t: float, resolution: int) -> list[tuple[float, np.ndarray]]:
+        if self._detail is None or self._detail[0].size[0] != resolution:
+            if self._detail is not None:
+                for tex, fbo in zip(self._detail, self._detail_fbos):
+                    fbo.release()
+                    tex.release()
+            self._detail = [self.ctx.texture((resolution, resolution), 4, dtype="f2") for _ in range(DETAIL_MAPS)]
+            self._detail_fbos = [self.ctx.framebuffer(color_attachments=[t_]) for t_ in self._detail]
+            for tex in self._detail:
+                tex.repeat_x = tex.repeat_y = True
+                tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+        program = self.programs.program("common/fullscreen.vert.glsl", "water/detail.frag.glsl",
+                                        {"MAX_DETAIL": MAX_DETAIL})
+        tiles = detail_tiles(sea, t)
+        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+        for (size, waves), tex, fbo in zip(tiles, self._detail, self._detail_fbos):
+            fbo.use()
+            table = np.zeros((MAX_DETAIL, 4), dtype=np.float32)
+            table[: len(waves)] = waves
+            program["u_detail_count"].value = len(waves)
+            program["u_detail_wave"].write(table.tobytes())
+            self.fullscreen(program)
+            tex.build_mipmaps()
+        return tiles
+
+    # ---- per frame ------------------------------------------------------------------------------
+    def wave_uniforms(self, sea: SeaSurface, scene: Scene, view: CameraView) -> dict:
+        t = scene.time.sim_time
+        cam_xy = view.position[:2]
+        w = sea.waves
+        table = np.zeros((MAX_WAVES, 4), dtype=np.float32)
+        n = min(w.n, MAX_WAVES)
+        table[:n, 0:2] = (w.k[:, None] * w.direction)[:n]
+        table[:n, 2] = w.amplitude[:n]
+        table[:n, 3] = w.omega[:n]
+        phases = np.zeros(MAX_WAVES, dtype=np.float32)
+        phases[:n] = sea.phase_offsets(t, cam_xy)[:n]
+        u = {"u_wave_count": n, "u_wave_norm": float(max(n, 1)), "u_steepness": sea.steepness,
+             "u_cam_height": float(view.position[2] - scene.ocean.level),
+             "u_level_z": float(scene.ocean.level - view.position[2]),
+             "u_patch_quads": float(lod.PATCH_QUADS)}
+        if sea.field is not None:
+            g = sea.field.grid
+            u.update({"u_field_origin": tuple(float(x) for x in g.origin - cam_xy),
+                      "u_field_u": tuple(float(x) for x in g.u), "u_field_v": tuple(float(x) for x in g.v),
+                      "u_field_cell": (float(g.du), float(g.dv)), "u_field_size": (g.nu, g.nv),
+                      "u_field": FIELD_UNIT, "u_field_scalar": FIELD_SCALAR_UNIT})
+        return {"uniforms": u, "table": table.tobytes(), "phases": phases.tobytes()}
+
+    def _bind_waves(self, program, sea, scene, view) -> None:
+        wu = self.wave_uniforms(sea, scene, view)
+        set_uniforms(program, wu["uniforms"])
+        program["u_wave"].write(wu["table"])
+        program["u_wave_phase"].write(wu["phases"])
+        if sea.field is not None:
+            self._upload_field(sea)
+            self._field_tex[0].use(FIELD_UNIT)
+            self._field_tex[1].use(FIELD_SCALAR_UNIT)
+
+    def select(self, sea: SeaSurface, scene: Scene, view: CameraView) -> lod.LodSelection:
+        cam = scene.camera
+        fov = cam.fov_y if cam.frustum is None else cam.frustum.top - cam.frustum.bottom
+        return lod.select(view, float(view.position[2] - scene.ocean.level), sea.waves.k, sea.waves.amplitude
+                          * (np.max(sea.field.factor, axis=(1, 2)) if sea.field is not None else 1.0),
+                          fov, scene.ocean.lod_error, view.far)
+
     def execute(self, frame, targets) -> None:
-        program = self.programs.program("common/fullscreen.vert.glsl", "surfaces/plane.glsl", {"WATER": 1})
+        scene, view = frame.scene, frame.view
+        sea = sea_surface(scene.ocean, scene.weather)
+        t = scene.time.sim_time
+        tiles = self._render_detail(sea, t, scene.ocean.detail_resolution)
+        selection = self.select(sea, scene, view)
+        hulls = hull_boxes(scene, view)
+        program = self._program(sea.field is not None, bool(hulls))
         set_uniforms(program, frame.uniforms)
-        set_uniforms(program, {
-            "u_plane_height": frame.scene.ocean.level - float(frame.view.position[2]),
-            "u_base_color": WATER_BODY_COLOR,
-        })
+        if sea.field is not None:
+            self._upload_field(sea)
+        self._bind_waves(program, sea, scene, view)
+        morph = np.zeros((24, 2), dtype=np.float32)
+        morph[:] = np.minimum(selection.morph, 1e30)
+        program["u_morph"].write(morph.tobytes())
+        detail_map = np.zeros((3, 3), dtype=np.float32)
+        for c, (size, _) in enumerate(tiles):
+            detail_map[c] = (1.0 / size, *(np.mod(view.position[:2], size) / size))
+            self._detail[c].use(DETAIL_UNIT0 + c)
+            set_uniforms(program, {f"u_detail{c}": DETAIL_UNIT0 + c})
+        set_uniforms(program, {"u_detail_map": detail_map.tobytes(), "u_min_slope_var": 2e-4})
+        set_uniforms(program, {"u_foam_jacobian": _foam_threshold(sea, scene.weather.wind_speed
+                                                                  if scene.ocean.sea_state is None else sea.spectrum.wind)})
+        if "u_hull_count" in program:
+            program["u_hull_count"].value = len(hulls)
+            if hulls:
+                mats = np.zeros((MAX_HULLS, 4, 4), dtype=np.float32)
+                mats[: len(hulls)] = np.transpose(np.asarray(hulls), (0, 2, 1))
+                program["u_hull_inv"].write(mats.tobytes())
+        self.stats = {"blocks": int(len(selection.nodes)), "triangles": selection.triangles,
+                      "lod_error_px": selection.error_bound_px, "error_sphere_m": selection.error_sphere,
+                      "finest_spacing_m": selection.finest_spacing, "waves": sea.n}
+        if len(selection.nodes) == 0:
+            return
+        vao = self._vao(program, selection.nodes)
         targets.scene_fbo.use()
         self.ctx.enable(moderngl.DEPTH_TEST)
+        self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
+        vao.render(moderngl.TRIANGLES, instances=len(selection.nodes))
+        self._fill_under_crests(frame, selection.error_sphere)
+
+    def _fill_under_crests(self, frame, sphere: float) -> None:
+        """A camera inside the wave envelope (lower than the crests) looks under the mesh in places, and one
+        closer to the water than the near plane sees the mesh clipped below it: those rays meet the water
+        body. Draw the surfaces' ray-cast sphere below every trough (level − ΣA, no near clip) in
+        deep-water colour; the depth test keeps the mesh wherever it is nearer. Only then: it costs a
+        full-screen pass."""
+        height = float(frame.view.position[2]) - frame.scene.ocean.level
+        if height > 1.05 * sphere + frame.view.near:
+            return
+        program = self.programs.program("common/fullscreen.vert.glsl", "surfaces/plane.glsl")
+        set_uniforms(program, frame.uniforms)
+        set_uniforms(program, {"u_plane_height": -height - 1.05 * sphere, "u_base_color": WATER_BODY_COLOR,
+                               "u_roughness": 1.0})
         self.fullscreen(program)
+
+    def capture(self, scene: Scene) -> tuple[lod.LodSelection, np.ndarray]:
+        """The displaced mesh the GPU would draw for ``scene``: the water vertex shader run by transform
+        feedback on every selected block. Returns (selection, camera-relative positions (N, G+1, G+1, 3))."""
+        from ..camera import make_view
+
+        view = make_view(scene.camera)
+        sea = sea_surface(scene.ocean, scene.weather)
+        selection = self.select(sea, scene, view)
+        program = self.capture_program(sea.field is not None)
+        self._bind_waves(program, sea, scene, view)
+        morph = np.minimum(selection.morph, 1e30).astype(np.float32)
+        program["u_morph"].write(morph.tobytes())
+        verts, _ = self._patch_buffer()
+        g1 = lod.PATCH_QUADS + 1
+        nodes = np.ascontiguousarray(selection.nodes, dtype=np.float32)
+        inst = self.ctx.buffer(nodes.tobytes())
+        out = self.ctx.buffer(reserve=len(nodes) * g1 * g1 * 12)
+        vao = self.ctx.vertex_array(program, [(verts, "2f", "in_grid"), (inst, "4f/i", "in_node")])
+        # A draw needs a complete framebuffer even with the rasterizer off (the headless default has none).
+        target = self.ctx.simple_framebuffer((1, 1))
+        target.use()
+        vao.transform(out, mode=moderngl.POINTS, vertices=g1 * g1, instances=len(nodes))
+        positions = np.frombuffer(out.read(), dtype=np.float32).reshape(len(nodes), g1, g1, 3).copy()
+        for obj in (vao, inst, out, target):
+            obj.release()
+        return selection, positions
+
+    def _vao(self, program, nodes: np.ndarray) -> moderngl.VertexArray:
+        verts, index = self._patch_buffer()
+        data = np.ascontiguousarray(nodes, dtype=np.float32).tobytes()
+        if self._instances is None or self._instances.size < len(data):
+            if self._instances is not None:
+                self._instances.release()
+            self._instances = self.ctx.buffer(reserve=max(len(data), 4096), dynamic=True)
+            self._vaos_water = {}
+        self._instances.write(data)
+        key = id(program)
+        vaos = getattr(self, "_vaos_water", {})
+        if key not in vaos:
+            vaos[key] = self.ctx.vertex_array(program, [(verts, "2f", "in_grid"), (self._instances, "4f/i", "in_node")],
+                                              index_buffer=index)
+            self._vaos_water = vaos
+        return vaos[key]

@@ -1,0 +1,85 @@
+"""Host queries about the rendered world: the sea's height, normal and surface velocity at points.
+
+``POST /v1/query/water-height`` with ``{"points": [[x, y], ...], "sim_time": t?}`` (ENU metres; sim_time
+defaults to the current state's) answers ``{"sim_time", "height": [...], "normal": [[nx, ny, nz]...],
+"velocity": [[vx, vy, vz]...]}``: heights are ENU z (the ocean level included), computed on the CPU
+with the very maths and bathymetry the water shader uses (igserver.water), independent of camera and
+LOD. The same query travels over the WebSocket as ``{"type": "query", "query": "water-height", ...}``.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+import numpy as np
+from fastapi import APIRouter, Depends, Request
+from starlette.concurrency import run_in_threadpool
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from ...scene.model import WORLD_LIMIT_M, Scene
+from ..dependencies import ReplyFormat, Runtime, decode_message, reply
+from ..models import MSGPACK_ALSO, PROBLEM_RESPONSES, body_doc
+from ..problems import ProblemError, from_validation_error
+
+router = APIRouter(prefix="/v1/query", tags=["query"])
+
+MAX_QUERY_POINTS = 10_000
+# strict: numbers only (JSON true/"1" are not coordinates), ints accepted as floats
+Coordinate = Annotated[float, Field(strict=True, ge=-WORLD_LIMIT_M, le=WORLD_LIMIT_M, allow_inf_nan=False)]
+
+
+class WaterHeightQuery(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    points: list[tuple[Coordinate, Coordinate]] = Field(
+        ..., min_length=1, max_length=MAX_QUERY_POINTS, description="ENU (x, y) in m")
+    sim_time: float | None = Field(None, ge=0.0, le=1e12, allow_inf_nan=False, strict=True,
+                                   description="s; None = the current state's sim_time")
+
+
+async def query_body(request: Request, runtime: Runtime):
+    """The body under the server's limits, arrays widened to twice the point bound: a longer list of
+    points is a validation error of this route (422 with its pointer), not a generic array limit."""
+    limits = runtime.settings.limits
+    return await decode_message(request, limits.model_copy(
+        update={"max_array": max(limits.max_array, 2 * MAX_QUERY_POINTS)}))
+
+
+QueryMessage = Annotated[object, Depends(query_body)]
+
+
+class WaterHeightReply(BaseModel):
+    sim_time: float
+    height: list[float] = Field(description="m, ENU z of the sea surface above each point")
+    normal: list[tuple[float, float, float]] = Field(description="unit surface normal (ENU)")
+    velocity: list[tuple[float, float, float]] = Field(description="m/s, velocity of the surface particle")
+
+
+def water_height(scene: Scene, tree, prefix: tuple = ()) -> dict:
+    """Validate a water-height query against ``scene`` and answer it (raises ProblemError)."""
+    try:
+        query = WaterHeightQuery.model_validate(tree)
+    except ValidationError as exc:
+        raise from_validation_error(exc, prefix) from None
+    t = scene.time.sim_time if query.sim_time is None else query.sim_time
+    if not scene.ocean.enabled:
+        raise ProblemError("conflict", "the scene has no sea (ocean.enabled is false)",
+                           [{"pointer": "#/ocean/enabled", "detail": "false"}])
+    from ...water import sea_surface
+
+    sea = sea_surface(scene.ocean, scene.weather)
+    result = sea.query(np.asarray(query.points, dtype=np.float64), t)
+    return {"sim_time": t, "height": (result["height"] + scene.ocean.level).tolist(),
+            "normal": result["normal"].tolist(), "velocity": result["velocity"].tolist()}
+
+
+@router.post(
+    "/water-height",
+    response_model=WaterHeightReply,
+    summary="Sea surface height, normal and velocity at points (CPU, same maths as the renderer)",
+    openapi_extra=body_doc(WaterHeightQuery.model_json_schema(), "points and optional sim_time"),
+    responses={200: {"content": MSGPACK_ALSO}, **PROBLEM_RESPONSES},
+)
+async def query_water_height(runtime: Runtime, message: QueryMessage, fmt: ReplyFormat):
+    # numpy work off the event loop: streams keep flowing while a big query is answered
+    return reply(await run_in_threadpool(water_height, runtime.store.scene, message), fmt)

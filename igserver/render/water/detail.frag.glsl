@@ -1,0 +1,24 @@
+// One detail normal map (a tile of side L): the slopes of the spectrum's high-frequency waves that
+// the mesh cannot carry, on a lattice (k = 2 pi (m, n) / L) so the tile repeats seamlessly.
+// Stored: (sx, sy, sx^2, sy^2); after mip-filtering, E[s^2] - E[s]^2 is the slope variance a
+// texel no longer resolves, which the water shader turns into roughness (LEAN mapping).
+#ifndef MAX_DETAIL
+#define MAX_DETAIL 48
+#endif
+uniform int u_detail_count;
+uniform vec4 u_detail_wave[MAX_DETAIL];  // m, n (cycles per tile), slope amplitude A k, phase (rad)
+
+in vec2 v_uv;
+layout(location = 0) out vec4 out_slope;
+
+const float TAU = 6.28318530717959;
+
+void main() {
+    vec2 s = vec2(0.0);
+    for (int i = 0; i < u_detail_count; ++i) {
+        vec4 w = u_detail_wave[i];
+        float theta = TAU * dot(w.xy, v_uv) + w.w;
+        s += w.z * normalize(w.xy) * cos(theta);
+    }
+    out_slope = vec4(s, s * s);
+}

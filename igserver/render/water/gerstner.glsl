@@ -1,0 +1,112 @@
+// Gerstner sea surface: the GLSL twin of igserver/water/surface.py (same symbols, same formulas).
+// For a camera-relative rest point p (m) and wave i:
+//   theta_i = k_i.p + phase_i + R_i(p)                 (phase_i: CPU-reduced k_i.cam - w_i t + phi_i)
+//   a_i = A_i F_i(p) f_i,   b_i = min(Q(p) / (|K_i| n), a_i)
+//   P = (p + sum b_i Khat_i cos theta_i,  sum a_i sin theta_i)
+// f_i fades a wave out where the mesh spacing cannot carry it (LOD): waves of k*spacing between
+// pi/2 and pi (4 to 2 vertices per wavelength); their slope variance goes to the roughness instead.
+#ifndef MAX_WAVES
+#define MAX_WAVES 64
+#endif
+
+uniform int u_wave_count;
+uniform vec4 u_wave[MAX_WAVES];         // xy: k_ref * D (rad/m), z: A (m), w: omega (rad/s)
+uniform float u_wave_phase[MAX_WAVES];  // rad in [0, 2 pi)
+uniform float u_wave_norm;              // n, the number of mesh waves
+uniform float u_steepness;              // Q over the reference depth (no field)
+
+#ifdef WATER_FIELD
+uniform sampler2DArray u_field;         // per wave: R (rad), F, Kx, Ky (rad/m)
+uniform sampler2D u_field_scalar;       // Q(x), depth (m), breaking (0..1)
+uniform vec2 u_field_origin;            // m, camera-relative position of node (0, 0)
+uniform vec2 u_field_u;                 // unit axes
+uniform vec2 u_field_v;
+uniform vec2 u_field_cell;              // m, du, dv
+uniform ivec2 u_field_size;             // nu, nv
+#endif
+
+struct SeaSample {
+    vec3 pos;        // camera-relative displacement: xy displaced rest point, z height above mean level
+    vec3 normal;
+    float jacobian;  // horizontal Jacobian det(dP/dp): 1 flat, -> 0 where crests pinch (foam)
+    float lost_var;  // slope variance of the waves faded out by the LOD
+    float depth;     // m (1e4 where no field: deep)
+    float breaking;  // 0 unbroken .. 1: how much the breaking cap cut the waves (surf zone)
+};
+
+#ifdef WATER_FIELD
+// Bilinear weights of node corners, exactly as surface.py's _bilinear_nodes.
+void field_cell(vec2 p, out ivec2 i0, out ivec2 i1, out vec2 t) {
+    vec2 d = p - u_field_origin;
+    vec2 g = vec2(dot(d, u_field_u) / u_field_cell.x, dot(d, u_field_v) / u_field_cell.y);
+    g = clamp(g, vec2(0.0), vec2(u_field_size - 1));
+    if (u_field_size.y == 1) g.y = 0.0;
+    i0 = min(ivec2(floor(g)), max(u_field_size - 2, ivec2(0)));
+    i1 = min(i0 + 1, u_field_size - 1);
+    t = g - vec2(i0);
+}
+vec4 field_at(sampler2DArray tex, ivec2 i0, ivec2 i1, vec2 t, int layer) {
+    // texel (x, y) = node (u index, v index)
+    vec4 a = texelFetch(tex, ivec3(i0.x, i0.y, layer), 0), b = texelFetch(tex, ivec3(i1.x, i0.y, layer), 0);
+    vec4 c = texelFetch(tex, ivec3(i0.x, i1.y, layer), 0), d = texelFetch(tex, ivec3(i1.x, i1.y, layer), 0);
+    return (a * (1.0 - t.x) + b * t.x) * (1.0 - t.y) + (c * (1.0 - t.x) + d * t.x) * t.y;
+}
+#endif
+
+SeaSample sea_displace(vec2 p, float spacing) {
+    float q = u_steepness;
+    float depth = 1e4;
+    float breaking = 0.0;
+#ifdef WATER_FIELD
+    ivec2 i0, i1;
+    vec2 t;
+    field_cell(p, i0, i1, t);
+    vec3 s00 = texelFetch(u_field_scalar, i0, 0).xyz, s10 = texelFetch(u_field_scalar, ivec2(i1.x, i0.y), 0).xyz;
+    vec3 s01 = texelFetch(u_field_scalar, ivec2(i0.x, i1.y), 0).xyz, s11 = texelFetch(u_field_scalar, i1, 0).xyz;
+    vec3 sc = (s00 * (1.0 - t.x) + s10 * t.x) * (1.0 - t.y) + (s01 * (1.0 - t.x) + s11 * t.x) * t.y;
+    q = sc.x;
+    depth = sc.y;
+    breaking = sc.z;
+#endif
+    vec2 disp = vec2(0.0);
+    float height = 0.0;
+    float jxx = 1.0, jxy = 0.0, jyx = 0.0, jyy = 1.0;
+    vec2 grad = vec2(0.0);
+    float lost = 0.0;
+    for (int i = 0; i < u_wave_count; ++i) {
+        vec4 w = u_wave[i];
+        float theta = dot(w.xy, p) + u_wave_phase[i];
+        float a = w.z;
+        vec2 kv = w.xy;
+#ifdef WATER_FIELD
+        vec4 f = field_at(u_field, i0, i1, t, i);
+        theta += f.x;
+        a *= f.y;
+        kv = f.zw;
+#endif
+        float kmag = max(length(kv), 1e-12);
+        float fade = 1.0 - smoothstep(0.5 * PI, PI, kmag * spacing);
+        lost += (1.0 - fade) * 0.5 * (kmag * a) * (kmag * a);
+        a *= fade;
+        float b = min(q / (kmag * u_wave_norm), a);
+        float s = sin(theta), c = cos(theta);
+        vec2 bk = (b / kmag) * kv;  // b * Khat
+        disp += bk * c;
+        height += a * s;
+        jxx -= bk.x * s * kv.x;
+        jxy -= bk.x * s * kv.y;
+        jyx -= bk.y * s * kv.x;
+        jyy -= bk.y * s * kv.y;
+        grad += a * c * kv;
+    }
+    vec3 tx = vec3(jxx, jyx, grad.x);
+    vec3 ty = vec3(jxy, jyy, grad.y);
+    SeaSample r;
+    r.pos = vec3(p + disp, height);
+    r.normal = normalize(cross(tx, ty));
+    r.jacobian = jxx * jyy - jxy * jyx;
+    r.lost_var = lost;
+    r.depth = depth;
+    r.breaking = breaking;
+    return r;
+}

@@ -1,0 +1,153 @@
+"""Sea mesh level of detail: CDLOD (Strugar 2009), the camera-centred form of the paper's
+geomipmapping (DESIGN §4.2 allows it), chosen because it meets the same requirements with one
+draw call and no stitching index buffers.
+
+- A quadtree of square blocks anchored to the world (a block of level l has side S·2^l; every block
+  is one instanced G×G patch), so vertices do not swim as the camera moves.
+- Level per block from a screen-space error: a level with vertex spacing Δ misrepresents wave i by
+  about A_i·min(1, (k_iΔ)²/8) (linear interpolation of a sinusoid), bounded by the error sphere of
+  radius Σ A_i. Seen at distance d that error covers ε·(H_px/2)/(d·tan(fov/2)) pixels; ranges[l] is
+  the distance beyond which level l's error stays below ``lod_error`` pixels.
+- Frustum culling of each block's bounding sphere (the block, raised and lowered by Σ A_i, dropped by
+  the earth's curvature).
+- Geomorphing: in the outer part of a level's range the odd vertices slide onto the next coarser
+  grid (morph 0 → 1), so a block meets a coarser neighbour with exactly the coarser vertices (no
+  cracks, no T-junctions) and nothing pops when a block changes level. This needs each level's range
+  to reach past the shared border: ranges[l] ≥ 2·ranges[l−1] and ranges[l] ≥ MORPH_MARGIN·S_l.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..camera import CameraView
+
+PATCH_QUADS = 8  # G: quads per block side
+MAX_LEVELS = 24
+MORPH_START = 0.5  # morph over the outer half of each level's ring
+MORPH_MARGIN = 6.0  # ranges[l] ≥ 6·S_l: the ring is wide enough for the neighbour rule (see above)
+EARTH_RADIUS = 6.371e6
+
+
+@dataclass(frozen=True)
+class LodSelection:
+    nodes: np.ndarray  # (N, 4) float32: camera-relative x0, y0 of the block corner, side (m), level
+    morph: np.ndarray  # (MAX_LEVELS, 2): morph start, end distance (m) per level
+    ranges: np.ndarray  # per level, m
+    finest_spacing: float  # m, vertex spacing of level 0
+    error_bound_px: float  # the screen-space error each block satisfies (px)
+    error_sphere: float  # m, Σ A_i
+
+    @property
+    def triangles(self) -> int:
+        return int(len(self.nodes)) * PATCH_QUADS * PATCH_QUADS * 2
+
+
+def level_error(k: np.ndarray, amplitude: np.ndarray, spacing: float) -> float:
+    """World-space error (m) of a mesh with vertex ``spacing`` showing waves (k, A): linear
+    interpolation misses a sinusoid by A·(kΔ)²/8. Waves the vertex shader fades out at this spacing
+    (kΔ from π/2 to π, gerstner.glsl) leave the geometry for the shading (their slopes become
+    roughness), so they count with their remaining weight only."""
+    x = k * spacing
+    kept = 1.0 - np.clip((x - 0.5 * math.pi) / (0.5 * math.pi), 0.0, 1.0)
+    return float(np.sum(amplitude * kept * np.minimum(1.0, x * x / 8.0)))
+
+
+def horizon_distance(height: float) -> float:
+    h = max(height, 0.0)
+    return math.sqrt(h * (2.0 * EARTH_RADIUS + h))
+
+
+def select(view: CameraView, cam_height: float, k: np.ndarray, amplitude: np.ndarray, fov_y_deg: float,
+           lod_error_px: float, max_distance: float) -> LodSelection:
+    """Blocks to draw this frame. ``cam_height``: camera height above the mean sea level (m)."""
+    sphere = float(np.sum(amplitude))
+    h_abs = abs(cam_height)
+    # Finest spacing: 1/8 of the shortest wave, but no finer than 4 pixels straight below the camera
+    # (h·tan(fov/2)/(H_px/2) per pixel), and between 12.5 cm and 64 m.
+    kmax = float(np.max(k)) if len(k) else 1.0
+    px = max(h_abs, 1.0) * math.tan(math.radians(fov_y_deg) / 2.0) / (view.height / 2.0)
+    spacing = 2.0 ** round(math.log2(min(max(2.0 * math.pi / kmax / 8.0, 4.0 * px, 0.125), 64.0)))
+    s0 = spacing * PATCH_QUADS
+    pixels_per_rad = (view.height / 2.0) / math.tan(math.radians(fov_y_deg) / 2.0)
+    # To the geometric horizon (reversed-Z depth has no far clip; ``max_distance`` only bounds a
+    # camera so high that even the horizon is beyond it — never nearer than the horizon itself).
+    reach = max(horizon_distance(h_abs) + 2.0 * sphere, 4.0 * s0)
+    ranges = []
+    for level in range(MAX_LEVELS):
+        err = level_error(k, amplitude, spacing * 2**level)
+        r = err * pixels_per_rad / lod_error_px
+        r = max(r, MORPH_MARGIN * s0 * 2**level, 2.0 * ranges[-1] if ranges else 0.0, h_abs * 1.05)
+        ranges.append(r)
+        if r >= reach * 1.5 and s0 * 2**level >= reach:
+            break
+    top = len(ranges) - 1
+    morph = np.zeros((MAX_LEVELS, 2))
+    for level, r in enumerate(ranges):
+        lo = ranges[level - 1] if level else 0.0
+        morph[level] = (lo + MORPH_START * (r - lo), r)
+    morph[top] = (1e30, 2e30)  # the root level never morphs (there is nothing coarser)
+
+    cam = view.position
+    planes = _frustum_planes(view)
+    root = s0 * 2**top
+    nodes: list[tuple[float, float, float, int]] = []
+    ox = math.floor((cam[0] - root) / root) * root
+    oy = math.floor((cam[1] - root) / root) * root
+    # 3x3 (or more) root blocks around the camera, covering ``reach``.
+    n_root = int(math.ceil((reach + root) / root))
+    cz = float(cam_height)
+
+    def dist2_to_block(x0: float, y0: float, size: float) -> float:
+        dx = max(x0 - cam[0], 0.0, cam[0] - (x0 + size))
+        dy = max(y0 - cam[1], 0.0, cam[1] - (y0 + size))
+        return dx * dx + dy * dy + cz * cz
+
+    def visible(x0: float, y0: float, size: float) -> bool:
+        cx, cy = x0 + size / 2.0 - cam[0], y0 + size / 2.0 - cam[1]
+        d = math.hypot(cx, cy)
+        if d - size > reach:
+            return False
+        cz_block = -cz - d * d / (2.0 * EARTH_RADIUS)  # the sea's drop below the tangent plane
+        radius = size * 0.7072 + sphere + 0.5 * size * d / EARTH_RADIUS + 1.0
+        for a, b, c, w, norm in planes:
+            if a * cx + b * cy + c * cz_block + w < -radius * norm:
+                return False
+        return True
+
+    def visit(x0: float, y0: float, level: int) -> None:
+        size = s0 * 2**level
+        if not visible(x0, y0, size):
+            return
+        if level == 0 or dist2_to_block(x0, y0, size) >= ranges[level - 1] ** 2:
+            nodes.append((x0, y0, size, level))
+            return
+        half = size / 2.0
+        for dx in (0.0, half):
+            for dy in (0.0, half):
+                visit(x0 + dx, y0 + dy, level - 1)
+
+    ix0 = math.floor(cam[0] / root) - n_root
+    iy0 = math.floor(cam[1] / root) - n_root
+    del ox, oy
+    for i in range(2 * n_root + 1):
+        for j in range(2 * n_root + 1):
+            x0, y0 = (ix0 + i) * root, (iy0 + j) * root
+            if dist2_to_block(x0, y0, root) <= (reach + 0.0) ** 2 + cz * cz:
+                visit(x0, y0, top)
+    arr = np.array(nodes, dtype=np.float64).reshape(-1, 4)
+    arr[:, 0] -= cam[0]
+    arr[:, 1] -= cam[1]
+    # Near blocks first: the depth test then rejects hidden far fragments before they are shaded.
+    centre = arr[:, :2] + arr[:, 2:3] / 2.0
+    arr = arr[np.argsort(np.hypot(centre[:, 0], centre[:, 1]) - arr[:, 2] * 0.7072, kind="stable")]
+    return LodSelection(arr.astype(np.float32), morph, np.asarray(ranges), spacing, lod_error_px, sphere)
+
+
+def _frustum_planes(view: CameraView) -> list[tuple[float, ...]]:
+    m = view.view_proj
+    planes = [m[3] + m[0], m[3] - m[0], m[3] + m[1], m[3] - m[1], m[3] - m[2]]  # no near-plane cull
+    return [(*(float(x) for x in p), float(np.linalg.norm(p[:3]))) for p in planes]

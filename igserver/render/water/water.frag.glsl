@@ -1,0 +1,115 @@
+// Sea surface shading (DESIGN §4.2): sky reflection through Schlick's Fresnel (R0 = 0.02037), sun
+// and moon glitter and local lights through the project's GGX lobe, detail slopes from the summed
+// normal maps, depth-dependent colour in the shallows, foam where the surface is compressed, aerial
+// perspective; no water inside hulls.
+#include "common/frame.glsl"
+#include "common/atmosphere.glsl"
+#include "common/brdf.glsl"
+#include "common/lights.glsl"
+
+#ifndef MAX_HULLS
+#define MAX_HULLS 16
+#endif
+uniform int u_hull_count;
+uniform mat4 u_hull_inv[MAX_HULLS];   // camera-relative world -> hull box [-1, 1]^3
+
+uniform sampler2D u_detail0;
+uniform sampler2D u_detail1;
+uniform sampler2D u_detail2;
+uniform vec3 u_detail_map[3];         // per map: 1 / L (1/m), offset (cam xy mod L) / L
+uniform float u_min_slope_var;        // floor of the unresolved slope variance (glassy sea)
+
+in vec3 v_rel;
+in vec2 v_rest;
+in vec3 v_normal;
+in float v_jacobian;
+in float v_lost_var;
+in float v_depth;
+in float v_breaking;
+in vec3 v_air_t;
+in vec3 v_air_s;
+
+layout(location = 0) out vec4 out_color;
+layout(location = 1) out float out_distance;
+
+const float WATER_R0 = 0.02037;                    // Fresnel reflectance air-water, normal incidence
+const vec3 DEEP_ALBEDO = vec3(0.004, 0.016, 0.022); // backscatter of the deep water column
+const vec3 ABSORPTION = vec3(0.35, 0.07, 0.045);    // 1/m, coastal water (red first)
+const vec3 BOTTOM_ALBEDO = vec3(0.35, 0.30, 0.22);  // sand
+const vec3 FOAM_ALBEDO = vec3(0.75);
+uniform float u_foam_jacobian;  // J below which the sea is white: the whitecap-coverage quantile (CPU)
+
+vec4 detail(sampler2D tex, vec3 map) {
+    return texture(tex, v_rest * map.x + map.yz);
+}
+
+// GGX specular of the water for a light of illuminance e from direction l.
+vec3 glint(vec3 e, vec3 n, vec3 v, vec3 l, float alpha) {
+    float n_dot_l = dot(n, l);
+    if (n_dot_l <= 0.0) return vec3(0.0);
+    vec3 h = normalize(v + l);
+    float n_dot_v = max(dot(n, v), 1e-4);
+    vec3 f = fresnel_schlick(max(dot(v, h), 0.0), vec3(WATER_R0));
+    return e * f * ggx_distribution(n, h, max(dot(n, h), 0.0), alpha) * smith_visibility(n_dot_v, n_dot_l, alpha) * n_dot_l;
+}
+
+void main() {
+#ifdef WATER_HULLS  // only when hulls float in the sea: discard would disable early depth tests
+    for (int i = 0; i < u_hull_count; ++i) {
+        vec3 b = (u_hull_inv[i] * vec4(v_rel, 1.0)).xyz;
+        if (all(lessThan(abs(b), vec3(1.0)))) discard;  // inside a hull: the sea stays out
+    }
+#endif
+    // Mesh slope + detail slopes (3 summed maps), and what none of them resolves as roughness.
+    vec4 d0 = detail(u_detail0, u_detail_map[0]);
+    vec4 d1 = detail(u_detail1, u_detail_map[1]);
+    vec4 d2 = detail(u_detail2, u_detail_map[2]);
+    vec2 slope = -v_normal.xy / max(v_normal.z, 0.05) + d0.xy + d1.xy + d2.xy;
+    vec2 var2 = (d0.zw - d0.xy * d0.xy) + (d1.zw - d1.xy * d1.xy) + (d2.zw - d2.xy * d2.xy);
+    float mss = max(var2.x + var2.y, 0.0) + v_lost_var + u_min_slope_var;
+    float alpha = clamp(sqrt(mss), 0.02, 0.6);
+    vec3 n = normalize(vec3(-slope, 1.0));
+    float dist = length(v_rel);
+    vec3 v = -v_rel / dist;
+    float n_dot_v = dot(n, v);
+    if (n_dot_v < 0.02) {  // facet turned away by the detail maps: bend it back toward the eye
+        n = normalize(n + v * (0.02 - n_dot_v));
+        n_dot_v = 0.02;
+    }
+    // Sky reflection (the atmosphere's own radiance; rays that would enter the sea are mirrored up).
+    vec3 r = reflect(-v, n);
+    r.z = abs(r.z);
+    float fresnel = fresnel_schlick(n_dot_v, vec3(WATER_R0)).x;
+    vec3 sky = sky_radiance(r);
+    // Direct light: sun and moon glitter, local lights (fires, lamps, spots) shimmering on the waves.
+    vec3 direct = glint(u_sun_illuminance, n, v, u_sun_dir, alpha) + glint(u_moon_illuminance, n, v, u_moon_dir, alpha);
+    vec3 e_local = vec3(0.0);  // local-light irradiance on a horizontal surface (lux), for body/foam
+    for (int i = 0; i < u_light_count; ++i) {
+        vec3 l;
+        vec3 e = light_illuminance(i, v_rel, l);  // the shared light loop's falloff and spot cone
+        direct += glint(e, n, v, l, alpha);
+        e_local += e * max(l.z, 0.0);
+    }
+    // Light entering the water (lux on the surface) and coming back up: deep backscatter, or the
+    // sand bottom seen through depth h along the down-and-up path (Beer-Lambert), in the shallows.
+    vec3 e_down = u_sun_illuminance * max(u_sun_dir.z, 0.0) + u_moon_illuminance * max(u_moon_dir.z, 0.0)
+                + PI * u_sky_ambient + e_local;
+    float cos_t = sqrt(1.0 - (1.0 - n_dot_v * n_dot_v) / (1.333 * 1.333));  // refracted ray
+    vec3 through = exp(-ABSORPTION * max(v_depth, 0.0) * (1.0 + 1.0 / cos_t));
+    vec3 body = (DEEP_ALBEDO * (1.0 - through) + BOTTOM_ALBEDO * through) * e_down / PI;
+    vec3 lit = fresnel * sky + direct + (1.0 - fresnel) * body;
+    // Foam where the Gerstner surface pinches (J small): breaking crests and the surf zone.
+    float foam = smoothstep(u_foam_jacobian + 0.02, u_foam_jacobian - 0.06, v_jacobian);
+    // Surf zone: where the breaking cap cut the waves, the broken water is white on the crests.
+    // (J < 1 on the compressed crests, > 1 in the troughs.)
+    foam = max(foam, smoothstep(0.1, 0.7, v_breaking) * smoothstep(1.02, 0.9, v_jacobian));
+    foam *= smoothstep(0.15, 0.85, 0.5 + 4.0 * (d1.x - d2.y));  // streaky texture from the detail maps
+    lit = mix(lit, FOAM_ALBEDO * e_down / PI, foam);
+    // Dry land of the bathymetry (h <= 0): no water, the bare beach at the water level (there is no
+    // terrain pipeline yet), wet sand darker for the last few centimetres.
+    float wet = smoothstep(0.0, 0.05, v_depth);
+    vec3 sand = BOTTOM_ALBEDO * mix(1.0, 0.6, smoothstep(-0.3, 0.0, v_depth)) * e_down / PI;  // Lambert
+    lit = mix(sand, lit, wet);
+    out_color = vec4(pre_expose(lit * v_air_t + v_air_s), 1.0);  // apply_aerial_perspective, per vertex
+    out_distance = dist;
+}

@@ -1,0 +1,248 @@
+"""Depth under the sea and the per-wave field it imposes (refraction, shoaling, breaking).
+
+Integrated ONCE per (bathymetry, wave set), on a regular grid in a local frame (u, v):
+
+- Phase. Each wave's phase ψ solves the eikonal |∇ψ| = k(h(x)) (ray theory). We march it across
+  the grid from the up-wave edge along the grid axis (±u or ±v) closest to the wave's direction:
+  ψ_{j+1} = ψ_j + Δs·√(k² − (∂_c ψ)²), with ∂_c ψ the derivative across the march. For a plane beach
+  the grid is one cell wide along the shore and ∂_c ψ = k_ref·D_c is exactly conserved: Snell's law,
+  crests turn toward the shore. What the shader stores is the residual R = ψ − k_ref·D·x and the
+  local wave vector K = ∇ψ.
+- Amplitude. Linear shoaling K_s = √(c_g,ref / c_g(h)) and refraction K_r = √(cos θ_ref / cos θ)
+  (θ measured from the march axis: exact for straight parallel contours, the plane beach; an
+  approximation over a general height map). Breaking: wherever the highest wave of the local sea,
+  H_max = 1.86·Hs (Rayleigh, ~1000 waves; Hs = 4·√(Σ A_i²/2)), would exceed 0.78·h, all amplitudes
+  are scaled down to it; on dry land (h ≤ 0) they are zero. The scale (1 − cap) marks the surf zone.
+- Steepness. Q grows toward the shore with shallowness 1 − tanh(k_p h) (k_p the peak's local
+  wavenumber): Q(x) = Q + (Q_SHORE − Q)·(1 − tanh k_p h).
+
+Outside the grid the texture lookups clamp to the border (the beach is invariant along the shore;
+around a map the depth is ``bathymetry.depth``, reached through a margin).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from ..scene.model import Bathymetry
+from .dispersion import group_velocity, wavenumber
+from .spectrum import WaveSet
+
+BREAKING_RATIO = 0.78  # H / h (McCowan): the highest wave breaks beyond it
+HIGHEST_WAVE = 1.86  # H_max / Hs of ~1000 waves of a Rayleigh sea (the highest a ship meets in an hour)
+Q_SHORE = 0.9  # Gerstner steepness reached in very shallow water
+MIN_COS = 0.17  # cos 80°: a ray never turns past 80° from the march axis (caustic guard)
+SLOPE_MAX_CELLS = 8192
+MAP_MAX_CELLS = 384
+DRY_DEPTH = 1e-3  # m: the wavenumber is evaluated at least at this depth (dry cells: amplitude 0)
+
+
+def shore_steepness(q: float, kh: np.ndarray) -> np.ndarray:
+    return q + (max(Q_SHORE, q) - q) * (1.0 - np.tanh(kh))
+
+
+@dataclass(frozen=True)
+class Grid:
+    """Regular grid: node (i, j) at origin + i·du·u + j·dv·v (ENU metres)."""
+
+    origin: np.ndarray  # (2,) world xy of node (0, 0)
+    u: np.ndarray  # (2,) unit
+    v: np.ndarray  # (2,) unit
+    du: float
+    dv: float
+    nu: int
+    nv: int
+
+    def nodes(self) -> np.ndarray:
+        i = np.arange(self.nu)[:, None, None] * self.du * self.u
+        j = np.arange(self.nv)[None, :, None] * self.dv * self.v
+        return self.origin + i + j  # (nu, nv, 2)
+
+    def to_grid(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Fractional node coordinates (clamped to the grid) of world points (..., 2)."""
+        d = xy - self.origin
+        gu = np.clip((d @ self.u) / self.du, 0.0, self.nu - 1)
+        gv = np.clip((d @ self.v) / self.dv, 0.0, self.nv - 1) if self.nv > 1 else np.zeros(d.shape[:-1])
+        return gu, gv
+
+
+def _unit(azimuth_deg: float) -> np.ndarray:
+    a = math.radians(azimuth_deg)
+    return np.array([math.sin(a), math.cos(a)])
+
+
+def load_map(name: str) -> np.ndarray:
+    """Grey levels in [0, 1] of a bathymetry asset, row 0 at the image's top."""
+    from PIL import Image
+
+    from ..assets import resolve_asset
+
+    path = resolve_asset("bathymetry", name, (".png",))
+    with Image.open(path) as image:
+        if image.width * image.height > 4096 * 4096:
+            raise ValueError(f"bathymetry map {name!r} is larger than 4096x4096 pixels")
+        grey = np.asarray(image.convert("I;16") if image.mode in ("I;16", "I", "I;16B") else image.convert("L"))
+    scale = 65535.0 if grey.dtype == np.uint16 or grey.max() > 255 else 255.0
+    return grey.astype(np.float64) / scale
+
+
+def _bilinear(img: np.ndarray, fx: np.ndarray, fy: np.ndarray) -> np.ndarray:
+    h, w = img.shape
+    fx, fy = np.clip(fx, 0, w - 1), np.clip(fy, 0, h - 1)
+    x0, y0 = np.minimum(fx.astype(int), w - 2 if w > 1 else 0), np.minimum(fy.astype(int), h - 2 if h > 1 else 0)
+    x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
+    tx, ty = fx - x0, fy - y0
+    top = img[y0, x0] * (1 - tx) + img[y0, x1] * tx
+    bottom = img[y1, x0] * (1 - tx) + img[y1, x1] * tx
+    return top * (1 - ty) + bottom * ty
+
+
+def depth_at(bathy: Bathymetry, xy: np.ndarray) -> np.ndarray:
+    """Water depth (m, ≤ 0 on dry land) at world points (..., 2)."""
+    xy = np.asarray(xy, dtype=np.float64)
+    if bathy.type == "uniform":
+        return np.full(xy.shape[:-1], bathy.depth)
+    if bathy.type == "slope":
+        s = xy @ _unit(bathy.shore_heading)
+        return np.minimum(bathy.slope * (bathy.shore_distance - s), bathy.depth)
+    grey = load_map_cached(bathy.map)
+    right, up = _unit(bathy.map_heading + 90.0), _unit(bathy.map_heading)
+    d = xy - np.asarray(bathy.map_center)
+    w, h = bathy.map_size
+    fx = ((d @ right) / w + 0.5) * grey.shape[1] - 0.5
+    fy = (0.5 - (d @ up) / h) * grey.shape[0] - 0.5
+    inside = (np.abs(d @ right) <= w / 2) & (np.abs(d @ up) <= h / 2)
+    lo, hi = bathy.map_elevation
+    elevation = lo + (hi - lo) * _bilinear(grey, fx, fy)
+    return np.where(inside, -elevation, bathy.depth)
+
+
+@lru_cache(maxsize=4)
+def load_map_cached(name: str) -> np.ndarray:
+    return load_map(name)
+
+
+def bathymetry_grid(bathy: Bathymetry, longest_wavelength: float) -> Grid | None:
+    if bathy.type == "uniform":
+        return None
+    if bathy.type == "slope":
+        u = _unit(bathy.shore_heading)
+        v = np.array([u[1], -u[0]])
+        # From where waves start to feel the bottom (h = λ/2, or the offshore depth) to past the shore.
+        feel = min(bathy.depth, 0.5 * longest_wavelength)
+        start = bathy.shore_distance - feel / bathy.slope - 0.1 * longest_wavelength
+        end = bathy.shore_distance + max(2.0, 0.02 * feel / bathy.slope)
+        n = int(min(SLOPE_MAX_CELLS, max(64, math.ceil((end - start) / 0.25)))) + 1
+        du = (end - start) / (n - 1)
+        return Grid(start * u, u, v, du, 1.0, n, 1)
+    w, h = bathy.map_size
+    right, up = _unit(bathy.map_heading + 90.0), _unit(bathy.map_heading)
+    margin = 0.1 * max(w, h)
+    width, height = w + 2 * margin, h + 2 * margin
+    cell = max(width, height) / (MAP_MAX_CELLS - 1)
+    nu, nv = int(math.ceil(width / cell)) + 1, int(math.ceil(height / cell)) + 1
+    origin = np.asarray(bathy.map_center) - right * width / 2 - up * height / 2
+    return Grid(origin, right, up, width / (nu - 1), height / (nv - 1), nu, nv)
+
+
+@dataclass(frozen=True)
+class WaveField:
+    """Per-wave fields on a grid: residual phase R, amplitude factor F, wave vector K; and Q(x)."""
+
+    grid: Grid
+    residual: np.ndarray  # (n, nu, nv) rad
+    factor: np.ndarray  # (n, nu, nv)
+    kvec: np.ndarray  # (n, nu, nv, 2) rad/m
+    steepness: np.ndarray  # (nu, nv)
+    depth: np.ndarray  # (nu, nv) m
+    breaking: np.ndarray  # (nu, nv): 1 − breaking cap (0 unbroken, → 1 in the surf zone)
+
+
+def reference_waves(waves: WaveSet, depth: float) -> WaveSet:
+    """The wave set over the reference depth: k(ω, h_ref) and the shoaled amplitude A·K_s."""
+    k = wavenumber(waves.omega, depth)
+    ks = np.sqrt(group_velocity(waves.omega, waves.k, np.inf) / group_velocity(waves.omega, k, depth))
+    return WaveSet(waves.omega, k, waves.direction, waves.amplitude * ks, waves.phase)
+
+
+def _march(k: np.ndarray, k_ref: np.ndarray, d_ref: np.ndarray, ds: float, dc: float) -> tuple[np.ndarray, ...]:
+    """March ψ along axis 1 of k (n, ns, nc) for waves whose reference wave vector has components
+    (along, across) = k_ref·d_ref (n, 2), along ≥ 0. Returns (ψ - k_ref·x, along, across components)."""
+    n, ns, nc = k.shape
+    along = np.empty_like(k)
+    across = np.empty_like(k)
+    residual = np.empty_like(k)
+    ka_ref, kc_ref = (k_ref[:, None] * d_ref[:, 0][:, None]), (k_ref[:, None] * d_ref[:, 1][:, None])
+    r = np.zeros((n, nc))  # residual phase of the current row
+    for j in range(ns):
+        if nc > 1:
+            gc = np.gradient(r, dc, axis=1)
+            gc = np.concatenate([gc[:, :1], 0.25 * gc[:, :-2] + 0.5 * gc[:, 1:-1] + 0.25 * gc[:, 2:], gc[:, -1:]],
+                                axis=1) if nc > 2 else gc
+            kc = kc_ref + gc
+        else:
+            kc = np.broadcast_to(kc_ref, (n, nc))
+        kj = k[:, j, :]
+        ka = np.sqrt(np.maximum(kj**2 - kc**2, (MIN_COS * kj) ** 2))
+        norm = np.hypot(ka, kc)  # = k unless the caustic guard acted
+        ka, kc = ka * kj / norm, kc * kj / norm
+        if j > 0:
+            r = r + ds * (0.5 * (ka + along[:, j - 1, :]) - ka_ref)
+        residual[:, j, :], along[:, j, :], across[:, j, :] = r, ka, kc
+    return residual, along, across
+
+
+def wave_field(bathy: Bathymetry, waves: WaveSet, q: float, omega_p: float) -> WaveField | None:
+    """The per-wave field over a non-uniform bathymetry (``waves``: the reference set, over h_ref)."""
+    longest = 2.0 * math.pi / float(np.min(waves.k)) if waves.n else 100.0
+    grid = bathymetry_grid(bathy, longest)
+    if grid is None:
+        return None
+    h = depth_at(bathy, grid.nodes())  # (nu, nv)
+    hk = np.maximum(h, DRY_DEPTH)
+    n = waves.n
+    k = wavenumber(waves.omega[:, None, None], hk[None])  # (n, nu, nv)
+    residual = np.zeros_like(k)
+    kvec = np.zeros(k.shape + (2,))
+    cos_ratio = np.ones_like(k)
+    du_comp, dv_comp = waves.direction @ grid.u, waves.direction @ grid.v
+    # March axis per wave: ±u, or ±v on a 2D grid, whichever is closest to the wave's direction;
+    # waves sharing an axis and sense march together.
+    use_u = (grid.nv == 1) | (np.abs(du_comp) >= np.abs(dv_comp))
+    along_c, across_c = np.where(use_u, du_comp, dv_comp), np.where(use_u, dv_comp, du_comp)
+    sign = np.where(along_c >= 0.0, 1.0, -1.0)
+    for axis_u in (True, False):
+        for sgn in (1.0, -1.0):
+            idx = np.nonzero((use_u == axis_u) & (sign == sgn))[0]
+            if idx.size == 0:
+                continue
+            kg = k[idx] if axis_u else np.swapaxes(k[idx], 1, 2)  # (g, ns, nc)
+            kg = kg[:, ::-1] if sgn < 0 else kg
+            ds, dc = (grid.du, grid.dv) if axis_u else (grid.dv, grid.du)
+            d_ref = np.stack([np.abs(along_c[idx]), across_c[idx]], axis=1)
+            r, ka, kc = _march(kg, waves.k[idx], d_ref, ds, dc)
+            if sgn < 0:
+                r, ka, kc = r[:, ::-1], ka[:, ::-1], kc[:, ::-1]
+            if not axis_u:
+                r, ka, kc = (np.swapaxes(x, 1, 2) for x in (r, ka, kc))
+            residual[idx] = r
+            axis_along, axis_across = (grid.u, grid.v) if axis_u else (grid.v, grid.u)
+            kvec[idx] = (sgn * ka)[..., None] * axis_along + kc[..., None] * axis_across
+            cos_ref = np.abs(along_c[idx])[:, None, None]
+            cos_ratio[idx] = cos_ref / np.maximum(ka / np.maximum(k[idx], 1e-300), MIN_COS)
+    # The march accumulated ψ − k_ref·(along distance); the across part of k_ref·x is the reference.
+    cg_ref = group_velocity(waves.omega, waves.k, bathy.depth)
+    cg = group_velocity(waves.omega[:, None, None], k, hk[None])
+    factor = np.sqrt(cg_ref[:, None, None] / cg) * np.sqrt(cos_ratio)
+    wet = h > 0.0
+    hs_local = 4.0 * np.sqrt(0.5 * np.sum((waves.amplitude[:, None, None] * factor) ** 2, axis=0))
+    h_max = HIGHEST_WAVE * hs_local
+    cap = np.where(wet, np.minimum(1.0, BREAKING_RATIO * np.maximum(h, 0.0) / np.maximum(h_max, 1e-300)), 0.0)
+    factor = factor * cap[None]
+    kp = wavenumber(omega_p, hk)
+    steep = shore_steepness(q, kp * hk)
+    return WaveField(grid, residual, factor, kvec, steep, h, np.where(wet, 1.0 - cap, 0.0))

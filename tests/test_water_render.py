@@ -1,0 +1,183 @@
+"""The water pass on the GPU: watertight LOD, the mesh equals the host query, hulls keep the sea out,
+calm and storm pictures, long-time stability. Tiny frames, the session renderer."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from igserver.render.graph import plan_passes
+from igserver.render.water import lod
+from igserver.scene import apply_patch
+from igserver.scene.model import Scene
+from igserver.water import sea_surface
+
+EARTH_RADIUS = 6.371e6
+
+
+def sea_scene(**patch) -> Scene:
+    base = {"camera": {"position": [0.0, 0.0, 12.0], "heading": 30.0, "pitch": -8.0, "fov_y": 60.0,
+                       "width": 96, "height": 54},
+            "time": {"utc": "2026-06-21T09:00:00Z", "sim_time": 100.0}, "location": {"lat": 43.0, "lon": 5.0},
+            "weather": {"wind_speed": 10.0, "wind_direction": 240.0}, "ocean": {"enabled": True}}
+    return apply_patch(Scene(), _merge(base, patch))
+
+
+def _merge(a: dict, b: dict) -> dict:
+    out = dict(a)
+    for k, v in b.items():
+        out[k] = _merge(a[k], v) if isinstance(v, dict) and isinstance(a.get(k), dict) else v
+    return out
+
+
+def luminance(rgb: np.ndarray) -> np.ndarray:
+    return rgb[..., :3].astype(np.float64) @ np.array([0.2126, 0.7152, 0.0722]) / 255.0
+
+
+def test_scenes_without_ocean_skip_the_water_pass():
+    assert "water" not in plan_passes(Scene())
+    assert "water" in plan_passes(sea_scene())
+
+
+def _edge(positions: np.ndarray, node: np.ndarray, side: str) -> tuple[np.ndarray, np.ndarray]:
+    """Rest coordinates along a block side and the displaced vertices there."""
+    x0, y0, size = node[:3]
+    g = lod.PATCH_QUADS
+    t = np.arange(g + 1) / g * size
+    if side == "left":
+        return np.column_stack([np.full(g + 1, x0), y0 + t]), positions[0, :, :]
+    if side == "right":
+        return np.column_stack([np.full(g + 1, x0 + size), y0 + t]), positions[g, :, :]
+    if side == "bottom":
+        return np.column_stack([x0 + t, np.full(g + 1, y0)]), positions[:, 0, :]
+    return np.column_stack([x0 + t, np.full(g + 1, y0 + size)]), positions[:, g, :]
+
+
+def _distance_to_polyline(points: np.ndarray, line: np.ndarray) -> np.ndarray:
+    a, b = line[:-1][None], line[1:][None]
+    p = points[:, None]
+    ab = b - a
+    t = np.clip(np.sum((p - a) * ab, axis=-1) / np.maximum(np.sum(ab * ab, axis=-1), 1e-12), 0.0, 1.0)
+    return np.min(np.linalg.norm(p - (a + t[..., None] * ab), axis=-1), axis=1)
+
+
+@pytest.mark.parametrize("height,wind", [(2.0, 12.0), (300.0, 20.0)])
+def test_lod_joins_are_watertight(renderer, height, wind):
+    scene = sea_scene(camera={"position": [3.7, -8.2, height], "pitch": -20.0},
+                      weather={"wind_speed": wind})
+    selection, pos = renderer.graph.passes["water"].capture(scene)
+    nodes = selection.nodes.astype(np.float64)
+    assert len(np.unique(nodes[:, 3])) >= 3  # several levels meet
+    opposite = {"left": "right", "right": "left", "bottom": "top", "top": "bottom"}
+    checked, worst = 0, 0.0
+    for a, na in enumerate(nodes):
+        for side in ("left", "right", "bottom", "top"):
+            rest_a, verts_a = _edge(pos[a], na, side)
+            for b, nb in enumerate(nodes):
+                if b == a:
+                    continue
+                rest_b, verts_b = _edge(pos[b], nb, opposite[side])
+                axis = 0 if side in ("left", "right") else 1
+                if abs(rest_a[0, axis] - rest_b[0, axis]) > 1e-3:
+                    continue
+                other = 1 - axis
+                lo = max(rest_a[0, other], rest_b[0, other])
+                hi = min(rest_a[-1, other], rest_b[-1, other])
+                if hi - lo <= 1e-3:
+                    continue
+                # Every vertex of A's border within the shared span lies on B's displaced border polyline.
+                inside = (rest_a[:, other] >= lo - 1e-3) & (rest_a[:, other] <= hi + 1e-3)
+                d = _distance_to_polyline(verts_a[inside].astype(np.float64), verts_b.astype(np.float64))
+                worst = max(worst, float(d.max()))
+                checked += 1
+    assert checked > 20
+    # float32 positions a few hundred metres from the camera round to ~3e-5 m; a crack is ≥ centimetres.
+    assert worst < 5e-3
+
+
+def test_height_query_equals_displaced_mesh(renderer):
+    scene = sea_scene(camera={"position": [1234.5, -321.0, 6.0], "pitch": -30.0}, weather={"wind_speed": 14.0},
+                      time={"sim_time": 12345.678})
+    selection, pos = renderer.graph.passes["water"].capture(scene)
+    finest = selection.nodes[:, 3] == 0
+    verts = pos[finest].reshape(-1, 3).astype(np.float64)
+    cam = np.asarray(scene.camera.position)
+    r2 = np.sum(verts[:, :2] ** 2, axis=1)
+    near = r2 < 150.0**2
+    verts = verts[near]
+    world_xy = verts[:, :2] + cam[:2]
+    # The mesh is drawn on the curved earth relative to the camera; the query answers in flat ENU.
+    mesh_z = verts[:, 2] + cam[2] + r2[near] / (2 * EARTH_RADIUS)
+    sea = sea_surface(scene.ocean, scene.weather)
+    q = sea.query(world_xy, scene.time.sim_time)
+    assert len(verts) > 200
+    assert np.max(np.abs(q["height"] + scene.ocean.level - mesh_z)) < 0.01  # the issue's 1 cm
+
+
+def _centre(rgba: np.ndarray) -> np.ndarray:
+    h, w = rgba.shape[:2]
+    return rgba[h // 3: 2 * h // 3, w // 3: 2 * w // 3, :3].astype(np.float64)
+
+
+def test_no_water_inside_a_hull(renderer):
+    # A closed box hull (the built-in box, base at its z) 4 m deep in the water, 8 m above it.
+    ship = {"id": "ship", "model": "box", "position": [0.0, 0.0, -4.0], "scale": [30.0, 150.0, 12.0]}
+    # Camera inside the hull above the waterline, looking down at its floor 4 m below the sea level.
+    view = {"camera": {"position": [0.0, -20.0, 3.0], "pitch": -80.0, "fov_y": 50.0}, "entities": [ship],
+            "weather": {"wind_speed": 18.0}}
+    with_sea = renderer.render(sea_scene(**view)).rgba
+    dry = renderer.render(sea_scene(**view, ocean={"enabled": False}, ground={"enabled": False})).rgba
+    # Inside the hull the picture is the hull's floor with or without a sea (8 levels: JPEG-free, the
+    # same surfaces pass draws both; only exposure metering could differ, and it does not see the sea).
+    assert np.max(np.abs(_centre(with_sea) - _centre(dry))) <= 8
+    # Outside the hull, the same camera does see water: seen from above (pitch -80) it fills the frame.
+    outside = renderer.render(sea_scene(**{**view, "camera": {"position": [200.0, 0.0, 3.0], "pitch": -80.0,
+                                                                "fov_y": 50.0}})).rgba
+    assert np.mean(np.abs(_centre(outside) - _centre(dry))) > 10
+
+
+def _sea_rows(rgba: np.ndarray) -> np.ndarray:
+    return rgba[int(rgba.shape[0] * 0.7):, :, :3]
+
+
+def _look(sun_azimuth: float, wind: float, renderer) -> np.ndarray:
+    look = {"camera": {"position": [0.0, 0.0, 10.0], "heading": 90.0, "pitch": -10.0, "fov_y": 40.0,
+                       "width": 128, "height": 72},
+            "time": {"utc": "2026-06-21T09:00:00Z", "sun_override": {"elevation": 12.0, "azimuth": sun_azimuth}},
+            "weather": {"wind_speed": wind}}
+    rgba = renderer.render(sea_scene(**look)).rgba
+    assert np.all(np.isfinite(rgba.astype(float)))
+    return luminance(_sea_rows(rgba))
+
+
+def test_calm_is_glassy_and_storm_is_rough(renderer):
+    # Sun behind the camera: rows of the sea vary with the surface roughness only.
+    calm, storm = _look(270.0, 0.0, renderer), _look(270.0, 40.0, renderer)
+    row_std_calm = float(np.median(np.std(calm, axis=1)))
+    row_std_storm = float(np.median(np.std(storm, axis=1)))
+    # 40 m/s: 20 m seas with foam streaks; calm: capillary ripples only.
+    assert row_std_storm > 3.0 * row_std_calm
+    assert storm.mean() > calm.mean()  # foam whitens the storm sea
+
+
+def test_calm_sea_is_not_a_perfect_mirror(renderer):
+    # Sun ahead, 12° up: a perfect mirror would show a sun disk of 0.53° (about one 0.56° pixel here)
+    # below the horizon; the glassy sea's capillary slopes (Cox–Munk σ² = 0.003) spread it into a
+    # glitter column of many pixels.
+    calm = _look(90.0, 0.0, renderer)
+    bright = calm > 0.5 * calm.max()
+    assert calm.max() > 0.5 and bright.sum() > 20
+
+
+def test_long_time_looks_like_short_time_and_is_deterministic(renderer):
+    stats = []
+    for t in (100.0, 1e6, 1e9):
+        img = renderer.render(sea_scene(time={"sim_time": t})).rgba
+        again = renderer.render(sea_scene(time={"sim_time": t})).rgba
+        assert np.array_equal(img, again)  # same state, same picture
+        lum = luminance(_sea_rows(img))
+        stats.append((lum.mean(), lum.std()))
+    (m0, s0), *rest = stats
+    for m, s in rest:
+        # Different instants of the same sea: same statistics (a pixelated or frozen sea would not be).
+        assert m == pytest.approx(m0, rel=0.15) and s == pytest.approx(s0, rel=0.35)
