@@ -210,6 +210,13 @@ vec3 clear_segment_optical_depth(vec3 rel) {
     float h0 = r - u_bottom_radius_km;
     float mu = dir.z;
     if (d > 200.0 || r > u_top_radius_km) {
+        // A camera above the atmosphere: the tables start where the ray enters it (their r is
+        // only defined up to the top), and the segment in empty space adds nothing.
+        float rmu = r * mu;
+        float skipped;
+        if (!enter_atmosphere(r, rmu, skipped)) return vec3(0.0);
+        mu = clamp_cosine(rmu / r);
+        d = max(d - skipped, 0.0);
         bool hits_ground = ray_hits_ground(r, mu);
         d = min(d, distance_to_nearest_boundary(r, mu, hits_ground));
         return optical_depth_segment(u_transmittance_lut, r, mu, d, hits_ground);
@@ -262,7 +269,9 @@ float haze_column(float h) {
 // Optical depth of the straight segment from height h0 over rel (m).
 vec3 haze_segment_tau(float h0, vec3 rel) {
     float d = length(rel);
-    float dz = rel.z;
+    // Height change to the end point above the sphere: rel.z plus the earth's drop there (a sea
+    // point at the horizon 357 km from 10 km up is at height 0, not 10 km below sea level).
+    float dz = rel.z + dot(rel.xy, rel.xy) / (2.0 * HAZE_EARTH_RADIUS_M);
     float mean = abs(dz) < 1e-3 * u_haze_edge ? haze_density(h0 + 0.5 * dz)
                                                : (haze_column(h0) - haze_column(h0 + dz)) / dz;
     return u_haze_beta * (d * max(mean, 0.0));
@@ -316,8 +325,21 @@ vec3 haze_sky(vec3 radiance, vec3 dir, out vec3 transmittance) {
     vec3 tau;
     float d;
     if (dir.z < 0.0 && h0 > 0.0) {
-        d = h0 / -dir.z;
-        tau = haze_segment_tau(h0, dir * d);
+        // On the sphere (radius R, camera at r0 = R + h0): a downward ray meets the layer's base
+        // only below the dip; above it, it passes a lowest point h_min at s = -r0 mu and climbs out
+        // again (the limb), which a flat layer would wrongly close off.
+        float r0 = HAZE_EARTH_RADIUS_M + h0;
+        float mu = dir.z;
+        float disc = r0 * r0 * mu * mu - h0 * (2.0 * HAZE_EARTH_RADIUS_M + h0);
+        if (disc >= 0.0) {
+            d = -r0 * mu - sqrt(disc);
+            tau = haze_segment_tau(h0, dir * d);
+        } else {
+            float s_t = -r0 * mu;
+            float h_min = max(r0 * sqrt(max(1.0 - mu * mu, 0.0)) - HAZE_EARTH_RADIUS_M, 0.0);
+            tau = haze_segment_tau(h0, dir * s_t) + haze_tau_up(h_min, 0.0);
+            d = 1e30;
+        }
     } else if (dir.z < 0.0) {
         d = 1e30;
         tau = vec3(1e4);
