@@ -214,8 +214,8 @@ def test_noon_fog_is_neutral_and_kilolux(renderer, visibility):
     assert np.all(np.abs(_xy(fog) - sun_xy) < 0.02), (_xy(fog), sun_xy)
 
 
-def _box_contrast(renderer, visibility: float, distance: float, size: float) -> float:
-    base = dict(el=45.0, heading=0.0, pitch=0.0, w=64, h=36, atmosphere={"visibility": visibility})
+def _box_contrast(renderer, visibility: float, distance: float, size: float, **extra) -> float:
+    base = dict(el=45.0, heading=0.0, pitch=0.0, w=64, h=36, atmosphere={"visibility": visibility}, **extra)
     box = {"entities": [{"id": "b", "model": "box", "position": [0.0, distance, -size / 2], "scale": [size, size, size],
                          "color": [0.05, 0.05, 0.05]}]}
     with_box, _ = radiance(renderer, scene(**base, **box))
@@ -230,6 +230,18 @@ def test_visibility_hides_and_shows_a_box(renderer):
     # 0.68 at d = V / 10. Thresholds 2 % (the definition of visibility) and 20 %.
     assert _box_contrast(renderer, 50.0, 100.0, 20.0) < 0.02
     assert _box_contrast(renderer, 200_000.0, 20_000.0, 2_000.0) > 0.2
+
+
+def test_snow_lowers_the_visibility_unless_the_host_already_did(renderer):
+    # Snow at 2 mm/h has an extinction of ~1e-2 /m (igserver.weather, Gunn-Marshall flakes: 1 mm/h
+    # gives ~0.74 km): a box at 1.5 km then keeps exp(-15) of its contrast, far under the 2 % of the
+    # definition of visibility; with lowers_visibility = false the host's 200 km stands (contrast
+    # ~0.97 > 20 %). The falling flakes are the same in the frames with and without the box.
+    snow = {"type": "snow", "rate": 2.0}
+    hidden = _box_contrast(renderer, 200_000.0, 1_500.0, 150.0, weather={"precipitation": snow})
+    shown = _box_contrast(renderer, 200_000.0, 1_500.0, 150.0,
+                          weather={"precipitation": {**snow, "lowers_visibility": False}})
+    assert hidden < 0.02 and shown > 0.2, (hidden, shown)
 
 
 # --- photometric read-out on the wire --------------------------------------------------------------

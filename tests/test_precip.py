@@ -22,7 +22,9 @@ BASE = {
     "camera": {"position": [0.0, 0.0, 10.0], "heading": 0.0, "pitch": 0.0, "fov_y": 40.0, "exposure_ev": 12.0},
     "ground": {"enabled": False},
     "time": {"sun_override": {"elevation": 35.0, "azimuth": 180.0}, "sim_time": 50.0},
-    "weather": {"wind_speed": 0.0, "precipitation": {"type": "rain", "rate": 20.0, "streak_time": 0.05}},
+    "weather": {"wind_speed": 0.0, "precipitation": {"type": "rain", "rate": 20.0, "streak_time": 0.05,
+                                                  # streaks only: the rain's fog is tested in test_atmosphere_light
+                                                  "lowers_visibility": False}},
 }
 
 

@@ -13,7 +13,7 @@ import moderngl
 import numpy as np
 
 from ...scene.model import Scene
-from ...weather import wind_heading
+from ...weather import effective_visibility, wind_heading
 from .atmosphere_model import (KOSCHMIEDER, PRESETS, SOLAR_ILLUMINANCE, AtmosphereParameters, atmosphere_parameters,
                                ground_extinction_550_per_m, turbidity_class)
 from .daylight import Daylight, daylight
@@ -53,11 +53,10 @@ def cached_clear_light(params, tables: AtmosphereTables, altitude_m, sun_el, moo
 
 
 def scene_visibility(scene: Scene) -> float:
-    """The one place the renderer reads the visibility (m). igserver.weather.effective_visibility
-    (rain and snow lower it) is meant to be routed in here at merge; doing so makes test_precip's
-    dry-vs-wet frame differences include the fog the rain brings (its BASE then needs
-    weather.precipitation.lowers_visibility = false)."""
-    return float(scene.atmosphere.visibility)
+    """The one place the renderer reads the visibility (m): the host's value with the extinction of
+    rain or snow added (igserver.weather.effective_visibility), unless the host says its value
+    already includes it (weather.precipitation.lowers_visibility = false)."""
+    return float(effective_visibility(scene))
 
 
 def scene_haze(scene: Scene, params: AtmosphereParameters) -> HazeLayer:
