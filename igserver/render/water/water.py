@@ -185,8 +185,9 @@ class WaterPass(RenderPass):
         scalar = np.stack([f.steepness, f.depth, f.breaking, np.zeros_like(f.depth)], axis=-1)
         scalar = np.ascontiguousarray(scalar.transpose(1, 0, 2), dtype=np.float32)
         scalar_tex = self.ctx.texture((nu, nv), 4, scalar.tobytes(), dtype="f4")
-        for tex in (field, scalar_tex):
-            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        for tex in (field, scalar_tex):  # bilinear between nodes, edges clamped (gerstner.glsl)
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            tex.repeat_x = tex.repeat_y = False
         self._field_tex = (field, scalar_tex)
 
     def _render_detail(self, sea: SeaSurface, t: float, resolution: int) -> list[tuple[float, np.ndarray]]:
