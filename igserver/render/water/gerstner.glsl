@@ -35,21 +35,15 @@ struct SeaSample {
 };
 
 #ifdef WATER_FIELD
-// Bilinear weights of node corners, exactly as surface.py's _bilinear_nodes.
-void field_cell(vec2 p, out ivec2 i0, out ivec2 i1, out vec2 t) {
+// Texture coordinate of the bilinear sample between node corners, exactly as surface.py's
+// _bilinear_nodes: the node grid clamped at its edges (texel centres, clamp-to-edge), one filtered
+// fetch per wave instead of four texelFetch (the vertex shader's main cost on a CPU rasterizer).
+vec2 field_uv(vec2 p) {
     vec2 d = p - u_field_origin;
     vec2 g = vec2(dot(d, u_field_u) / u_field_cell.x, dot(d, u_field_v) / u_field_cell.y);
     g = clamp(g, vec2(0.0), vec2(u_field_size - 1));
     if (u_field_size.y == 1) g.y = 0.0;
-    i0 = min(ivec2(floor(g)), max(u_field_size - 2, ivec2(0)));
-    i1 = min(i0 + 1, u_field_size - 1);
-    t = g - vec2(i0);
-}
-vec4 field_at(sampler2DArray tex, ivec2 i0, ivec2 i1, vec2 t, int layer) {
-    // texel (x, y) = node (u index, v index)
-    vec4 a = texelFetch(tex, ivec3(i0.x, i0.y, layer), 0), b = texelFetch(tex, ivec3(i1.x, i0.y, layer), 0);
-    vec4 c = texelFetch(tex, ivec3(i0.x, i1.y, layer), 0), d = texelFetch(tex, ivec3(i1.x, i1.y, layer), 0);
-    return (a * (1.0 - t.x) + b * t.x) * (1.0 - t.y) + (c * (1.0 - t.x) + d * t.x) * t.y;
+    return (g + 0.5) / vec2(u_field_size);
 }
 #endif
 
@@ -58,12 +52,8 @@ SeaSample sea_displace(vec2 p, float spacing) {
     float depth = 1e4;
     float breaking = 0.0;
 #ifdef WATER_FIELD
-    ivec2 i0, i1;
-    vec2 t;
-    field_cell(p, i0, i1, t);
-    vec3 s00 = texelFetch(u_field_scalar, i0, 0).xyz, s10 = texelFetch(u_field_scalar, ivec2(i1.x, i0.y), 0).xyz;
-    vec3 s01 = texelFetch(u_field_scalar, ivec2(i0.x, i1.y), 0).xyz, s11 = texelFetch(u_field_scalar, i1, 0).xyz;
-    vec3 sc = (s00 * (1.0 - t.x) + s10 * t.x) * (1.0 - t.y) + (s01 * (1.0 - t.x) + s11 * t.x) * t.y;
+    vec2 uv = field_uv(p);
+    vec3 sc = textureLod(u_field_scalar, uv, 0.0).xyz;
     q = sc.x;
     depth = sc.y;
     breaking = sc.z;
@@ -79,7 +69,7 @@ SeaSample sea_displace(vec2 p, float spacing) {
         float a = w.z;
         vec2 kv = w.xy;
 #ifdef WATER_FIELD
-        vec4 f = field_at(u_field, i0, i1, t, i);
+        vec4 f = textureLod(u_field, vec3(uv, float(i)), 0.0);
         theta += f.x;
         a *= f.y;
         kv = f.zw;

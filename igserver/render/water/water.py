@@ -129,6 +129,7 @@ class WaterPass(RenderPass):
         self._field_tex = None
         self._detail = None
         self._detail_fbos = None
+        self._detail_key = None
         self._instances = None
         self.stats: dict = {}
 
@@ -185,8 +186,9 @@ class WaterPass(RenderPass):
         scalar = np.stack([f.steepness, f.depth, f.breaking, np.zeros_like(f.depth)], axis=-1)
         scalar = np.ascontiguousarray(scalar.transpose(1, 0, 2), dtype=np.float32)
         scalar_tex = self.ctx.texture((nu, nv), 4, scalar.tobytes(), dtype="f4")
-        for tex in (field, scalar_tex):
-            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        for tex in (field, scalar_tex):  # bilinear between nodes, edges clamped (gerstner.glsl)
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            tex.repeat_x = tex.repeat_y = False
         self._field_tex = (field, scalar_tex)
 
     def _render_detail(self, sea: SeaSurface, t: float, resolution: int) -> list[tuple[float, np.ndarray]]:
@@ -195,6 +197,7 @@ class WaterPass(RenderPass):
                 for tex, fbo in zip(self._detail, self._detail_fbos):
                     fbo.release()
                     tex.release()
+            self._detail_key = None
             self._detail = [self.ctx.texture((resolution, resolution), 4, dtype="f2") for _ in range(DETAIL_MAPS)]
             self._detail_fbos = [self.ctx.framebuffer(color_attachments=[t_]) for t_ in self._detail]
             for tex in self._detail:
@@ -203,6 +206,13 @@ class WaterPass(RenderPass):
         program = self.programs.program("common/fullscreen.vert.glsl", "water/detail.frag.glsl",
                                         {"MAX_DETAIL": MAX_DETAIL})
         tiles = detail_tiles(sea, t)
+        # The maps depend on the sea state and the time only: a frame at the same time (another
+        # view, a re-render of a paused scene) reuses them instead of redrawing 3 tiles of waves.
+        # (The sea is cached per state by igserver.water, so identity is the state; a resolution
+        # change above clears the key.)
+        if self._detail_key is not None and self._detail_key[0] is sea and self._detail_key[1] == float(t):
+            return tiles
+        self._detail_key = (sea, float(t))
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         for (size, waves), tex, fbo in zip(tiles, self._detail, self._detail_fbos):
             fbo.use()
