@@ -12,6 +12,7 @@ import statistics
 import time
 
 import numpy as np
+from pydantic import ValidationError
 
 from .scene import apply_patch, load_scene
 from .scene.patch import patch_from_assignments
@@ -59,10 +60,15 @@ TABLE_PASSES = ["sky", "surfaces", "water", "volumes", "precip", "post"]
 def markdown_table(report: dict) -> str:
     """The README's performance table: per scene x resolution x preset, frame median (p99) and
     per-pass medians (ms)."""
-    passes = [p for p in TABLE_PASSES if any(p in r["pass_ms"] for r in report["runs"])]
+    runs = [r for r in report["runs"] if "skipped" not in r]
+    passes = [p for p in TABLE_PASSES if any(p in r["pass_ms"] for r in runs)]
     head = ["scene", "resolution", "preset", "frame median (p99)", *passes]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in report["runs"]:
+        if "skipped" in r:
+            lines.append(f"| `{r['scene']}` | {r['resolution']} | {r['preset']} | refused (over the render budget) |"
+                         + " |" * len(passes))
+            continue
         cells = [f"`{r['scene']}`", r["resolution"], r["preset"],
                  f"{r['frame_ms']['median']:.1f} ({r['frame_ms']['p99']:.1f})",
                  *(f"{r['pass_ms'][p]['median']:.1f}" if p in r["pass_ms"] else "–" for p in passes)]
@@ -82,8 +88,15 @@ def run(scenes: list[str], resolutions: list[tuple[int, int]], frames: int, assi
         base = apply_patch(load_scene(name), patch)
         for width, height in resolutions:
             for preset in presets or [base.quality.preset]:
-                scene = apply_patch(base, {"camera": {"width": width, "height": height},
-                                           "quality": {"preset": preset}})
+                try:
+                    scene = apply_patch(base, {"camera": {"width": width, "height": height},
+                                               "quality": {"preset": preset}})
+                except ValidationError as exc:  # e.g. over the render budget: the IG refuses it too
+                    reason = "; ".join(e["msg"] for e in exc.errors())
+                    print(f"{name:18s} {width}x{height} {preset:6s}  skipped: {reason}", flush=True)
+                    report["runs"].append({"scene": name, "resolution": f"{width}x{height}", "preset": preset,
+                                           "skipped": reason})
+                    continue
                 row = bench_scene(renderer, scene, frames)
                 row.update(scene=name, resolution=f"{width}x{height}", preset=preset)
                 report["runs"].append(row)
