@@ -27,10 +27,10 @@ import numpy as np
 
 from ..render.frame import build_frame
 from ..render.renderer import Renderer
-from ..render.shaders import GLSL_VERSION, expand
 from ..render.sky import atmosphere_model as am
 from ..render.sky.tables import AtmosphereTables, cache_dir
 from ..scene.model import Scene
+from .light import SkyEvaluator
 from .reference_sky import single_scattering
 
 SUN_ZENITHS = (30.0, 65.0, 88.0, 95.0, 100.0)
@@ -59,36 +59,13 @@ def make_scene(sun_zenith: float, model: str = "precomputed", quality: str = "me
     })
 
 
-class DomeEvaluator:
-    """sky_radiance(dir) of common/atmosphere.glsl for a list of directions, on the GPU."""
-
-    def __init__(self, renderer: Renderer):
-        self.r = renderer
-        src = "\n".join([GLSL_VERSION, "#define COMPUTE_SHADER 1", "layout(local_size_x = 64) in;",
-                         expand("common/frame.glsl"),
-                         expand("common/atmosphere.glsl", frozenset({"common/frame.glsl"})),
-                         "layout(std430, binding = 0) buffer Dirs { vec4 d[]; };",
-                         "layout(std430, binding = 1) buffer Out { vec4 o[]; };",
-                         "uniform int u_count;",
-                         "void main() { uint i = gl_GlobalInvocationID.x; if (i >= uint(u_count)) return;",
-                         "  o[i] = vec4(sky_radiance(d[i].xyz), 0.0); }"])
-        self.prog = renderer.ctx.compute_shader(src)
+class DomeEvaluator(SkyEvaluator):
+    """sky_radiance(dir) of common/atmosphere.glsl for a list of directions, on the GPU, with the
+    frame's exposure (the light study's evaluator, one compute probe for both studies)."""
 
     def __call__(self, scene: Scene, dirs: np.ndarray) -> tuple[np.ndarray, float]:
-        frame = build_frame(self.r.ctx, scene)
-        for name, value in {**frame.uniforms, "u_count": len(dirs)}.items():
-            if name in self.prog and hasattr(self.prog[name], "value"):
-                self.prog[name].value = value
-        pts = np.zeros((len(dirs), 4), "f4")
-        pts[:, :3] = dirs
-        inp, out = self.r.ctx.buffer(pts.tobytes()), self.r.ctx.buffer(reserve=pts.nbytes)
-        inp.bind_to_storage_buffer(0)
-        out.bind_to_storage_buffer(1)
-        self.prog.run((len(dirs) + 63) // 64)
-        result = np.frombuffer(out.read(), "f4").reshape(-1, 4)[:, :3].astype(np.float64)
-        inp.release()
-        out.release()
-        return result, frame.exposure
+        radiance, frame = super().__call__(scene, dirs)
+        return radiance, frame.exposure
 
 
 def tone_map(radiance: np.ndarray, exposure: float) -> np.ndarray:
