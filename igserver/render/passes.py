@@ -6,6 +6,7 @@ from __future__ import annotations
 import moderngl
 
 from ..scene.model import Scene
+from . import presets
 from .camera import CameraView
 from .shaders import ProgramCache
 from .targets import Targets
@@ -15,9 +16,16 @@ class RenderPass:
     name: str = "?"
     reads_scene_distance: bool = False  # needs the depth copy before it runs
 
+    preset_pipeline: str | None = None  # the name its knobs are registered under in render/presets.py
+
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache):
         self.ctx = ctx
         self.programs = programs
+        self.settings = None  # fixed knobs (quality studies, tests); None = the scene's quality preset
+
+    def knobs(self, frame):
+        """This frame's knobs: the fixed settings if any, else those of the frame's quality rung."""
+        return self.settings or presets.knobs(self.preset_pipeline, frame.quality)
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
         return True

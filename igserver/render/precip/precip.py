@@ -19,10 +19,9 @@ import numpy as np
 from ...scene.model import Scene
 from ...weather import precipitation_falls
 from ..camera import CameraView
-from .. import presets
 from ..passes import RenderPass
 from ..shaders import set_uniforms
-from .particles import ParticleFrame, ParticlePool, PrecipSettings, particle_frame
+from .particles import ParticleFrame, ParticlePool, particle_frame
 
 # Per-type optics: a raindrop shows the sky around it and scatters light forward (refraction);
 # a snowflake is a rough white scatterer, nearly isotropic with a little backscatter.
@@ -32,10 +31,10 @@ OPTICS = {"rain": {"u_albedo": 1.0, "u_phase_g": 0.6}, "snow": {"u_albedo": 0.9,
 class PrecipPass(RenderPass):
     name = "precip"
     reads_scene_distance = True
+    preset_pipeline = "precip"
 
     def __init__(self, ctx, programs):
         super().__init__(ctx, programs)
-        self.settings: PrecipSettings | None = None  # None = the scene's quality preset
         self.pool = ParticlePool()
         self.stats = {"particles": 0, "tiles": 0, "streaks": 0, "drops_per_streak": 0.0}
         self._buffers: dict[str, moderngl.Buffer] = {}
@@ -63,7 +62,7 @@ class PrecipPass(RenderPass):
 
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
-        settings = self.settings or presets.knobs("precip", frame.quality)
+        settings = self.knobs(frame)
         particles = particle_frame(scene, view, settings, self.pool)
         near = particles.levels[0].particles if particles.levels else 0
         self.stats = {"particles": near, "tiles": len(particles.tiles),

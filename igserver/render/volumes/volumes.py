@@ -155,10 +155,10 @@ def _unit_cube_corners() -> np.ndarray:
 class VolumesPass(RenderPass):
     name = "volumes"
     reads_scene_distance = True
+    preset_pipeline = "volumes"
 
     def __init__(self, ctx, programs):
         super().__init__(ctx, programs)
-        self.settings: VolumeSettings | None = None  # None = the scene's quality preset
         self.stats = {"modelled": 0, "drawn": 0, "voxels": 0}
         self._slots: dict[tuple, _Slot] = {}
         self._profiles: OrderedDict[tuple, moderngl.Texture] = OrderedDict()  # LRU, at most MAX_PROFILE_TEXTURES
@@ -306,7 +306,7 @@ class VolumesPass(RenderPass):
 
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
-        settings = self.settings or presets.knobs("volumes", frame.quality)
+        settings = self.knobs(frame)
         self._frame += 1
         self.stats = {"modelled": 0, "drawn": 0, "voxels": 0}
         volumes = visible_volumes(scene, view)
