@@ -32,9 +32,10 @@ MAX_DETAIL = 48
 MAX_HULLS = 16
 DETAIL_MAPS = 3
 DETAIL_RATIO = 23.7  # tile sizes L, L/23.7, L/23.7² (not a power of two: no aligned repetition)
+# Texture units bound for the water draw (the frame keeps 8..15: haze table, sky-view table, 4D tables).
+DETAIL_UNIT0 = 1  # 1, 2, 3
 FIELD_UNIT = 4
 FIELD_SCALAR_UNIT = 5
-DETAIL_UNIT0 = 6
 WATER_BODY_COLOR = (0.004, 0.016, 0.022)  # deep-water albedo, as DEEP_ALBEDO in water.frag.glsl
 
 
