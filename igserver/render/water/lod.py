@@ -40,6 +40,7 @@ class LodSelection:
     finest_spacing: float  # m, vertex spacing of level 0
     error_bound_px: float  # the screen-space error each block satisfies (px)
     error_sphere: float  # m, Σ A_i
+    reach: float  # m, horizontal distance the sea is drawn to (the horizon and the crests beyond it)
 
     @property
     def triangles(self) -> int:
@@ -144,7 +145,7 @@ def select(view: CameraView, cam_height: float, k: np.ndarray, amplitude: np.nda
     # Near blocks first: the depth test then rejects hidden far fragments before they are shaded.
     centre = arr[:, :2] + arr[:, 2:3] / 2.0
     arr = arr[np.argsort(np.hypot(centre[:, 0], centre[:, 1]) - arr[:, 2] * 0.7072, kind="stable")]
-    return LodSelection(arr.astype(np.float32), morph, np.asarray(ranges), spacing, lod_error_px, sphere)
+    return LodSelection(arr.astype(np.float32), morph, np.asarray(ranges), spacing, lod_error_px, sphere, reach)
 
 
 def _frustum_planes(view: CameraView) -> list[tuple[float, ...]]:

@@ -3,9 +3,9 @@
 // normal maps, depth-dependent colour in the shallows, foam where the surface is compressed, aerial
 // perspective; no water inside hulls.
 #include "common/frame.glsl"
-#include "common/atmosphere.glsl"
 #include "common/brdf.glsl"
 #include "common/lights.glsl"
+#include "water/sea_tables.glsl"
 
 #ifndef MAX_HULLS
 #define MAX_HULLS 16
@@ -33,7 +33,6 @@ layout(location = 0) out vec4 out_color;
 layout(location = 1) out float out_distance;
 
 const float WATER_R0 = 0.02037;                    // Fresnel reflectance air-water, normal incidence
-const vec3 DEEP_ALBEDO = vec3(0.004, 0.016, 0.022); // backscatter of the deep water column
 const vec3 ABSORPTION = vec3(0.35, 0.07, 0.045);    // 1/m, coastal water (red first)
 const vec3 BOTTOM_ALBEDO = vec3(0.35, 0.30, 0.22);  // sand
 const vec3 FOAM_ALBEDO = vec3(0.75);
@@ -76,11 +75,12 @@ void main() {
         n = normalize(n + v * (0.02 - n_dot_v));
         n_dot_v = 0.02;
     }
-    // Sky reflection (the atmosphere's own radiance; rays that would enter the sea are mirrored up).
+    // Sky reflection (the atmosphere's own radiance from the per-frame table; rays that would enter
+    // the sea are mirrored up).
     vec3 r = reflect(-v, n);
     r.z = abs(r.z);
     float fresnel = fresnel_schlick(n_dot_v, vec3(WATER_R0)).x;
-    vec3 sky = sky_radiance(r);
+    vec3 sky = sky_reflection(r);
     // Direct light: sun and moon glitter, local lights (fires, lamps, spots) shimmering on the waves.
     vec3 direct = glint(u_sun_illuminance, n, v, u_sun_dir, alpha) + glint(u_moon_illuminance, n, v, u_moon_dir, alpha);
     vec3 e_local = vec3(0.0);  // local-light irradiance on a horizontal surface (lux), for body/foam
@@ -92,8 +92,7 @@ void main() {
     }
     // Light entering the water (lux on the surface) and coming back up: deep backscatter, or the
     // sand bottom seen through depth h along the down-and-up path (Beer-Lambert), in the shallows.
-    vec3 e_down = u_sun_illuminance * max(u_sun_dir.z, 0.0) + u_moon_illuminance * max(u_moon_dir.z, 0.0)
-                + PI * u_sky_ambient + e_local;
+    vec3 e_down = sea_downwelling() + e_local;
     float cos_t = sqrt(1.0 - (1.0 - n_dot_v * n_dot_v) / (1.333 * 1.333));  // refracted ray
     vec3 through = exp(-ABSORPTION * max(v_depth, 0.0) * (1.0 + 1.0 / cos_t));
     vec3 body = (DEEP_ALBEDO * (1.0 - through) + BOTTOM_ALBEDO * through) * e_down / PI;

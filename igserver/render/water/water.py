@@ -36,7 +36,12 @@ DETAIL_RATIO = 23.7  # tile sizes L, L/23.7, L/23.7² (not a power of two: no al
 DETAIL_UNIT0 = 1  # 1, 2, 3
 FIELD_UNIT = 4
 FIELD_SCALAR_UNIT = 5
-WATER_BODY_COLOR = (0.004, 0.016, 0.022)  # deep-water albedo, as DEEP_ALBEDO in water.frag.glsl
+SKY_REFLECT_UNIT = 6
+AIR_T_UNIT = 7
+AIR_S_UNIT = 0
+SKY_REFLECT_SIZE = (128, 64)  # azimuth x sqrt(elevation sine): 2.8 deg of azimuth, 0.9 deg at 1 deg up
+AIR_SIZE = (64, 96)  # azimuth x log distance: 5.6 deg, ~10 % distance steps past AIR_D0
+AIR_D0 = 10.0  # m
 
 
 _HULL_CACHE: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
@@ -120,6 +125,46 @@ def _foam_threshold(sea: SeaSurface, wind: float) -> float:
     return _FOAM_CACHE[key]
 
 
+class SeaTables:
+    """The per-frame sky reflection and aerial perspective tables of the sea (sea_tables.glsl), filled
+    from the shared atmosphere functions; the sky-view table (sky/sky_view.py) underneath them is the
+    atmosphere's per-frame evaluation, these two only add the fog layer and the sea's geometry."""
+
+    def __init__(self, ctx: moderngl.Context):
+        self.ctx = ctx
+        self.sky = ctx.texture(SKY_REFLECT_SIZE, 4, dtype="f4")
+        self.air = [ctx.texture(AIR_SIZE, 4, dtype="f4") for _ in range(2)]
+        for tex in (self.sky, *self.air):
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            tex.repeat_x, tex.repeat_y = True, False  # azimuth wraps, the other axis clamps
+        self.sky_fbo = ctx.framebuffer(color_attachments=[self.sky])
+        self.air_fbo = ctx.framebuffer(color_attachments=self.air)
+
+    @staticmethod
+    def air_map(reach: float) -> tuple[float, float]:
+        """(d0, 1 / log(1 + d_max / d0)) of the distance axis for sea out to ``reach`` m."""
+        return AIR_D0, 1.0 / math.log1p(max(reach, 10.0 * AIR_D0) / AIR_D0)
+
+    def fill(self, water: "WaterPass", frame, level_z: float, reach: float) -> dict:
+        """Fill both tables for this frame; returns the sampler/map uniforms of sea_tables.glsl."""
+        sky_view = frame.resources.get("sky_view")
+        if sky_view is not None:  # units 9..11 may have been taken by an earlier pass this frame
+            sky_view.bind()
+        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+        air_map = self.air_map(reach)
+        for fbo, defines in ((self.sky_fbo, {"SEA_TABLE_SKY": 1}), (self.air_fbo, {})):
+            program = water.programs.program("common/fullscreen.vert.glsl", "water/sea_tables.frag.glsl", defines)
+            set_uniforms(program, frame.uniforms)
+            set_uniforms(program, {"u_sea_air_map": air_map, "u_level_z": level_z})
+            fbo.use()
+            water.fullscreen(program)
+        self.sky.use(SKY_REFLECT_UNIT)
+        self.air[0].use(AIR_T_UNIT)
+        self.air[1].use(AIR_S_UNIT)
+        return {"u_sky_reflect": SKY_REFLECT_UNIT, "u_sea_air_t": AIR_T_UNIT, "u_sea_air_s": AIR_S_UNIT,
+                "u_sea_air_map": air_map}
+
+
 class WaterPass(RenderPass):
     name = "water"
 
@@ -132,6 +177,7 @@ class WaterPass(RenderPass):
         self._detail_fbos = None
         self._detail_key = None
         self._instances = None
+        self._tables: SeaTables | None = None
         self.stats: dict = {}
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
@@ -273,8 +319,13 @@ class WaterPass(RenderPass):
         tiles = self._render_detail(sea, t, scene.ocean.detail_resolution)
         selection = self.select(sea, scene, view)
         hulls = hull_boxes(scene, view)
+        if self._tables is None:
+            self._tables = SeaTables(self.ctx)
+        level_z = float(scene.ocean.level - view.position[2])
+        table_uniforms = self._tables.fill(self, frame, level_z, 1.5 * float(selection.reach) + abs(level_z))
         program = self._program(sea.field is not None, bool(hulls))
         set_uniforms(program, frame.uniforms)
+        set_uniforms(program, table_uniforms)
         if sea.field is not None:
             self._upload_field(sea)
         self._bind_waves(program, sea, scene, view)
@@ -305,9 +356,9 @@ class WaterPass(RenderPass):
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
         vao.render(moderngl.TRIANGLES, instances=len(selection.nodes))
-        self._fill_under_crests(frame, selection.error_sphere)
+        self._fill_under_crests(frame, selection.error_sphere, table_uniforms)
 
-    def _fill_under_crests(self, frame, sphere: float) -> None:
+    def _fill_under_crests(self, frame, sphere: float, table_uniforms: dict) -> None:
         """A camera inside the wave envelope (lower than the crests) looks under the mesh in places, and one
         closer to the water than the near plane sees the mesh clipped below it: those rays meet the water
         body. Draw the surfaces' ray-cast sphere below every trough (level − ΣA, no near clip) in
@@ -316,10 +367,10 @@ class WaterPass(RenderPass):
         height = float(frame.view.position[2]) - frame.scene.ocean.level
         if height > 1.05 * sphere + frame.view.near:
             return
-        program = self.programs.program("common/fullscreen.vert.glsl", "surfaces/plane.glsl")
+        program = self.programs.program("common/fullscreen.vert.glsl", "water/body.frag.glsl")
         set_uniforms(program, frame.uniforms)
-        set_uniforms(program, {"u_plane_height": -height - 1.05 * sphere, "u_base_color": WATER_BODY_COLOR,
-                               "u_roughness": 1.0})
+        set_uniforms(program, table_uniforms)
+        set_uniforms(program, {"u_plane_height": -height - 1.05 * sphere})
         self.fullscreen(program)
 
     def capture(self, scene: Scene) -> tuple[lod.LodSelection, np.ndarray]:

@@ -1,6 +1,6 @@
 // Sea mesh: one instanced G x G patch per CDLOD block (lod.py), morphed, displaced, on the earth.
 #include "common/frame.glsl"
-#include "common/atmosphere.glsl"
+#include "water/sea_tables.glsl"
 #include "water/gerstner.glsl"
 
 uniform vec2 u_morph[24];      // per level: morph start, end distance (m)
@@ -45,9 +45,8 @@ void main() {
     v_lost_var = s.lost_var;
     v_depth = s.depth;
     v_breaking = s.breaking;
-    // Aerial perspective is affine in the radiance and smooth in distance: evaluated per vertex
-    // through the shared function (two calls give the affine map), interpolated per pixel.
-    v_air_s = apply_aerial_perspective(vec3(0.0), v_rel);
-    v_air_t = apply_aerial_perspective(vec3(1.0), v_rel) - v_air_s;
+    // Aerial perspective is affine in the radiance and smooth in distance: the per-frame table of the
+    // shared function over the sea (sea_tables.glsl) per vertex, interpolated per pixel.
+    sea_aerial_perspective(v_rel, v_air_t, v_air_s);
     gl_Position = u_view_proj * vec4(v_rel, 1.0);
 }

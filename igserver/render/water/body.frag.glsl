@@ -1,0 +1,39 @@
+// The water body seen under the crests (water.py, _fill_under_crests): rays from a camera inside
+// the wave envelope that pass under the mesh meet the sphere below every trough; they see the deep
+// water's backscatter (the body term of water.frag.glsl) through the air in front. Depth from the
+// ray, so the mesh wins wherever it is nearer.
+#include "common/frame.glsl"
+#include "common/brdf.glsl"
+#include "common/lights.glsl"
+#include "water/sea_tables.glsl"
+
+uniform float u_plane_height;   // m, camera-relative height of the sphere's top (< 0)
+
+in vec2 v_uv;
+layout(location = 0) out vec4 out_color;
+layout(location = 1) out float out_distance;
+
+const float EARTH_RADIUS = 6.371e6;  // m
+
+void main() {
+    vec3 dir = view_ray(v_uv);
+    // Sphere of radius R below the camera at height H (cancellation-free near root, as plane.glsl).
+    float H = -u_plane_height;
+    float b = -(EARTH_RADIUS + H) * dir.z;
+    float C = H * (2.0 * EARTH_RADIUS + H);
+    float disc = b * b - C;
+    if (b <= 0.0 || disc < 0.0) discard;
+    float t = C / (b + sqrt(disc));
+    vec3 p = dir * t;
+    vec3 e = sea_downwelling();
+    for (int i = 0; i < u_light_count; ++i) {
+        vec3 l;
+        vec3 e_i = light_illuminance(i, p, l);
+        e += e_i * max(l.z, 0.0);
+    }
+    vec3 air_t, air_s;
+    sea_aerial_perspective(p, air_t, air_s);
+    out_color = vec4(pre_expose(DEEP_ALBEDO * e / PI * air_t + air_s), 1.0);
+    out_distance = t;
+    gl_FragDepth = window_depth(p);
+}
