@@ -17,6 +17,8 @@ uniform sampler2D u_detail0;
 uniform sampler2D u_detail1;
 uniform sampler2D u_detail2;
 uniform vec3 u_detail_map[3];         // per map: 1 / L (1/m), offset (cam xy mod L) / L
+uniform vec3 u_glint_dir;             // unit, toward the sun or the moon, whichever is brighter
+uniform vec3 u_glint_illuminance;     // lux per channel of that light
 uniform float u_min_slope_var;        // floor of the unresolved slope variance (glassy sea)
 
 in vec3 v_rel;
@@ -60,9 +62,18 @@ void main() {
     }
 #endif
     // Mesh slope + detail slopes (3 summed maps), and what none of them resolves as roughness.
-    vec4 d0 = detail(u_detail0, u_detail_map[0]);
-    vec4 d1 = detail(u_detail1, u_detail_map[1]);
-    vec4 d2 = detail(u_detail2, u_detail_map[2]);
+    // Only the maps that hold waves are read (WATER_DETAIL_MAPS, a prefix: the finest tiles are empty
+    // when the spectrum's detail band ends above them); an empty map is zero slope and variance.
+    vec4 d0 = vec4(0.0), d1 = vec4(0.0), d2 = vec4(0.0);
+#if WATER_DETAIL_MAPS > 0
+    d0 = detail(u_detail0, u_detail_map[0]);
+#endif
+#if WATER_DETAIL_MAPS > 1
+    d1 = detail(u_detail1, u_detail_map[1]);
+#endif
+#if WATER_DETAIL_MAPS > 2
+    d2 = detail(u_detail2, u_detail_map[2]);
+#endif
     vec2 slope = -v_normal.xy / max(v_normal.z, 0.05) + d0.xy + d1.xy + d2.xy;
     vec2 var2 = (d0.zw - d0.xy * d0.xy) + (d1.zw - d1.xy * d1.xy) + (d2.zw - d2.xy * d2.xy);
     float mss = max(var2.x + var2.y, 0.0) + v_lost_var + u_min_slope_var;
@@ -82,7 +93,9 @@ void main() {
     float fresnel = fresnel_schlick(n_dot_v, vec3(WATER_R0)).x;
     vec3 sky = sky_reflection(r);
     // Direct light: sun and moon glitter, local lights (fires, lamps, spots) shimmering on the waves.
-    vec3 direct = glint(u_sun_illuminance, n, v, u_sun_dir, alpha) + glint(u_moon_illuminance, n, v, u_moon_dir, alpha);
+    // The brighter of the sun and the moon (water.py picks it: by day the moon's glitter is a
+    // millionth of the sun's, by night the sun's direct light is zero).
+    vec3 direct = glint(u_glint_illuminance, n, v, u_glint_dir, alpha);
     vec3 e_local = vec3(0.0);  // local-light irradiance on a horizontal surface (lux), for body/foam
     for (int i = 0; i < u_light_count; ++i) {
         vec3 l;

@@ -113,6 +113,14 @@ def detail_tiles(sea: SeaSurface, t: float) -> list[tuple[float, np.ndarray]]:
     return tiles
 
 
+def glint_light(uniforms: dict) -> dict:
+    """The sun or the moon, whichever gives more light: the one glitter the water shader draws."""
+    sun, moon = np.asarray(uniforms["u_sun_illuminance"]), np.asarray(uniforms["u_moon_illuminance"])
+    use_sun = float(np.sum(sun)) >= float(np.sum(moon))
+    return {"u_glint_dir": tuple(uniforms["u_sun_dir" if use_sun else "u_moon_dir"]),
+            "u_glint_illuminance": tuple(float(x) for x in (sun if use_sun else moon))}
+
+
 _FOAM_CACHE: dict[int, float] = {}
 
 
@@ -184,8 +192,8 @@ class WaterPass(RenderPass):
         return scene.ocean.enabled
 
     # ---- resources ------------------------------------------------------------------------------
-    def _program(self, field: bool, hulls: bool = False) -> moderngl.Program:
-        defines = {"MAX_WAVES": MAX_WAVES, "MAX_HULLS": MAX_HULLS}
+    def _program(self, field: bool, hulls: bool = False, detail_maps: int = DETAIL_MAPS) -> moderngl.Program:
+        defines = {"MAX_WAVES": MAX_WAVES, "MAX_HULLS": MAX_HULLS, "WATER_DETAIL_MAPS": detail_maps}
         if field:
             defines["WATER_FIELD"] = 1
         if hulls:
@@ -262,6 +270,8 @@ class WaterPass(RenderPass):
         self._detail_key = (sea, float(t))
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         for (size, waves), tex, fbo in zip(tiles, self._detail, self._detail_fbos):
+            if len(waves) == 0:  # not read by the water shader (WATER_DETAIL_MAPS)
+                continue
             fbo.use()
             table = np.zeros((MAX_DETAIL, 4), dtype=np.float32)
             table[: len(waves)] = waves
@@ -323,9 +333,11 @@ class WaterPass(RenderPass):
             self._tables = SeaTables(self.ctx)
         level_z = float(scene.ocean.level - view.position[2])
         table_uniforms = self._tables.fill(self, frame, level_z, 1.5 * float(selection.reach) + abs(level_z))
-        program = self._program(sea.field is not None, bool(hulls))
+        used_maps = sum(1 for _, waves in tiles if len(waves))
+        program = self._program(sea.field is not None, bool(hulls), used_maps)
         set_uniforms(program, frame.uniforms)
         set_uniforms(program, table_uniforms)
+        set_uniforms(program, glint_light(frame.uniforms))
         if sea.field is not None:
             self._upload_field(sea)
         self._bind_waves(program, sea, scene, view)
@@ -337,7 +349,7 @@ class WaterPass(RenderPass):
             detail_map[c] = (1.0 / size, *(np.mod(view.position[:2], size) / size))
             self._detail[c].use(DETAIL_UNIT0 + c)
             set_uniforms(program, {f"u_detail{c}": DETAIL_UNIT0 + c})
-        set_uniforms(program, {"u_detail_map": detail_map.tobytes(), "u_min_slope_var": 2e-4})
+        set_uniforms(program, {"u_detail_map": detail_map[: max(used_maps, 1)].tobytes(), "u_min_slope_var": 2e-4})
         set_uniforms(program, {"u_foam_jacobian": _foam_threshold(sea, scene.weather.wind_speed
                                                                   if scene.ocean.sea_state is None else sea.spectrum.wind)})
         if "u_hull_count" in program:
