@@ -75,57 +75,56 @@ class SeaSurface:
 
     # ---- per-point wave parameters --------------------------------------------------------------
     def local(self, p0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(R (n,N), a (n,N), K (n,N,2), Q (N)) at rest points p0 (N, 2)."""
+        """(R, a, Kx, Ky) as (N, n) arrays, or (1, n) where they do not vary (uniform depth), and Q
+        (N,), at rest points p0 (N, 2)."""
         w, npts = self.waves, p0.shape[0]
         if self.field is None:
-            r = np.zeros((w.n, npts))
-            a = np.broadcast_to(w.amplitude[:, None], (w.n, npts))
-            kv = np.broadcast_to((w.k[:, None] * w.direction)[:, None, :], (w.n, npts, 2))
-            return r, a, kv, np.full(npts, self.steepness)
+            kv = w.k[:, None] * w.direction
+            return (np.zeros((1, w.n)), w.amplitude[None, :], kv[None, :, 0], kv[None, :, 1],
+                    np.full(npts, self.steepness))
         f = self.field
         gu, gv = f.grid.to_grid(p0)
-        r = _bilinear_nodes(f.residual, gu, gv)
-        a = w.amplitude[:, None] * _bilinear_nodes(f.factor, gu, gv)
-        kv = np.stack([_bilinear_nodes(f.kvec[..., c], gu, gv) for c in range(2)], axis=-1)
-        q = _bilinear_nodes(f.steepness[None], gu, gv)[0]
-        return r, a, kv, q
+        nodes = _field_nodes(f)  # (nu, nv, n + 1, 4): R, F, Kx, Ky per wave; Q in the last row
+        v = _bilinear_nodes(nodes, gu, gv)  # (N, n + 1, 4)
+        return v[:, :-1, 0], w.amplitude[None, :] * v[:, :-1, 1], v[:, :-1, 2], v[:, :-1, 3], v[:, -1, 0]
 
     def evaluate(self, p0, t: float, origin_xy=(0.0, 0.0), full: bool = True) -> dict:
         """Displaced point, tangent frame and velocity at rest points p0 (N, 2) world xy.
 
-        With ``full`` False only the horizontal displacement and its Jacobian (Newton's needs)."""
+        With ``full`` False only the horizontal displacement and its Jacobian (Newton's needs).
+        Vectorised over points x waves: every sum over the waves is one product of the (N, n) sines or
+        cosines with a small matrix of per-wave weights (one BLAS call in uniform depth)."""
         p0 = np.atleast_2d(np.asarray(p0, dtype=np.float64))
         w = self.waves
         o = np.asarray(origin_xy, dtype=np.float64)
-        r, a, kv, q = self.local(p0)
-        theta = w.k[:, None] * ((p0 - o) @ w.direction.T).T + self.phase_offsets(t, o)[:, None] + r
+        r, a, kx, ky, q = self.local(p0)
+        theta = (p0 - o) @ (w.k[:, None] * w.direction).T + self.phase_offsets(t, o)[None, :] + r
         s, c = _sincos(theta)
-        kx, ky = kv[..., 0], kv[..., 1]
         kmag = np.maximum(np.hypot(kx, ky), 1e-300)
-        b = np.minimum(q[None, :] / (kmag * max(w.n, 1)), a)
+        b = np.minimum(q[:, None] / (kmag * max(w.n, 1)), a) if self.field is not None else \
+            np.minimum(self.steepness / (kmag * max(w.n, 1)), a)
         bk = b / kmag  # b K̂ = bk K
-        bc, bs = bk * c, bk * s
-        bsx, bsy = bs * kx, bs * ky
-        jxx, jxy = 1.0 - np.sum(bsx * kx, axis=0), -np.sum(bsx * ky, axis=0)
-        jyx, jyy = -np.sum(bsy * kx, axis=0), 1.0 - np.sum(bsy * ky, axis=0)
+        bkx, bky = bk * kx, bk * ky
+        # cos-weighted sums: displacement x, y; sin-weighted: M = Σ b K̂ Kᵀ sin θ (symmetric)
+        dx, dy = _wsum(c, bkx), _wsum(c, bky)
+        mxx, mxy, myy = _wsum(s, bkx * kx), _wsum(s, bkx * ky), _wsum(s, bky * ky)
+        jxx, jxy, jyx, jyy = 1.0 - mxx, -mxy, -mxy, 1.0 - myy
         out = {
-            "displaced_xy": p0 + np.stack([np.sum(bc * kx, axis=0), np.sum(bc * ky, axis=0)], axis=1),
+            "displaced_xy": p0 + np.stack([dx, dy], axis=1),
             "horizontal_jacobian": np.stack([np.stack([jxx, jxy], -1), np.stack([jyx, jyy], -1)], -2),
             "jacobian": jxx * jyy - jxy * jyx,
         }
         if not full:
             return out
-        ac = a * c
-        gx, gy = np.sum(ac * kx, axis=0), np.sum(ac * ky, axis=0)  # ∂z/∂x0, ∂z/∂y0
+        om = w.omega[None, :]
+        gx, gy = _wsum(c, a * kx), _wsum(c, a * ky)  # ∂z/∂x0, ∂z/∂y0
         tx = np.stack([jxx, jyx, gx], axis=1)  # ∂P/∂x0
         ty = np.stack([jxy, jyy, gy], axis=1)  # ∂P/∂y0
         normal = np.cross(tx, ty)  # up while J > 0
         normal /= np.linalg.norm(normal, axis=1, keepdims=True)
-        om = w.omega[:, None]
-        out["position"] = np.concatenate([out["displaced_xy"], np.sum(a * s, axis=0)[:, None]], axis=1)
+        out["position"] = np.concatenate([out["displaced_xy"], _wsum(s, a)[:, None]], axis=1)
         out["normal"] = normal
-        out["velocity"] = np.stack([np.sum(bsx * om, axis=0), np.sum(bsy * om, axis=0),
-                                    -np.sum(ac * om, axis=0)], axis=1)
+        out["velocity"] = np.stack([_wsum(s, bkx * om), _wsum(s, bky * om), -_wsum(c, a * om)], axis=1)
         return out
 
     def query(self, xy, t: float, tolerance: float = 1e-5) -> dict:
@@ -134,16 +133,15 @@ class SeaSurface:
         x = np.atleast_2d(np.asarray(xy, dtype=np.float64))
         o = np.mean(x, axis=0) if len(x) else np.zeros(2)
         p0 = x.copy()
-        for _ in range(NEWTON_STEPS):
-            e = self.evaluate(p0, t, o, full=False)
+        for step in range(NEWTON_STEPS + 1):
+            e = self.evaluate(p0, t, o)  # full: the converged step is also the answer
             err = e["displaced_xy"] - x
-            if not np.any(np.abs(err) > tolerance):
+            if step == NEWTON_STEPS or not np.any(np.abs(err) > tolerance):
                 break
             j, det = e["horizontal_jacobian"], e["jacobian"]
             det = np.where(np.abs(det) > 1e-9, det, 1e-9)
             p0 = p0 - np.stack([j[:, 1, 1] * err[:, 0] - j[:, 0, 1] * err[:, 1],
                                 j[:, 0, 0] * err[:, 1] - j[:, 1, 0] * err[:, 0]], axis=1) / det[:, None]
-        e = self.evaluate(p0, t, o)
         return {"height": e["position"][:, 2], "normal": e["normal"], "velocity": e["velocity"],
                 "residual": np.linalg.norm(e["position"][:, :2] - x, axis=1), "rest": p0}
 
@@ -155,15 +153,44 @@ def _sincos(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.sin(reduced).astype(np.float64), np.cos(reduced).astype(np.float64)
 
 
+def _wsum(m: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """Σ over waves of m (N, n) times weights (N, n), or (1, n) for the same weights at every point."""
+    if weights.shape[0] == 1:
+        return m @ weights[0]
+    return np.einsum("ij,ij->i", m, weights)
+
+
+_NODES: dict[int, tuple[WaveField, np.ndarray]] = {}
+
+
+def _field_nodes(f: WaveField) -> np.ndarray:
+    """The field's per-wave node values stacked point-major, (nu, nv, n + 1, 4): R, F, Kx, Ky for every
+    wave, then (Q, 0, 0, 0): one gather per cell corner fetches all of a point's parameters."""
+    cached = _NODES.get(id(f))
+    if cached is None or cached[0] is not f:
+        n, nu, nv = f.residual.shape
+        nodes = np.zeros((nu, nv, n + 1, 4))
+        nodes[:, :, :n] = np.stack([f.residual, f.factor, f.kvec[..., 0], f.kvec[..., 1]], axis=-1).transpose(1, 2, 0, 3)
+        nodes[:, :, n, 0] = f.steepness
+        if len(_NODES) > 8:
+            _NODES.clear()
+        _NODES[id(f)] = cached = (f, nodes)
+    return cached[1]
+
+
 def _bilinear_nodes(values: np.ndarray, gu: np.ndarray, gv: np.ndarray) -> np.ndarray:
-    """Bilinear interpolation of values (n, nu, nv) at fractional node coordinates (N,)."""
-    _, nu, nv = values.shape
+    """Bilinear interpolation of node values (nu, nv, ...) at fractional node coordinates (N,) — the
+    grid clamped at its edges, as the shader's clamp-to-edge texel-centre fetch (gerstner.glsl). One
+    gather of the four corners and one weighted sum."""
+    nu, nv = values.shape[:2]
     i0 = np.minimum(np.floor(gu).astype(int), max(nu - 2, 0))
     j0 = np.minimum(np.floor(gv).astype(int), max(nv - 2, 0))
     i1, j1 = np.minimum(i0 + 1, nu - 1), np.minimum(j0 + 1, nv - 1)
     tu, tv = gu - i0, gv - j0
-    return ((values[:, i0, j0] * (1 - tu) + values[:, i1, j0] * tu) * (1 - tv)
-            + (values[:, i0, j1] * (1 - tu) + values[:, i1, j1] * tu) * tv)
+    flat = values.reshape(nu * nv, -1)
+    corners = flat[np.stack([i0 * nv + j0, i1 * nv + j0, i0 * nv + j1, i1 * nv + j1], axis=1)]  # (N, 4, m)
+    weights = np.stack([(1 - tu) * (1 - tv), tu * (1 - tv), (1 - tu) * tv, tu * tv], axis=1)
+    return np.einsum("pc,pcm->pm", weights, corners).reshape(len(gu), *values.shape[2:])
 
 
 def surface_key(ocean: Ocean, weather: Weather) -> str:
