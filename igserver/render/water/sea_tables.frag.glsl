@@ -15,12 +15,17 @@ layout(location = 1) out vec4 out_1;
 const float EARTH_RADIUS = 6.371e6;
 
 void main() {
+#ifdef SEA_TABLE_SKY
+    // Inverse stereographic projection; texels outside the unit disk (never read but by the bilinear
+    // footprint of the horizon) hold the horizon's radiance.
+    vec2 q = 2.0 * v_uv - 1.0;
+    q *= inversesqrt(max(length(q), 1e-12));  // undo the |s| stretch: q = s
+    float q2 = dot(q, q);
+    vec3 dir = q2 < 1.0 ? vec3(2.0 * q, 1.0 - q2) / (1.0 + q2) : vec3(q / sqrt(q2), 0.0);
+    out_0 = vec4(sky_radiance(dir), 1.0);
+#else
     float az = (v_uv.x - 0.5) * 2.0 * PI;
     vec2 h = vec2(cos(az), sin(az));
-#ifdef SEA_TABLE_SKY
-    float z = v_uv.y * v_uv.y;
-    out_0 = vec4(sky_radiance(vec3(sqrt(max(1.0 - z * z, 0.0)) * h, z)), 1.0);
-#else
     float d = u_sea_air_map.x * (exp(v_uv.y / u_sea_air_map.y) - 1.0);
     // The mean sea point at distance d in this azimuth: horizontal distance r, earth's drop below it
     // (as water.vert.glsl).

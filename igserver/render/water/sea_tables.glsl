@@ -3,9 +3,11 @@
 // bilinear lookups instead of re-evaluating the atmosphere:
 //
 //   sky reflection  u_sky_reflect: sky_radiance(dir) (fog included) over the upper hemisphere, the
-//                   only directions a reflected ray takes (water.frag mirrors the rest up), indexed by
-//                   u = world azimuth / 2 pi, v = sqrt(dir.z) (rows packed toward the horizon,
-//                   where the sky changes fastest).
+//                   only directions a reflected ray takes (water.frag mirrors the rest up), on a disk:
+//                   s = dir.xy / (1 + dir.z) (stereographic), uv = (1 + s |s|) / 2 — a division and
+//                   a square root per pixel (no inverse trigonometry); the |s| stretch gives the
+//                   horizon, where the sky changes fastest, twice the rows of the plain projection
+//                   (0.45 deg per texel at 128 texels) and the smooth zenith fewer.
 //   aerial persp.   u_sea_air_t, u_sea_air_s: apply_aerial_perspective(L, rel) = L * T + S for points
 //                   on the mean sea surface (earth's drop included), indexed by u = world azimuth /
 //                   2 pi, v = log(1 + d / d0) / log(1 + d_max / d0) with d the distance from the
@@ -24,7 +26,8 @@ float sea_azimuth_u(vec2 xy) {
 }
 
 vec3 sky_reflection(vec3 dir) {  // dir.z >= 0
-    return texture(u_sky_reflect, vec2(sea_azimuth_u(dir.xy), sqrt(max(dir.z, 0.0)))).rgb;
+    vec2 st = dir.xy / (1.0 + max(dir.z, 0.0));
+    return texture(u_sky_reflect, 0.5 + 0.5 * st * length(st)).rgb;
 }
 
 vec2 sea_air_uv(vec3 rel) {

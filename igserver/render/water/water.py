@@ -39,7 +39,7 @@ FIELD_SCALAR_UNIT = 5
 SKY_REFLECT_UNIT = 6
 AIR_T_UNIT = 7
 AIR_S_UNIT = 0
-SKY_REFLECT_SIZE = (128, 64)  # azimuth x sqrt(elevation sine): 2.8 deg of azimuth, 0.9 deg at 1 deg up
+SKY_REFLECT_SIZE = (128, 128)  # the upper hemisphere on a disk (sea_tables.glsl): 0.45 deg per texel at the horizon
 AIR_SIZE = (64, 96)  # azimuth x log distance: 5.6 deg, ~10 % distance steps past AIR_D0
 AIR_D0 = 10.0  # m
 
@@ -145,6 +145,7 @@ class SeaTables:
         for tex in (self.sky, *self.air):
             tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
             tex.repeat_x, tex.repeat_y = True, False  # azimuth wraps, the other axis clamps
+        self.sky.repeat_x = False  # the stereographic disk: clamped
         self.sky_fbo = ctx.framebuffer(color_attachments=[self.sky])
         self.air_fbo = ctx.framebuffer(color_attachments=self.air)
 
@@ -368,16 +369,26 @@ class WaterPass(RenderPass):
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
         vao.render(moderngl.TRIANGLES, instances=len(selection.nodes))
-        self._fill_under_crests(frame, selection.error_sphere, table_uniforms)
+        self._fill_under_crests(frame, sea, selection, table_uniforms)
 
-    def _fill_under_crests(self, frame, sphere: float, table_uniforms: dict) -> None:
-        """A camera inside the wave envelope (lower than the crests) looks under the mesh in places, and one
-        closer to the water than the near plane sees the mesh clipped below it: those rays meet the water
-        body. Draw the surfaces' ray-cast sphere below every trough (level − ΣA, no near clip) in
-        deep-water colour; the depth test keeps the mesh wherever it is nearer. Only then: it costs a
-        full-screen pass."""
+    def _fill_under_crests(self, frame, sea: SeaSurface, selection: lod.LodSelection, table_uniforms: dict) -> None:
+        """A camera below the surface (a crest over it) looks under the mesh, and one closer to the
+        water than the near plane sees the mesh clipped below it: those rays meet the water body. Draw
+        the sphere below every trough (level − ΣA, no near clip) in deep-water colour; the depth test
+        keeps the mesh wherever it is nearer. Only then: it costs a full-screen pass. A camera above
+        the surface right below it (the host's height query at its xy, less what the finest mesh level
+        leaves out) by more than the near distance cannot see under the mesh: the sea is a height
+        field out to the horizon, so every ray going down meets it before passing beneath it."""
+        sphere = selection.error_sphere
         height = float(frame.view.position[2]) - frame.scene.ocean.level
         if height > 1.05 * sphere + frame.view.near:
+            return
+        w = sea.waves
+        x = w.k * selection.finest_spacing  # mesh deviation near the camera: interpolation + faded waves
+        mesh_error = float(np.sum(w.amplitude * np.minimum(1.0, x * x / 8.0))) * (
+            float(np.max(sea.field.factor)) if sea.field is not None else 1.0)
+        surface = float(sea.query(np.asarray(frame.view.position[:2])[None], frame.scene.time.sim_time)["height"][0])
+        if height - surface > frame.view.near + mesh_error + 0.05:
             return
         program = self.programs.program("common/fullscreen.vert.glsl", "water/body.frag.glsl")
         set_uniforms(program, frame.uniforms)
