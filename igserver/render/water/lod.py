@@ -93,53 +93,42 @@ def select(view: CameraView, cam_height: float, k: np.ndarray, amplitude: np.nda
     morph[top] = (1e30, 2e30)  # the root level never morphs (there is nothing coarser)
 
     cam = view.position
-    planes = _frustum_planes(view)
+    planes = np.array(_frustum_planes(view))  # (5, 5): a, b, c, w, |abc|
     root = s0 * 2**top
-    nodes: list[tuple[float, float, float, int]] = []
-    ox = math.floor((cam[0] - root) / root) * root
-    oy = math.floor((cam[1] - root) / root) * root
     # 3x3 (or more) root blocks around the camera, covering ``reach``.
     n_root = int(math.ceil((reach + root) / root))
     cz = float(cam_height)
 
-    def dist2_to_block(x0: float, y0: float, size: float) -> float:
-        dx = max(x0 - cam[0], 0.0, cam[0] - (x0 + size))
-        dy = max(y0 - cam[1], 0.0, cam[1] - (y0 + size))
-        return dx * dx + dy * dy + cz * cz
+    def dist2_to_block(xy: np.ndarray, size: float) -> np.ndarray:
+        d = np.maximum(np.maximum(xy - cam[:2], 0.0), cam[:2] - (xy + size))
+        return np.sum(d * d, axis=1) + cz * cz
 
-    def visible(x0: float, y0: float, size: float) -> bool:
-        cx, cy = x0 + size / 2.0 - cam[0], y0 + size / 2.0 - cam[1]
-        d = math.hypot(cx, cy)
-        if d - size > reach:
-            return False
+    def visible(xy: np.ndarray, size: float) -> np.ndarray:
+        c = xy + size / 2.0 - cam[:2]
+        d = np.hypot(c[:, 0], c[:, 1])
         cz_block = -cz - d * d / (2.0 * EARTH_RADIUS)  # the sea's drop below the tangent plane
         radius = size * 0.7072 + sphere + 0.5 * size * d / EARTH_RADIUS + 1.0
-        for a, b, c, w, norm in planes:
-            if a * cx + b * cy + c * cz_block + w < -radius * norm:
-                return False
-        return True
+        side = (planes[:, 0][None] * c[:, :1] + planes[:, 1][None] * c[:, 1:] + planes[:, 2][None] * cz_block[:, None]
+                + planes[:, 3][None])
+        return (d - size <= reach) & np.all(side >= -radius[:, None] * planes[:, 4][None], axis=1)
 
-    def visit(x0: float, y0: float, level: int) -> None:
+    # The quadtree walked a level at a time over arrays of blocks (lower-left corners, world m).
+    i, j = np.meshgrid(np.arange(2 * n_root + 1), np.arange(2 * n_root + 1), indexing="ij")
+    blocks = np.column_stack([(math.floor(cam[0] / root) - n_root + i.ravel()) * root,
+                              (math.floor(cam[1] / root) - n_root + j.ravel()) * root])
+    blocks = blocks[dist2_to_block(blocks, root) <= reach**2 + cz * cz]
+    chosen = []
+    for level in range(top, -1, -1):
         size = s0 * 2**level
-        if not visible(x0, y0, size):
-            return
-        if level == 0 or dist2_to_block(x0, y0, size) >= ranges[level - 1] ** 2:
-            nodes.append((x0, y0, size, level))
-            return
+        blocks = blocks[visible(blocks, size)]
+        split = (dist2_to_block(blocks, size) < ranges[level - 1] ** 2) if level else np.zeros(len(blocks), bool)
+        leaves = blocks[~split]
+        chosen.append(np.column_stack([leaves, np.full(len(leaves), size), np.full(len(leaves), level)]))
         half = size / 2.0
-        for dx in (0.0, half):
-            for dy in (0.0, half):
-                visit(x0 + dx, y0 + dy, level - 1)
-
-    ix0 = math.floor(cam[0] / root) - n_root
-    iy0 = math.floor(cam[1] / root) - n_root
-    del ox, oy
-    for i in range(2 * n_root + 1):
-        for j in range(2 * n_root + 1):
-            x0, y0 = (ix0 + i) * root, (iy0 + j) * root
-            if dist2_to_block(x0, y0, root) <= (reach + 0.0) ** 2 + cz * cz:
-                visit(x0, y0, top)
-    arr = np.array(nodes, dtype=np.float64).reshape(-1, 4)
+        blocks = (blocks[split][:, None, :] + np.array([[0.0, 0.0], [0.0, half], [half, 0.0], [half, half]])[None]
+                  ).reshape(-1, 2)
+    nodes = np.concatenate(chosen) if chosen else np.zeros((0, 4))
+    arr = nodes.astype(np.float64).reshape(-1, 4)
     arr[:, 0] -= cam[0]
     arr[:, 1] -= cam[1]
     # Near blocks first: the depth test then rejects hidden far fragments before they are shaded.
