@@ -181,3 +181,15 @@ def test_long_time_looks_like_short_time_and_is_deterministic(renderer):
     for m, s in rest:
         # Different instants of the same sea: same statistics (a pixelated or frozen sea would not be).
         assert m == pytest.approx(m0, rel=0.15) and s == pytest.approx(s0, rel=0.35)
+
+
+def test_quality_presets_reach_the_water_knobs(renderer):
+    """low / medium / high scale the scene's detail-map resolution and LOD error bound (medium = the
+    scene's own values); the wave count, which defines the sea the host queries describe, stays."""
+    seen = {}
+    for preset in ("low", "medium", "high"):
+        renderer.render(sea_scene(quality={"preset": preset}, ocean={"detail_resolution": 128, "lod_error": 1.0}))
+        seen[preset] = dict(renderer.graph.passes["water"].stats)
+    assert [seen[p]["detail_resolution"] for p in ("low", "medium", "high")] == [64, 128, 256]
+    assert [seen[p]["lod_error_px"] for p in ("low", "medium", "high")] == [2.0, 1.0, 0.5]
+    assert {seen[p]["waves"] for p in seen} == {24}

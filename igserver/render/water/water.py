@@ -14,6 +14,7 @@ conservative for a tapered bow (a little sea is cut beside it, none is drawn ins
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import moderngl
 import numpy as np
@@ -23,6 +24,7 @@ from ...water import sea_surface
 from ...water.spectrum import WaveSet
 from ...water.surface import SeaSurface
 from ..camera import CameraView, body_to_world
+from .. import presets
 from ..passes import RenderPass
 from ..shaders import assemble, set_uniforms
 from . import lod
@@ -42,6 +44,28 @@ AIR_S_UNIT = 0
 SKY_REFLECT_SIZE = (128, 128)  # the upper hemisphere on a disk (sea_tables.glsl): 0.45 deg per texel at the horizon
 AIR_SIZE = (64, 96)  # azimuth x log distance: 5.6 deg, ~10 % distance steps past AIR_D0
 AIR_D0 = 10.0  # m
+
+
+@dataclass(frozen=True)
+class WaterKnobs:
+    """Per quality level, relative to the scene's own ``ocean`` settings (medium = exactly those, so a
+    scene or the quality study that sets them gets what it set). The wave count is NOT a knob: it
+    defines the sea itself, which the host's height queries (hulls placed on it) must describe
+    whatever the picture quality."""
+
+    detail_scale: float  # × ocean.detail_resolution (texels per side of each detail map)
+    lod_error_scale: float  # × ocean.lod_error (px)
+
+
+# From `igserver quality water`: the detail-map resolution costs its re-rendering each frame and moves
+# the picture by < 0.2 levels between 64² and 256²; the LOD error bound does not bind at 640x360
+# (the crack-free range rule decides the mesh there), it does on large frames and high seas.
+PRESETS = {
+    "low": WaterKnobs(detail_scale=0.5, lod_error_scale=2.0),
+    "medium": WaterKnobs(detail_scale=1.0, lod_error_scale=1.0),
+    "high": WaterKnobs(detail_scale=2.0, lod_error_scale=0.5),
+}
+presets.register("water", PRESETS)
 
 
 _HULL_CACHE: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
@@ -176,6 +200,7 @@ class SeaTables:
 
 class WaterPass(RenderPass):
     name = "water"
+    preset_pipeline = "water"
 
     def __init__(self, ctx, programs):
         super().__init__(ctx, programs)
@@ -316,19 +341,21 @@ class WaterPass(RenderPass):
             self._field_tex[0].use(FIELD_UNIT)
             self._field_tex[1].use(FIELD_SCALAR_UNIT)
 
-    def select(self, sea: SeaSurface, scene: Scene, view: CameraView) -> lod.LodSelection:
+    def select(self, sea: SeaSurface, scene: Scene, view: CameraView, lod_error_scale: float = 1.0) -> lod.LodSelection:
         cam = scene.camera
         fov = cam.fov_y if cam.frustum is None else cam.frustum.top - cam.frustum.bottom
         return lod.select(view, float(view.position[2] - scene.ocean.level), sea.waves.k, sea.waves.amplitude
                           * (np.max(sea.field.factor, axis=(1, 2)) if sea.field is not None else 1.0),
-                          fov, scene.ocean.lod_error, view.far)
+                          fov, min(scene.ocean.lod_error * lod_error_scale, 16.0), view.far)
 
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
         sea = sea_surface(scene.ocean, scene.weather)
         t = scene.time.sim_time
-        tiles = self._render_detail(sea, t, scene.ocean.detail_resolution)
-        selection = self.select(sea, scene, view)
+        knobs = self.knobs(frame)
+        resolution = int(min(max(round(scene.ocean.detail_resolution * knobs.detail_scale), 32), 512))
+        tiles = self._render_detail(sea, t, resolution)
+        selection = self.select(sea, scene, view, knobs.lod_error_scale)
         hulls = hull_boxes(scene, view)
         if self._tables is None:
             self._tables = SeaTables(self.ctx)
@@ -361,7 +388,8 @@ class WaterPass(RenderPass):
                 program["u_hull_inv"].write(mats.tobytes())
         self.stats = {"blocks": int(len(selection.nodes)), "triangles": selection.triangles,
                       "lod_error_px": selection.error_bound_px, "error_sphere_m": selection.error_sphere,
-                      "finest_spacing_m": selection.finest_spacing, "waves": sea.n}
+                      "finest_spacing_m": selection.finest_spacing, "waves": sea.n,
+                      "detail_resolution": resolution}
         if len(selection.nodes) == 0:
             return
         vao = self._vao(program, selection.nodes)
