@@ -193,3 +193,17 @@ def test_quality_presets_reach_the_water_knobs(renderer):
     assert [seen[p]["detail_resolution"] for p in ("low", "medium", "high")] == [64, 128, 256]
     assert [seen[p]["lod_error_px"] for p in ("low", "medium", "high")] == [2.0, 1.0, 0.5]
     assert {seen[p]["waves"] for p in seen} == {24}
+
+
+def test_water_pass_leaves_the_frame_textures_alone(renderer):
+    """The sky above the horizon is the same with and without the sea: the water pass binds its own
+    textures on units the frame's shared tables (haze 8, sky view 9-11, atmosphere 12-15) do not use.
+    (Its third detail map once sat on unit 8, and the sky, drawn after the water, read wave slopes as
+    fog light: a dark band above the horizon.)"""
+    hazy = {"atmosphere": {"visibility": 3000.0}, "camera": {"pitch": 10.0, "exposure_ev": 13.0}}
+    with_sea = renderer.render(sea_scene(**hazy)).rgba
+    without = renderer.render(sea_scene(**hazy, ocean={"enabled": False}, ground={"enabled": False})).rgba
+    sky_rows = slice(0, 54 // 2)  # pitch 10 deg, fov 60: the horizon is 10 deg (9 rows) below the middle
+    # Exact: the sky pass shades these pixels from the same state either way (fixed exposure, the
+    # same dither), so any difference is state left behind by the water pass.
+    assert np.array_equal(with_sea[sky_rows], without[sky_rows])
