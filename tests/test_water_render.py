@@ -207,3 +207,15 @@ def test_water_pass_leaves_the_frame_textures_alone(renderer):
     # Exact: the sky pass shades these pixels from the same state either way (fixed exposure, the
     # same dither), so any difference is state left behind by the water pass.
     assert np.array_equal(with_sea[sky_rows], without[sky_rows])
+
+
+def test_sea_tables_refill_when_the_sky_changes_not_when_the_view_turns(renderer):
+    water = renderer.graph.passes["water"]
+    renderer.render(sea_scene(camera={"heading": 10.0}))
+    fills = water._tables.fills
+    renderer.render(sea_scene(camera={"heading": 70.0}))  # the view turns: same sky, same sea level
+    assert water._tables.fills == fills
+    renderer.render(sea_scene(camera={"heading": 70.0}, atmosphere={"visibility": 2000.0}))  # fog comes in
+    assert water._tables.fills == fills + 1
+    renderer.render(sea_scene(camera={"heading": 70.0}, time={"utc": "2026-06-21T09:30:00Z"}))  # the sun moves
+    assert water._tables.fills == fills + 2

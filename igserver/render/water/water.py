@@ -172,6 +172,20 @@ class SeaTables:
         self.sky.repeat_x = False  # the stereographic disk: clamped
         self.sky_fbo = ctx.framebuffer(color_attachments=[self.sky])
         self.air_fbo = ctx.framebuffer(color_attachments=self.air)
+        self._key = None
+        self.fills = 0
+
+    # Frame uniforms the tables do not depend on (the view, the display, local lights, the cirrus):
+    # everything else (sun, moon, fog, the atmosphere's parameters and tier, the camera's altitude) is
+    # part of the key, so a state the tables could depend on refills them.
+    VIEW_ONLY = ("u_camera_", "u_frustum_tangents", "u_view_proj", "u_inv_view_proj", "u_resolution", "u_exposure",
+                 "u_view_pixel_angle", "u_light_", "u_cirrus_", "u_adaptation_")
+
+    def key(self, frame, level_z: float, air_map: tuple[float, float]) -> tuple:
+        sky_view, tables = frame.resources.get("sky_view"), frame.resources.get("atmosphere_tables")
+        state = tuple(sorted((k, v) for k, v in frame.uniforms.items() if not k.startswith(self.VIEW_ONLY)))
+        return (state, level_z, air_map, id(tables), getattr(tables, "key", None), id(sky_view),
+                getattr(sky_view, "fills", None))
 
     @staticmethod
     def air_map(reach: float) -> tuple[float, float]:
@@ -179,18 +193,24 @@ class SeaTables:
         return AIR_D0, 1.0 / math.log1p(max(reach, 10.0 * AIR_D0) / AIR_D0)
 
     def fill(self, water: "WaterPass", frame, level_z: float, reach: float) -> dict:
-        """Fill both tables for this frame; returns the sampler/map uniforms of sea_tables.glsl."""
-        sky_view = frame.resources.get("sky_view")
-        if sky_view is not None:  # units 9..11 may have been taken by an earlier pass this frame
-            sky_view.bind()
-        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-        air_map = self.air_map(reach)
-        for fbo, defines in ((self.sky_fbo, {"SEA_TABLE_SKY": 1}), (self.air_fbo, {})):
-            program = water.programs.program("common/fullscreen.vert.glsl", "water/sea_tables.frag.glsl", defines)
-            set_uniforms(program, frame.uniforms)
-            set_uniforms(program, {"u_sea_air_map": air_map, "u_level_z": level_z})
-            fbo.use()
-            water.fullscreen(program)
+        """Fill both tables for this frame (unless nothing they depend on changed since the last
+        fill); returns the sampler/map uniforms of sea_tables.glsl."""
+        # The distance axis in 1/8 octaves of the reach, so a moving camera does not refill for it.
+        air_map = self.air_map(2.0 ** (math.ceil(8.0 * math.log2(max(reach, 1.0))) / 8.0))
+        key = self.key(frame, round(level_z, 2), air_map)
+        if key != self._key:
+            sky_view = frame.resources.get("sky_view")
+            if sky_view is not None:  # units 9..11 may have been taken by an earlier pass this frame
+                sky_view.bind()
+            self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+            for fbo, defines in ((self.sky_fbo, {"SEA_TABLE_SKY": 1}), (self.air_fbo, {})):
+                program = water.programs.program("common/fullscreen.vert.glsl", "water/sea_tables.frag.glsl", defines)
+                set_uniforms(program, frame.uniforms)
+                set_uniforms(program, {"u_sea_air_map": air_map, "u_level_z": level_z})
+                fbo.use()
+                water.fullscreen(program)
+            self._key = key
+            self.fills += 1
         self.sky.use(SKY_REFLECT_UNIT)
         self.air[0].use(AIR_T_UNIT)
         self.air[1].use(AIR_S_UNIT)
