@@ -132,18 +132,26 @@ class SeaSurface:
         (to ``tolerance`` m horizontally; J ≥ 1 − Q keeps it quadratic)."""
         x = np.atleast_2d(np.asarray(xy, dtype=np.float64))
         o = np.mean(x, axis=0) if len(x) else np.zeros(2)
+        n = len(x)
         p0 = x.copy()
+        height, normal, velocity, residual = np.zeros(n), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros(n)
+        active = np.arange(n)  # points still iterating: a converged point leaves the loop with its answer
         for step in range(NEWTON_STEPS + 1):
-            e = self.evaluate(p0, t, o)  # full: the converged step is also the answer
-            err = e["displaced_xy"] - x
-            if step == NEWTON_STEPS or not np.any(np.abs(err) > tolerance):
+            e = self.evaluate(p0[active], t, o)  # full: the converged step is also the answer
+            err = e["displaced_xy"] - x[active]
+            done = ~np.any(np.abs(err) > tolerance, axis=1) if step < NEWTON_STEPS else np.ones(len(active), bool)
+            idx = active[done]
+            height[idx], normal[idx], velocity[idx] = e["position"][done, 2], e["normal"][done], e["velocity"][done]
+            residual[idx] = np.linalg.norm(err[done], axis=1)
+            more = ~done
+            active, err = active[more], err[more]
+            if len(active) == 0:
                 break
-            j, det = e["horizontal_jacobian"], e["jacobian"]
+            j, det = e["horizontal_jacobian"][more], e["jacobian"][more]
             det = np.where(np.abs(det) > 1e-9, det, 1e-9)
-            p0 = p0 - np.stack([j[:, 1, 1] * err[:, 0] - j[:, 0, 1] * err[:, 1],
-                                j[:, 0, 0] * err[:, 1] - j[:, 1, 0] * err[:, 0]], axis=1) / det[:, None]
-        return {"height": e["position"][:, 2], "normal": e["normal"], "velocity": e["velocity"],
-                "residual": np.linalg.norm(e["position"][:, :2] - x, axis=1), "rest": p0}
+            p0[active] -= np.stack([j[:, 1, 1] * err[:, 0] - j[:, 0, 1] * err[:, 1],
+                                    j[:, 0, 0] * err[:, 1] - j[:, 1, 0] * err[:, 0]], axis=1) / det[:, None]
+        return {"height": height, "normal": normal, "velocity": velocity, "residual": residual, "rest": p0}
 
 
 def _sincos(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
