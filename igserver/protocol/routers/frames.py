@@ -139,6 +139,9 @@ async def render_state(
 @router.get(
     "/v1/stream.mjpg",
     summary="MJPEG stream (multipart/x-mixed-replace) for browsers and video tools",
+    description="Each part is the newest frame at the moment the connection can take it: the next part is "
+    "chosen only when the previous one has left the server, so a slow reader skips frames instead of "
+    "reading a backlog (what its own socket buffer holds it still reads first).",
     response_class=StreamingResponse,
     responses={200: {"content": {f"multipart/x-mixed-replace; boundary={MJPEG_BOUNDARY}": {}}}},
 )
