@@ -11,15 +11,7 @@ import pytest
 
 from igserver.water.dispersion import G, group_velocity, solve_kh, wavenumber
 
-
-def _bisect_kh(x: np.ndarray) -> np.ndarray:
-    """y tanh y = x by 200 float64 bisection steps: the interval shrinks below one ulp of y."""
-    lo, hi = np.zeros_like(x), np.maximum(np.sqrt(x), x) + 1.0
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        below = mid * np.tanh(mid) < x
-        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
-    return 0.5 * (lo + hi)
+from test_water import reference_kh as _bisect_kh  # y tanh y = x by 200 float64 bisection steps
 
 
 def test_dispersion_solve_reaches_float64_round_off():
