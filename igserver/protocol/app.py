@@ -149,10 +149,13 @@ def create_app(
 def uvicorn_config(app: FastAPI, host: str, port: int, **kwargs):
     import uvicorn
 
-    # image frames do not compress: per-message deflate would only cost CPU and latency (DESIGN §8)
+    from .flow import TransportInScope
+
+    # image frames do not compress: per-message deflate would only cost CPU and latency (DESIGN §8);
+    # the HTTP protocol puts the connection's transport in the scope for the MJPEG flow control (flow.py)
     return uvicorn.Config(
         app, host=host, port=port, ws_per_message_deflate=False, log_level=kwargs.pop("log_level", "warning"),
-        lifespan="on", **kwargs,
+        lifespan="on", http=TransportInScope, **kwargs,
     )
 
 

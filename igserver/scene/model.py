@@ -11,7 +11,6 @@ roll right-wing-down); ``time.utc`` drives sun/moon/stars, ``time.sim_time`` dri
 
 from __future__ import annotations
 
-import math
 from datetime import datetime, timezone
 from typing import Annotated, Literal
 
@@ -455,13 +454,3 @@ class Scene(Strict):
             ])
         return self
 
-
-def is_finite_tree(value) -> bool:
-    """True when no float anywhere in a plain (dict/list) tree is NaN or Inf."""
-    if isinstance(value, float):
-        return math.isfinite(value)
-    if isinstance(value, dict):
-        return all(is_finite_tree(v) for v in value.values())
-    if isinstance(value, (list, tuple)):
-        return all(is_finite_tree(v) for v in value)
-    return True

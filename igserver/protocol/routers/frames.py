@@ -12,6 +12,7 @@ from fastapi.responses import StreamingResponse
 
 from ..codec import MSGPACK, encode, negotiate
 from ..dependencies import Message, Runtime
+from ..flow import drained, transport_of
 from ..frames import EncodedFrame
 from ..imaging import MEDIA_TYPES
 from ..models import PATCH_SCHEMA, PROBLEM_RESPONSES, body_doc
@@ -138,10 +139,14 @@ async def render_state(
 @router.get(
     "/v1/stream.mjpg",
     summary="MJPEG stream (multipart/x-mixed-replace) for browsers and video tools",
+    description="Each part is the newest frame at the moment the connection can take it: the next part is "
+    "chosen only when the previous one has left the server, so a slow reader skips frames instead of "
+    "reading a backlog (what its own socket buffer holds it still reads first).",
     response_class=StreamingResponse,
     responses={200: {"content": {f"multipart/x-mixed-replace; boundary={MJPEG_BOUNDARY}": {}}}},
 )
 async def mjpeg_stream(
+    request: Request,
     runtime: Runtime,
     fps: float = Query(0, ge=0, le=240, description="cap on frames per second (0: as rendered)"),
     frames: int = Query(0, ge=0, description="end the stream after this many frames (0: never)"),
@@ -149,6 +154,7 @@ async def mjpeg_stream(
 ):
     quality = quality or runtime.settings.jpeg_quality
     interval = 1.0 / fps if fps else 0.0
+    transport = transport_of(request.scope)
 
     async def parts():
         runtime.stream_clients["mjpeg"] += 1
@@ -157,6 +163,10 @@ async def mjpeg_stream(
         try:
             with runtime.pump.subscription():
                 while (not frames or sent < frames) and not runtime.stopping.is_set():
+                    # flow control: the next part is chosen only when the last one has left the server, so a
+                    # slow reader gets the newest frame at its pace instead of a queue of old parts (flow.py)
+                    if not await drained(transport, runtime.stopping):
+                        break
                     # keepalive: resend the last frame when nothing new came, so players see the stream is live;
                     # the wait is short so that a server shutdown ends the stream at once
                     encoded = await runtime.pump.next_frame(last, timeout=min(runtime.settings.keepalive_s, 0.25))

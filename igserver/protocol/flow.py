@@ -1,0 +1,69 @@
+"""Flow control for pushed streams over HTTP (MJPEG): send the next part only once the previous one has left.
+
+A multipart stream has no acknowledgements of its own. Whatever the server writes ahead of the reader queues
+in the server's transport buffer (asyncio) and the kernel's send buffer (autotuned up to megabytes): a slow
+reader then reads a backlog of old parts instead of the newest frame. So the stream hands a part to the
+transport only when everything before it has left the server — the transport buffer is empty and the kernel
+holds no unsent byte of the connection (``SIOCOUTQNSD``; TCP sends only what the reader's receive window
+takes, so unsent bytes mean the reader has not made room) — and it picks the frame at that moment, the newest.
+What the reader's own socket receive buffer already holds is out of the server's sight: a reader that wants
+less than its buffer's worth of latency reads at its pace over the WebSocket with credits (``/v1/ws``).
+
+The ASGI app cannot see its connection, so the HTTP protocol puts the transport into the request scope
+(``scope["extensions"]["igserver.transport"]``): ``uvicorn_config`` runs uvicorn with ``TransportInScope``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import fcntl
+import struct
+from typing import Any
+
+from uvicorn.protocols.http.h11_impl import H11Protocol
+
+SCOPE_KEY = "igserver.transport"
+SIOCOUTQNSD = 0x894B  # linux/sockios.h: bytes in the send queue not yet sent
+POLL_S = (0.001, 0.02)  # the wait polls from 1 ms, doubling up to 20 ms (a drained part is noticed within that)
+
+
+class TransportInScope(H11Protocol):
+    """uvicorn's h11 protocol, with the connection's transport in every request's scope extensions."""
+
+    def connection_made(self, transport: asyncio.Transport) -> None:  # type: ignore[override]
+        super().connection_made(transport)
+        app = self.app
+
+        async def app_with_transport(scope, receive, send):
+            scope.setdefault("extensions", {})[SCOPE_KEY] = transport
+            return await app(scope, receive, send)
+
+        self.app = app_with_transport
+
+
+def transport_of(scope: dict[str, Any]) -> asyncio.Transport | None:
+    return (scope.get("extensions") or {}).get(SCOPE_KEY)
+
+
+def unsent_bytes(transport: asyncio.Transport) -> int:
+    """Bytes of this connection still in the server: the transport's buffer plus the kernel's unsent queue."""
+    pending = transport.get_write_buffer_size()
+    sock = transport.get_extra_info("socket")
+    if sock is not None:
+        try:
+            pending += struct.unpack("i", fcntl.ioctl(sock.fileno(), SIOCOUTQNSD, b"\0\0\0\0"))[0]
+        except OSError:  # not a TCP socket on Linux (a Unix socket, another OS): the transport buffer alone
+            pass
+    return pending
+
+
+async def drained(transport: asyncio.Transport | None, stopping: asyncio.Event | None = None) -> bool:
+    """Wait until everything written to the connection has left the server; False if it closed (or the
+    server is stopping) first. Without a transport (another ASGI server) returns at once."""
+    delay = POLL_S[0]
+    while transport is not None and unsent_bytes(transport):
+        if transport.is_closing() or (stopping is not None and stopping.is_set()):
+            return False
+        await asyncio.sleep(delay)
+        delay = min(2 * delay, POLL_S[1])
+    return transport is None or not transport.is_closing()

@@ -1,0 +1,335 @@
+"""The sea's wave maths against references written here (igserver/water): the dispersion solve to float64
+round-off as its docstring promises, the group velocity as dω/dk of the dispersion relation, and more
+below per module. GL-free and fast: they are part of the mutation run's selection (scripts/mutation.sh)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from igserver.water.dispersion import G, group_velocity, solve_kh, wavenumber
+
+from test_water import reference_kh as _bisect_kh  # y tanh y = x by 200 float64 bisection steps
+
+
+def test_dispersion_solve_reaches_float64_round_off():
+    """'Newton then converges quadratically, three steps give float64 round-off' (dispersion.py), over
+    x = 1e-12 … 1e7. Bisection stops at a few ulps of y (the bracket halves until neighbouring floats);
+    y tanh y near x is then flat to ~4 ulps: 1e-14 relative is over ten times that and a Newton step with a
+    wrong derivative (linear convergence from the 1.5 % start) stays above 1e-9 after four steps."""
+    x = np.geomspace(1e-12, 1e7, 4000)
+    rel = np.abs(solve_kh(x) - _bisect_kh(x)) / _bisect_kh(x)
+    assert rel.max() < 1e-14, (rel.max(), x[np.argmax(rel)])
+    assert solve_kh(0.0) == 0.0
+
+
+def test_float32_inputs_are_solved_in_float64():
+    """Callers may hand float32 arrays (GPU readbacks, msgpack float32): the maths is float64 throughout, so
+    the result equals the float64 one for the same (float32-representable) inputs."""
+    x32 = np.geomspace(1e-6, 1e3, 200).astype(np.float32)
+    assert np.array_equal(solve_kh(x32), solve_kh(x32.astype(np.float64)))
+    omega32, depth32 = np.geomspace(0.05, 20.0, 50).astype(np.float32), np.float32(7.3)
+    k = wavenumber(omega32, depth32)
+    assert k.dtype == np.float64 and np.array_equal(k, wavenumber(omega32.astype(np.float64), float(depth32)))
+    cg = group_velocity(omega32, k.astype(np.float32), depth32)
+    assert cg.dtype == np.float64
+    assert np.array_equal(cg, group_velocity(omega32.astype(np.float64), k.astype(np.float32).astype(np.float64), float(depth32)))
+
+
+@pytest.mark.parametrize("depth", [0.5, 3.0, 20.0, 200.0, math.inf])
+def test_group_velocity_is_domega_dk(depth):
+    """c_g = dω/dk of ω(k) = √(g k tanh(k h)), by central differences (step 1e-5 k: truncation ~1e-10,
+    round-off ~1e-11; bound 1e-8)."""
+    omega = np.geomspace(0.05, 30.0, 60)
+    k = wavenumber(omega, depth)
+
+    def omega_of(kk):
+        return np.sqrt(G * kk * (np.tanh(kk * depth) if math.isfinite(depth) else 1.0))
+
+    dk = 1e-5 * k
+    expected = (omega_of(k + dk) - omega_of(k - dk)) / (2 * dk)
+    assert np.allclose(group_velocity(omega, k, depth), expected, rtol=1e-8, atol=0)
+
+
+def test_group_velocity_limits():
+    """Shallow water: c_g → √(g h) (non-dispersive) up to the (kh)² terms; deep: c_g = c/2 = g/(2ω)."""
+    h, omega = 0.01, 0.05
+    k = wavenumber(omega, h)
+    assert k * h < 2e-3
+    assert group_velocity(omega, k, h) == pytest.approx(math.sqrt(G * h), rel=(k * h) ** 2)
+    assert group_velocity(3.0, wavenumber(3.0, math.inf), math.inf) == pytest.approx(G / 6.0, rel=1e-14)
+
+
+# --------------------------------------------------------------------------- spectrum (water/spectrum.py)
+
+from igserver.water.spectrum import (  # noqa: E402
+    SPREADING_S, SWELL_SPREADING_S, beaufort_hs, calibrate_detail, jonswap, mean_square_slope, peak_omega,
+    sea_spectrum, wave_bands, wind_for_hs,
+)
+
+
+def test_jonswap_is_pierson_moskowitz_times_the_peak_enhancement():
+    """Hasselmann et al. (1973): S = S_PM · γ^r, r = exp(−(ω−ω_p)²/(2σ²ω_p²)), γ = 3.3, σ = 0.07 below the
+    peak and 0.09 above; S_PM ∝ ω⁻⁵ exp(−5/4 (ω_p/ω)⁴) peaks at ω_p. Ratios only (the shape is unnormalised)."""
+    wp = 0.8
+    w = np.array([0.5, wp * (1 - 0.07), wp, wp * (1 + 0.09), 1.6, 3.0])
+    pm = w ** -5.0 * np.exp(-1.25 * (wp / w) ** 4)
+    enhancement = jonswap(w, wp) / pm
+    assert enhancement[2] == pytest.approx(3.3, rel=1e-12)
+    assert enhancement[1] == pytest.approx(3.3 ** math.exp(-0.5), rel=1e-12)  # one σ below: σ = 0.07
+    assert enhancement[3] == pytest.approx(3.3 ** math.exp(-0.5), rel=1e-12)  # one σ above: σ = 0.09
+    assert enhancement[-1] == pytest.approx(1.0, abs=1e-12)  # far from the peak: Pierson–Moskowitz
+    grid = np.linspace(0.5 * wp, 2 * wp, 30001)
+    assert grid[np.argmax(jonswap(grid, wp))] == pytest.approx(wp, abs=2 * (grid[1] - grid[0]))
+
+
+def test_beaufort_heights_and_their_inverse():
+    """WMO-No. 558 probable heights at the class mid-winds (Bf 4: 5.5–7.9 m/s → 1.0 m; Bf 8: 17.2–20.7 →
+    5.5 m; Bf 12 starts at 32.7: 14 m); past Bf 12 U² growth capped by the fully developed
+    Pierson–Moskowitz sea 0.21 (1.075 U)²/g (both grow as U², 0.0131 U² < 0.0248 U²: the cap never
+    binds); wind_for_hs inverts it."""
+    assert beaufort_hs(6.7) == pytest.approx(1.0) and beaufort_hs(18.95) == pytest.approx(5.5)
+    assert beaufort_hs(32.7) == pytest.approx(14.0)
+    for wind in (36.0, 60.0):  # U² from Bf 12 on, below the fully developed sea (both grow as U²)
+        assert beaufort_hs(wind) == pytest.approx(14.0 * (wind / 32.7) ** 2)
+        assert beaufort_hs(wind) < 0.21 * (1.075 * wind) ** 2 / G
+    for hs in (0.05, 0.4, 1.0, 3.7, 9.0, 14.0, 17.5):
+        assert beaufort_hs(wind_for_hs(hs)) == pytest.approx(hs, rel=1e-12), hs
+
+
+def test_peak_frequency_from_the_fetch_laws():
+    """JONSWAP fetch laws (g Hs/U² = 1.6e-3 χ^½, U f_p/g = 3.5 χ^−0.33) written here: a young sea (Hs well
+    below full development) peaks higher than the Pierson–Moskowitz ω_p = 0.855 g/U, which bounds it below."""
+    for wind, hs in ((10.0, 0.8), (15.0, 2.0), (20.0, 3.0)):
+        chi = (G * hs / wind ** 2 / 1.6e-3) ** 2
+        fetch_limited = 2 * math.pi * 3.5 * G / wind * chi ** -0.33
+        assert fetch_limited > 0.855 * G / wind
+        assert peak_omega(hs, wind) == pytest.approx(fetch_limited, rel=1e-12)
+    assert peak_omega(20.0, 10.0) == pytest.approx(0.855 * G / 10.0)  # an old sea: the PM peak
+    assert peak_omega(0.0, 0.0) == pytest.approx(0.855 * G / 1.0)  # no sea: the 1 m/s shape
+
+
+@pytest.mark.parametrize("s,swell", [(SPREADING_S, False), (SWELL_SPREADING_S, True)])
+def test_directional_spreading_has_the_cos2s_mean_resultant(s, swell):
+    """D(θ) ∝ cos^{2s}(θ/2) has mean resultant length E[cos θ] = s/(s+1) (Longuet-Higgins et al. 1963):
+    0.909 for the wind sea (s = 10), 0.984 for swell (s = 60). The waves' directions are equal-weight
+    quantile samples (golden-ratio quantiles): 200 of them estimate it to ~0.5 % (bound 1 %); with s
+    doubled or halved it moves by 4 % or more."""
+    spectrum = sea_spectrum(12.0, 90.0, None)  # waves run to 270 deg (west)
+    if swell:
+        mesh, _ = wave_bands(spectrum, 203, 0, swell_hs=2.0, swell_from=0.0, n_swell=200)  # swell runs south
+        direction, to = mesh.direction[:200], 180.0
+    else:
+        mesh, _ = wave_bands(spectrum, 200, 0)
+        direction, to = mesh.direction, 270.0
+    mean_direction = np.array([math.sin(math.radians(to)), math.cos(math.radians(to))])
+    assert float(np.mean(direction @ mean_direction)) == pytest.approx(s / (s + 1.0), rel=0.01)
+
+
+def test_slopes_match_cox_munk_after_calibration():
+    """Cox & Munk (1954), clean surface: total mean-square slope 0.003 + 5.12e-3 U (U at 12.5 m): mesh
+    plus calibrated detail band reach it (1e-12: a scale factor, exact up to round-off)."""
+    for wind in (3.0, 8.0, 15.0):
+        mesh, detail = wave_bands(sea_spectrum(wind, 0.0, None), 64, 64)
+        total = mean_square_slope(mesh) + mean_square_slope(calibrate_detail(mesh, detail, wind))
+        assert total == pytest.approx(0.003 + 5.12e-3 * wind, rel=1e-12), wind
+
+
+# --------------------------------------------------------------------------- bathymetry (water/bathymetry.py)
+
+from igserver.scene.model import Bathymetry, Ocean, Weather  # noqa: E402
+from igserver.water.bathymetry import depth_at, reference_waves, shore_steepness, wave_field  # noqa: E402
+from igserver.water.spectrum import WaveSet  # noqa: E402
+from igserver.water.surface import SeaSurface, sea_surface, surface_key  # noqa: E402
+
+
+def _k_of(omega: float, h: np.ndarray) -> np.ndarray:
+    """Wavenumber from the bisection reference above (not igserver's Newton)."""
+    h = np.asarray(h, dtype=np.float64)
+    return _bisect_kh(omega ** 2 * h / G) / h
+
+
+def _cg_of(omega: float, h: np.ndarray) -> np.ndarray:
+    k = _k_of(omega, h)
+    kh = k * h
+    return 0.5 * omega / k * (1.0 + 2.0 * kh / np.sinh(2.0 * kh))
+
+
+BEACH = Bathymetry(type="slope", depth=30.0, slope=0.03, shore_distance=800.0, shore_heading=90.0)
+
+
+def test_plane_beach_depth():
+    """h = slope × (distance to the shoreline along the shore heading), capped at the offshore depth."""
+    assert depth_at(BEACH, np.array([[800.0, 123.0]])) == pytest.approx([0.0])
+    assert depth_at(BEACH, np.array([[700.0, -50.0]])) == pytest.approx([3.0])
+    assert depth_at(BEACH, np.array([[0.0, 0.0]])) == pytest.approx([24.0])
+    assert depth_at(BEACH, np.array([[-500.0, 0.0]])) == pytest.approx([30.0])  # 39 m by the slope: capped
+    assert depth_at(BEACH, np.array([[850.0, 0.0]]))[0] == pytest.approx(-1.5)  # dry land: negative
+    north = Bathymetry(type="slope", depth=30.0, slope=0.03, shore_distance=800.0, shore_heading=0.0)
+    assert depth_at(north, np.array([[123.0, 700.0]])) == pytest.approx([3.0])
+
+
+def _one_wave(omega: float, to_azimuth: float, amplitude: float = 0.3, depth: float = 30.0) -> WaveSet:
+    a = math.radians(to_azimuth)
+    deep = WaveSet(np.array([omega]), np.array([omega ** 2 / G]), np.array([[math.sin(a), math.cos(a)]]),
+                   np.array([amplitude]), np.array([0.0]))
+    return reference_waves(deep, depth)
+
+
+def test_reference_waves_are_shoaled_to_the_reference_depth():
+    """Over h_ref: k = k(ω, h_ref) and A·√(c_g,deep / c_g(h_ref)) (linear shoaling)."""
+    omega = 0.6
+    w = _one_wave(omega, 90.0, 0.3, 8.0)
+    assert w.k[0] == pytest.approx(_k_of(omega, 8.0), rel=1e-12)
+    assert w.amplitude[0] == pytest.approx(0.3 * math.sqrt((G / (2 * omega)) / _cg_of(omega, 8.0)), rel=1e-9)
+
+
+@pytest.mark.parametrize("incidence", [0.0, 25.0, 50.0])
+def test_beach_rays_follow_snell_and_the_amplitude_follows_energy_flux(incidence):
+    """Over straight parallel contours (ray theory, any linear-wave text): |K| = k(ω, h) (the eikonal),
+    the alongshore component k sin θ is conserved (Snell), and the amplitude factor relative to the
+    reference depth is K_s·K_r = √(c_g,ref/c_g) · √(cos θ_ref / cos θ) until the breaking cap.
+    Wavenumbers and group velocities from the bisection reference; the march integrates the phase with the
+    trapezoid rule (its |K| is exact per node): 1e-9 on |K| and Snell, 1e-6 on the factor."""
+    omega = 0.7
+    waves = _one_wave(omega, 90.0 - incidence)  # shore to the east; waves come in at `incidence`
+    field = wave_field(BEACH, waves, 0.5, omega)
+    h = field.depth[:, 0]
+    sel = (h > 2.0) & (h < 29.0)  # wet, below the reference depth, outside the surf zone
+    kvec = field.kvec[0, sel, 0, :]
+    k_local = _k_of(omega, h[sel])
+    assert np.allclose(np.linalg.norm(kvec, axis=1), k_local, rtol=1e-9)
+    k_ref = _k_of(omega, 30.0)
+    alongshore = k_ref * math.sin(math.radians(incidence))
+    assert np.allclose(np.abs(kvec[:, 1]), alongshore, rtol=1e-9, atol=1e-12)
+    cos_theta = np.sqrt(1.0 - (alongshore / k_local) ** 2)
+    expected = np.sqrt(_cg_of(omega, 30.0) / _cg_of(omega, h[sel])) * np.sqrt(math.cos(math.radians(incidence)) / cos_theta)
+    capped = field.breaking[sel, 0] > 0.0
+    assert np.count_nonzero(~capped) > 50
+    assert np.allclose(field.factor[0, sel, 0][~capped], expected[~capped], rtol=1e-6)
+
+
+def test_breaking_caps_the_highest_wave_at_mccowan_and_dry_land_is_still():
+    """Rayleigh's highest of ~1000 waves 1.86 Hs may not exceed 0.78 h (McCowan): where the cap acts the
+    highest wave equals it; on dry land (h <= 0) nothing moves and the breaking mark is 0."""
+    waves = _one_wave(0.5, 90.0, amplitude=1.2)
+    field = wave_field(BEACH, waves, 0.5, 0.5)
+    h = field.depth[:, 0]
+    hs = 4.0 * np.sqrt(0.5 * (waves.amplitude[0] * field.factor[0, :, 0]) ** 2)
+    capped = (field.breaking[:, 0] > 1e-9) & (h > 0)
+    assert np.count_nonzero(capped) > 10
+    assert np.allclose(1.86 * hs[capped], 0.78 * h[capped], rtol=1e-9)
+    assert np.all(1.86 * hs[h > 0] <= 0.78 * h[h > 0] * (1 + 1e-9))
+    dry = h <= 0
+    assert np.count_nonzero(dry) > 0 and np.all(field.factor[0, dry, 0] == 0) and np.all(field.breaking[dry, 0] == 0)
+    # the mark is 1 − cap: ~0 offshore, rising toward the shoreline
+    assert field.breaking[np.argmax(h), 0] == 0.0 and np.max(field.breaking[capped, 0]) > 0.5
+
+
+def test_shore_steepness_limits():
+    """Q(x) = Q + (0.9 − Q)(1 − tanh k_p h): Q offshore (k_p h → ∞), 0.9 at the waterline, never below Q."""
+    assert shore_steepness(0.4, np.array(50.0)) == pytest.approx(0.4)
+    assert shore_steepness(0.4, np.array(0.0)) == pytest.approx(0.9)
+    assert shore_steepness(0.4, np.array(1.0)) == pytest.approx(0.4 + 0.5 * (1 - math.tanh(1.0)))
+    assert shore_steepness(0.95, np.array(0.0)) == pytest.approx(0.95)  # steeper than 0.9 offshore: kept
+
+
+# --------------------------------------------------------------------------- surface (water/surface.py)
+
+def _surface(waves: WaveSet, q: float) -> SeaSurface:
+    return SeaSurface(sea_spectrum(8.0, 0.0, None), waves, waves, None, q, 1000.0)
+
+
+def test_gerstner_surface_is_the_textbook_sum():
+    """Two deep-water Gerstner waves written here (Tessendorf 2001, 'Simulating ocean water', eq. 9 with
+    per-wave steepness Q_i = Q/(k_i A_i n)): x = x₀ + Σ (Q/(k_i n)) D_i cos θ_i, z = Σ A_i sin θ_i,
+    θ_i = k_i D_i·x₀ − ω_i t + φ_i. float64 except sin/cos (float32 after a float64 reduction: 1e-7
+    relative of a phase below π → 1e-6 m on these metre-scale waves)."""
+    omega = np.array([0.8, 1.3])
+    k = omega ** 2 / G
+    d = np.array([[1.0, 0.0], [math.sin(math.radians(30)), math.cos(math.radians(30))]])
+    amp, phase, q = np.array([0.9, 0.35]), np.array([0.4, 2.0]), 0.5
+    sea = _surface(WaveSet(omega, k, d, amp, phase), q)
+    p0 = np.random.default_rng(2).uniform(-100, 100, (50, 2))
+    t = 12.7
+    out = sea.evaluate(p0, t)
+    theta = k[:, None] * (d @ p0.T) - omega[:, None] * t + phase[:, None]
+    b = np.minimum(q / (k * 2), amp)[:, None]
+    x = p0 + np.stack([np.sum(b * d[:, :1] * np.cos(theta), 0), np.sum(b * d[:, 1:] * np.cos(theta), 0)], axis=1)
+    z = np.sum(amp[:, None] * np.sin(theta), axis=0)
+    assert np.allclose(out["position"][:, :2], x, atol=1e-5)
+    assert np.allclose(out["position"][:, 2], z, atol=1e-5)
+    # an origin shift moves nothing (camera-relative phases are reduced, not changed)
+    assert np.allclose(sea.evaluate(p0, t, origin_xy=(5e5, -3e5))["position"], out["position"], atol=1e-5)
+
+
+def test_normal_velocity_and_jacobian_are_the_derivatives():
+    """In uniform depth the tangent frame is exact: the normal is ∂P/∂x₀ × ∂P/∂y₀ normalised, the
+    velocity ∂P/∂t, the Jacobian det ∂(x,y)/∂(x₀,y₀), all checked by central differences here (step
+    1 mm and 1 ms: truncation ~1e-6 of the 100 m and 8 s scales, float32 sin/cos noise 1e-6 m / 1e-3 m:
+    bounds 1e-3)."""
+    sea = sea_surface(Ocean(enabled=True), Weather(wind_speed=9.0, wind_direction=40.0), 16)
+    p0 = np.random.default_rng(3).uniform(-300, 300, (40, 2))
+    t, e, dt = 33.0, 1e-3, 1e-3
+    out = sea.evaluate(p0, t)
+    px = (sea.evaluate(p0 + [e, 0], t)["position"] - sea.evaluate(p0 - [e, 0], t)["position"]) / (2 * e)
+    py = (sea.evaluate(p0 + [0, e], t)["position"] - sea.evaluate(p0 - [0, e], t)["position"]) / (2 * e)
+    normal = np.cross(px, py)
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    assert np.allclose(out["normal"], normal, atol=1e-3)
+    velocity = (sea.evaluate(p0, t + dt)["position"] - sea.evaluate(p0, t - dt)["position"]) / (2 * dt)
+    assert np.allclose(out["velocity"], velocity, atol=1e-3)
+    assert np.allclose(out["jacobian"], px[:, 0] * py[:, 1] - px[:, 1] * py[:, 0], atol=1e-3)
+
+
+def test_query_finds_the_surface_above_a_world_point():
+    """The height returned for x is that of the rest point whose displaced position is x (Newton on the
+    horizontal map): evaluating that rest point lands on x (1e-5 m: the query's tolerance)."""
+    sea = sea_surface(Ocean(enabled=True), Weather(wind_speed=14.0, wind_direction=300.0), 24)
+    x = np.random.default_rng(4).uniform(-500, 500, (100, 2))
+    got = sea.query(x, 81.0)
+    back = sea.evaluate(got["rest"], 81.0)
+    assert np.all(np.abs(back["position"][:, :2] - x) <= 1e-5)
+    assert np.allclose(back["position"][:, 2], got["height"]) and np.all(got["residual"] <= 1e-5)
+    assert np.allclose(back["normal"], got["normal"]) and np.allclose(back["velocity"], got["velocity"])
+
+
+def test_whitecap_threshold_gives_monahans_coverage():
+    """Monahan & O'Muircheartaigh (1980): whitecap fraction W = 3.84e-6 U^3.41 (12 m/s: 1.8 %). The
+    threshold is the J quantile at W over its own samples; over 20,000 fresh points and instants the
+    fraction below it is W within 25 % (sampling: ~360 points below; the field is correlated over a
+    wavelength, which widens the spread beyond the binomial 5 %)."""
+    wind = 12.0
+    sea = sea_surface(Ocean(enabled=True), Weather(wind_speed=wind, wind_direction=0.0))
+    threshold = sea.foam_jacobian(wind)
+    rng = np.random.default_rng(99)
+    j = np.concatenate([sea.evaluate(rng.uniform(-2000, 2000, (5000, 2)), t, full=False)["jacobian"]
+                        for t in (3.0, 50.0, 111.0, 170.0)])
+    coverage = 3.84e-6 * wind ** 3.41
+    assert float(np.mean(j < threshold)) == pytest.approx(coverage, rel=0.25)
+    assert sea_surface(Ocean(enabled=True), Weather(wind_speed=0.0)).foam_jacobian(0.0) == -1.0
+
+
+def test_amplitude_sum_bounds_every_displacement():
+    """The mesh's error sphere: no displacement (horizontal or vertical) exceeds Σ A_i·max F."""
+    for ocean in (Ocean(enabled=True), Ocean(enabled=True, bathymetry=BEACH)):
+        sea = sea_surface(ocean, Weather(wind_speed=11.0, wind_direction=250.0))
+        p0 = np.random.default_rng(5).uniform(-900, 900, (3000, 2))
+        out = sea.evaluate(p0, 17.0)
+        displacement = np.linalg.norm(np.concatenate([out["displaced_xy"] - p0, out["position"][:, 2:]], 1), axis=1)
+        assert displacement.max() <= sea.amplitude_sum
+        assert sea.amplitude_sum == pytest.approx(float(np.sum(sea.waves.amplitude))
+                                                  * max(1.0, float(np.max(sea.field.factor)) if sea.field else 1.0))
+
+
+def test_surface_key_ignores_what_does_not_shape_the_waves():
+    """Level, LOD error and detail-map resolution change no wave: the cache key ignores them; wind and
+    bathymetry change it."""
+    weather = Weather(wind_speed=7.0, wind_direction=10.0)
+    base = surface_key(Ocean(enabled=True), weather)
+    assert surface_key(Ocean(enabled=False, level=12.0, lod_error=4.0, detail_resolution=64), weather) == base
+    assert surface_key(Ocean(enabled=True), Weather(wind_speed=7.5, wind_direction=10.0)) != base
+    assert surface_key(Ocean(enabled=True), Weather(wind_speed=7.0, wind_direction=11.0)) != base
+    assert surface_key(Ocean(enabled=True, bathymetry=BEACH), weather) != base
