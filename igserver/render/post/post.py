@@ -19,10 +19,12 @@ import numpy as np
 from ..passes import RenderPass
 from ..shaders import set_uniforms
 from .exposure import display_metered_ev100, exposure_of_ev100
+from .halos import HaloTable, table_uniforms
 
 METER_CELLS = 32  # the meter works on at most this many cells across (32 x 18 at 16:9)
-METER_GPU_CELLS = 160  # the GPU reduces to at most this many across (many small blocks: parallel)
 MAX_HALOS = 8
+HALO_TABLE_UNIT = 3
+HALO_SCALE = 2  # halos at half resolution, depth-aware upsampling (post/halos.frag.glsl): 65.9 dB vs full
 HALO_MIN_BETA = 1e-4  # 1/m (visibility < ~40 km): thinner air shows no halo worth 8 samples a pixel
 
 
@@ -55,7 +57,7 @@ def halo_uniforms(frame) -> dict:
         pos[i, :3] = frame.view.relative(light.position)
         col[i, :3] = light.color
     return {"u_halo_count": len(lights), "u_halo_pos": pos.tobytes(), "u_halo_intensity": col.tobytes(),
-            "u_halo_beta": beta, "u_halo_g": float(haze.g), "u_halo_omega": float(haze.omega)}
+            "u_halo_beta": beta, "u_halo_omega": float(haze.omega), "u_halo_g": float(haze.g), "u_halo_far": 20.0 / beta, **table_uniforms()}
 
 
 class PostPass(RenderPass):
@@ -66,7 +68,8 @@ class PostPass(RenderPass):
         halos = halo_uniforms(frame)
         defines = {}
         if halos["u_halo_count"] > 0:
-            defines["HALOS"] = 1  # variants: the common frame compiles neither loop nor branch
+            defines["HALOS"] = 1  # variants: the common frame compiles neither the lookup nor the pass
+            self._draw_halos(frame, targets, halos)
         if frame.scene.camera.mesopic_vision:
             defines["MESOPIC"] = 1
         program = self.programs.program("common/fullscreen.vert.glsl", "post/tonemap.glsl", defines)
@@ -74,12 +77,37 @@ class PostPass(RenderPass):
         program["u_hdr"].value = 0
         if "u_exposure_correction" in program:
             program["u_exposure_correction"].value = correction
-        set_uniforms(program, halos)
-        if "u_distance" in program:
-            program["u_distance"].value = 1
+        if "u_halos" in program:
+            set_uniforms(program, {"u_halos": 2, "u_distance": 1, "u_halo_far": halos["u_halo_far"]})
+            self._halo_target[0].use(2)
             targets.distance.use(1)
         targets.hdr.use(0)
         targets.ldr_fbo.use()
+        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+        self.fullscreen(program)
+
+    def _draw_halos(self, frame, targets, halos: dict) -> None:
+        """The halos at 1 / HALO_SCALE resolution (post/halos.frag.glsl), pre-exposed."""
+        w, h = targets.size
+        size = (-(-w // HALO_SCALE), -(-h // HALO_SCALE))
+        held = getattr(self, "_halo_target", None)
+        if held is None or held[0].size != size:
+            if held is not None:
+                held[1].release()
+                held[0].release()
+            tex = self.ctx.texture(size, 4, dtype="f2")
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            tex.repeat_x = tex.repeat_y = False
+            self._halo_target = (tex, self.ctx.framebuffer([tex]))
+        if getattr(self, "_halo_table", None) is None:
+            self._halo_table = HaloTable(self.ctx)
+        program = self.programs.program("common/fullscreen.vert.glsl", "post/halos.frag.glsl")
+        set_uniforms(program, frame.uniforms)
+        set_uniforms(program, halos)
+        set_uniforms(program, {"u_distance": 1, "u_halo_table": HALO_TABLE_UNIT, "u_halo_scale": HALO_SCALE})
+        targets.distance.use(1)
+        self._halo_table.use(halos["u_halo_g"], HALO_TABLE_UNIT)
+        self._halo_target[1].use()
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         self.fullscreen(program)
 
@@ -90,7 +118,9 @@ class PostPass(RenderPass):
         if scene.camera.exposure_ev is not None:
             return 1.0
         w, h = targets.size
-        block = max(1, math.ceil(w / METER_GPU_CELLS))
+        # The GPU reduces the frame straight to the meter's cells (blocks of block x block pixels,
+        # METER_CELLS across): one small read of a few kB per frame instead of a full-frame one.
+        block = max(1, math.ceil(w / METER_CELLS))
         size = (math.ceil(w / block), math.ceil(h / block))
         tex = getattr(self, "_meter_tex", None)
         if tex is None or tex.size != size:
@@ -103,12 +133,7 @@ class PostPass(RenderPass):
         tex.bind_to_image(0, read=False, write=True)
         prog.run((size[0] + 7) // 8, (size[1] + 7) // 8, 1)
         self.ctx.memory_barrier()
-        grid = np.frombuffer(tex.read(), dtype=np.float32).reshape(size[1], size[0], 4)[..., :3].astype(np.float64)
-        k = max(1, math.ceil(size[0] / METER_CELLS))  # CPU: blocks of k x k GPU cells
-        ny, nx = size[1] // k, size[0] // k
-        if ny > 0 and nx > 0:
-            grid = grid[:ny * k, :nx * k].reshape(ny, k, nx, k, 3).mean(axis=(1, 3))
-        cells = grid.reshape(-1, 3)
+        cells = np.frombuffer(tex.read(), dtype=np.float32).reshape(-1, 4)[:, :3].astype(np.float64)
         cells = cells[np.all(np.isfinite(cells), axis=1)] / max(frame.exposure, 1e-30)
         if len(cells) == 0:
             return 1.0

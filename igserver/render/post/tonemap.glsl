@@ -3,48 +3,25 @@
 #include "common/frame.glsl"
 
 uniform sampler2D u_hdr;
-uniform sampler2D u_distance;        // m along the view ray (1e30: sky)
 
-// Halos of lights in fog (issue 10: a night fog glows around fires and lamps, more as visibility
-// falls): the single-scattered light of each point source along the pixel's view ray up to the
-// surface, in a homogeneous medium of the fog's extinction at the camera (beta, albedo omega,
-// Henyey-Greenstein g). With h the light's distance from the ray and s = t0 + h tan(phi):
-//   L = omega beta I / h  integral_{phi0}^{phi1} p(sin phi) exp(-beta (s + h / cos phi)) dphi,
-// phi0 = -atan(t0 / h), phi1 = atan((D - t0) / h); 8 midpoint steps in phi (smooth in phi).
 #ifdef HALOS
-#define MAX_HALOS 8
-uniform int u_halo_count;
-uniform vec4 u_halo_pos[MAX_HALOS];        // camera-relative m
-uniform vec4 u_halo_intensity[MAX_HALOS];  // cd, linear rgb
-uniform float u_halo_beta;                 // 1/m
-uniform float u_halo_g;
-uniform float u_halo_omega;
-
-float halo_hg(float g, float c) {
-    return (1.0 - g * g) / (4.0 * PI * pow(max(1.0 + g * g - 2.0 * g * c, 1e-6), 1.5));
-}
-
-vec3 light_halos(vec3 dir, float surface_distance) {
-    vec3 sum = vec3(0.0);
-    float D = min(surface_distance, 20.0 / max(u_halo_beta, 1e-9));  // past 20 optical depths: nothing
-    for (int i = 0; i < MAX_HALOS; ++i) {
-        if (i >= u_halo_count) break;
-        vec3 p = u_halo_pos[i].xyz;
-        float t0 = dot(p, dir);
-        float h = max(length(p - t0 * dir), 0.05);
-        float phi0 = -atan(t0 / h), phi1 = atan((D - t0) / h);
-        if (phi1 <= phi0) continue;
-        float dphi = (phi1 - phi0) / 8.0;
-        float acc = 0.0;
-        for (int k = 0; k < 8; ++k) {
-            float phi = phi0 + (float(k) + 0.5) * dphi;
-            float s = t0 + h * tan(phi);
-            float r = h / cos(phi);
-            acc += halo_hg(u_halo_g, sin(phi)) * exp(-min(u_halo_beta * (s + r), 80.0));
-        }
-        sum += u_halo_intensity[i].rgb * (u_halo_omega * u_halo_beta / h * acc * dphi);
-    }
-    return sum;
+uniform sampler2D u_halos;    // reduced resolution (post/halos.frag.glsl): rgb pre-exposed halo, a log2 distance
+uniform sampler2D u_distance; // m along the view ray (1e30: sky)
+uniform float u_halo_far;     // m: distances are clamped to it (20 optical depths)
+// Depth-aware upsampling: where the four low-resolution texels around this pixel were computed
+// for about its distance (within 23 %: a block's nearest pixel on ground seen at a grazing angle
+// is a few rows nearer), the bilinear filter; at a silhouette, the texel of the closest distance,
+// so no rim of the far side's halo lies on an object's edge (or the reverse).
+const float HALO_LOG2_TOLERANCE = 0.3;
+vec3 upsampled_halo(vec2 uv) {
+    float ld = log2(clamp(texelFetch(u_distance, ivec2(gl_FragCoord.xy), 0).r, 1e-3, u_halo_far));
+    vec4 diff = abs(textureGather(u_halos, uv, 3) - ld);  // texels (0,1), (1,1), (1,0), (0,0)
+    if (all(lessThan(diff, vec4(HALO_LOG2_TOLERANCE)))) return texture(u_halos, uv).rgb;
+    ivec2 size = textureSize(u_halos, 0);
+    ivec2 i0 = ivec2(floor(uv * vec2(size) - 0.5));
+    float best = min(min(diff.x, diff.y), min(diff.z, diff.w));
+    ivec2 o = best == diff.w ? ivec2(0, 0) : best == diff.z ? ivec2(1, 0) : best == diff.x ? ivec2(0, 1) : ivec2(1, 1);
+    return texelFetch(u_halos, clamp(i0 + o, ivec2(0), size - 1), 0).rgb;
 }
 #endif
 uniform float u_exposure_correction;  // metered exposure / the passes' provisional one (post.py)
@@ -79,7 +56,7 @@ float interleaved_gradient_noise(vec2 p) {
 void main() {
     vec3 hdr = texture(u_hdr, v_uv).rgb;
 #ifdef HALOS
-    hdr += pre_expose(light_halos(view_ray(v_uv), texture(u_distance, v_uv).r));
+    hdr += upsampled_halo(v_uv);
 #endif
     hdr *= u_exposure_correction;
     hdr = max(hdr, vec3(0.0));  // no negative radiance; NaN-free inputs are the passes' duty

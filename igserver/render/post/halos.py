@@ -1,0 +1,166 @@
+"""Halos of lights in fog: the single-scattered light of each point source along a pixel's view
+ray, from one table lookup per end of the ray instead of a quadrature per pixel.
+
+For a light at distance h from the view ray whose closest point is t0 along it, the sample at
+angle psi seen from the light (s = t0 + h tan psi along the ray, r = h / cos psi from the light)
+has travelled s + r = t0 + h T(psi), T(psi) = tan(psi/2 + pi/4), so in a homogeneous medium
+(extinction beta, albedo omega, Henyey-Greenstein g; scattering cosine sin psi)
+    L = omega beta I / h  exp(-beta t0)  [H(phi0, a) - H(phi1, a)],   a = beta h,
+    H(phi, a) = integral_{phi}^{pi/2} p_g(sin psi) exp(-a T(psi)) dpsi,
+phi0 = atan(-t0, h) at the camera, phi1 = atan(D - t0, h) at the surface (Sun et al. 2005 do the
+same for an isotropic medium). H depends on (phi, a, g) only: one 3D table per process, filled in
+float64 here. It spans hundreds of decades, so the table holds K = log H + a T(phi), a smooth
+function of moderate size, and since beta t0 + a T(phi) is beta times the path camera -> point
+-> light, each end becomes exp(K - beta * path): at the camera the path is the light's distance
+d, at the surface D + r1. No term overflows, whatever side of the camera the light is on.
+"""
+
+from __future__ import annotations
+
+import math
+
+import moderngl
+import numpy as np
+
+N_PHI = 256  # nodes over [-pi/2, pi/2]
+N_A = 64  # nodes of log10(a) over [A_LOG_MIN, A_LOG_MAX]
+A_LOG_MIN, A_LOG_MAX = -5.0, 3.0  # a = beta h below 1e-5: H no longer depends on a; above 1e3: exp(-a) is 0
+# The fog model's asymmetry (render/sky/haze.py: g = 0.7 + 0.15 fog, fog in [0, 1]) spans this range.
+G_MIN, G_MAX = 0.7, 0.85
+N_G = 16
+_GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(6)
+
+
+def hg(g: float | np.ndarray, c: np.ndarray) -> np.ndarray:
+    return (1.0 - g * g) / (4.0 * math.pi * np.maximum(1.0 + g * g - 2.0 * g * c, 1e-12) ** 1.5)
+
+
+def path_factor(psi: np.ndarray) -> np.ndarray:
+    """T(psi) = tan psi + sec psi = tan(psi/2 + pi/4)."""
+    return np.tan(0.5 * psi + 0.25 * math.pi)
+
+
+def axes() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    phi = np.linspace(-0.5 * math.pi, 0.5 * math.pi, N_PHI)
+    a = 10.0 ** np.linspace(A_LOG_MIN, A_LOG_MAX, N_A)
+    g = np.linspace(G_MIN, G_MAX, N_G)
+    return phi, a, g
+
+
+def build_table() -> np.ndarray:
+    """(N_G, N_A, N_PHI) float64: K = log H + a T(phi) at the nodes. H by 6-point Gauss-Legendre
+    per cell, summed from pi/2 down in the log domain (no underflow)."""
+    phi, a, g = axes()
+    lo, hi = phi[:-1], phi[1:]
+    psi = 0.5 * (lo + hi)[:, None] + 0.5 * (hi - lo)[:, None] * _GAUSS_X[None, :]  # (cells, 6)
+    w = 0.5 * (hi - lo)[:, None] * _GAUSS_W[None, :]
+    log_f = (np.log(hg(g[:, None, None, None], np.sin(psi)[None, None]))
+             - a[None, :, None, None] * path_factor(psi)[None, None] + np.log(w)[None, None])
+    peak = log_f.max(axis=-1, keepdims=True)
+    log_cells = peak[..., 0] + np.log(np.sum(np.exp(log_f - peak), axis=-1))  # (g, a, cells)
+    log_h = np.logaddexp.accumulate(log_cells[..., ::-1], axis=-1)[..., ::-1]  # H at the nodes 0..N-2
+    k = log_h + a[None, :, None] * path_factor(phi[:-1])[None, None, :]
+    # At phi = pi/2 H is 0 and T infinite: continue K linearly (only the last half cell reads it,
+    # where the light is straight behind the ray's start and its light is exp(-beta d) anyway).
+    last = 2.0 * k[..., -1:] - k[..., -2:-1]
+    return np.concatenate([k, last], axis=-1)
+
+
+_TABLE: np.ndarray | None = None
+
+
+def table() -> np.ndarray:
+    global _TABLE
+    if _TABLE is None:
+        _TABLE = build_table()
+    return _TABLE
+
+
+def table_slice(g: float) -> np.ndarray:
+    """(N_A, N_PHI) float32: K at the frame's g, linear between the table's g nodes (as _lookup)."""
+    z = (min(max(g, G_MIN), G_MAX) - G_MIN) / (G_MAX - G_MIN) * (N_G - 1)
+    i = min(int(z), N_G - 2)
+    f = z - i
+    t = table()
+    return np.ascontiguousarray(((1.0 - f) * t[i] + f * t[i + 1]).astype(np.float32))
+
+
+class HaloTable:
+    """The table's slice at the frame's g as an R32F 2D texture (x: phi, y: log10 a), bilinear;
+    rewritten only when g changes (a 2D lookup costs a fraction of a 3D one on llvmpipe)."""
+
+    def __init__(self, ctx: moderngl.Context):
+        self.texture = ctx.texture((N_PHI, N_A), 1, dtype="f4")
+        self.texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        self.texture.repeat_x = self.texture.repeat_y = False
+        self.g: float | None = None
+
+    def use(self, g: float, unit: int) -> None:
+        if g != self.g:
+            self.texture.write(table_slice(g).tobytes())
+            self.g = g
+        self.texture.use(unit)
+
+    def release(self) -> None:
+        self.texture.release()
+
+
+def _lookup(phi: float, a: float, g: float) -> float:
+    """Trilinear lookup of K, as the GPU's (clamped to the table's range)."""
+    t = table()
+    coords = [(g - G_MIN) / (G_MAX - G_MIN) * (N_G - 1),
+              (math.log10(max(a, 1e-30)) - A_LOG_MIN) / (A_LOG_MAX - A_LOG_MIN) * (N_A - 1),
+              (phi + 0.5 * math.pi) / math.pi * (N_PHI - 1)]
+    sizes = (N_G, N_A, N_PHI)
+    coords = [min(max(c, 0.0), n - 1.0) for c, n in zip(coords, sizes)]
+    base = [min(int(c), n - 2) for c, n in zip(coords, sizes)]
+    frac = [c - b for c, b in zip(coords, base)]
+    out = 0.0
+    for dz in (0, 1):
+        for dy in (0, 1):
+            for dx in (0, 1):
+                wgt = (frac[0] if dz else 1 - frac[0]) * (frac[1] if dy else 1 - frac[1]) * (frac[2] if dx else 1 - frac[2])
+                out += wgt * t[base[0] + dz, base[1] + dy, base[2] + dx]
+    return out
+
+
+def halo_from_table(t0: float, h: float, D: float, beta: float, g: float) -> float:
+    """The factor exp(-beta t0) [H(phi0) - H(phi1)] of one light as tonemap.glsl evaluates it (numpy
+    mirror, for tests): times omega beta I / h it is the halo's radiance."""
+    a = beta * h
+    phi0, phi1 = math.atan2(-t0, h), math.atan2(D - t0, h)
+    if phi1 <= phi0:
+        return 0.0
+    d = math.hypot(t0, h)  # camera to light
+    r1 = math.hypot(D - t0, h)  # surface point to light
+    return max(math.exp(_lookup(phi0, a, g) - beta * d) - math.exp(_lookup(phi1, a, g) - beta * (D + r1)), 0.0)
+
+
+_NODES: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _leggauss(n: int) -> tuple[np.ndarray, np.ndarray]:
+    if n not in _NODES:
+        _NODES[n] = np.polynomial.legendre.leggauss(n)
+    return _NODES[n]
+
+
+def halo_reference(t0: float, h: float, D: float, beta: float, g: float, n: int = 4096) -> float:
+    """The same factor by direct quadrature along the ray in phi (float64, n Gauss-Legendre nodes)."""
+    phi0, phi1 = math.atan2(-t0, h), math.atan2(D - t0, h)
+    if phi1 <= phi0:
+        return 0.0
+    x, w = _leggauss(n)
+    phi = 0.5 * (phi0 + phi1) + 0.5 * (phi1 - phi0) * x
+    s = t0 + h * np.tan(phi)
+    r = h / np.cos(phi)
+    f = hg(g, np.sin(phi)) * np.exp(-np.minimum(beta * (s + r), 700.0))
+    return float(0.5 * (phi1 - phi0) * np.sum(w * f))
+
+
+def table_uniforms() -> dict:
+    """Map of halos.frag.glsl's lookups from (phi, log10 a) to texture coordinates (node i at
+    texel centre (i + 0.5) / N)."""
+    a_span = A_LOG_MAX - A_LOG_MIN
+    return {"u_halo_table_map": ((N_PHI - 1) / (math.pi * N_PHI), 0.5,
+                                 (N_A - 1) / (a_span * N_A), (-A_LOG_MIN / a_span * (N_A - 1) + 0.5) / N_A)}
