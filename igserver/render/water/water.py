@@ -232,6 +232,7 @@ class WaterPass(RenderPass):
         self._detail_key = None
         self._instances = None
         self._tables: SeaTables | None = None
+        self.exact_atmosphere = False  # the atmosphere per pixel/vertex instead of the tables (quality study)
         self.stats: dict = {}
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
@@ -239,12 +240,16 @@ class WaterPass(RenderPass):
 
     # ---- resources ------------------------------------------------------------------------------
     def _program(self, field: bool, hulls: bool = False, detail_maps: int = DETAIL_MAPS) -> moderngl.Program:
-        defines = {"MAX_WAVES": MAX_WAVES, "MAX_HULLS": MAX_HULLS, "WATER_DETAIL_MAPS": detail_maps}
+        defines = {"MAX_WAVES": MAX_WAVES, "MAX_HULLS": MAX_HULLS, "WATER_DETAIL_MAPS": detail_maps,
+                   **self._atmosphere_define()}
         if field:
             defines["WATER_FIELD"] = 1
         if hulls:
             defines["WATER_HULLS"] = 1
         return self.programs.program("water/water.vert.glsl", "water/water.frag.glsl", defines)
+
+    def _atmosphere_define(self) -> dict:
+        return {"WATER_EXACT_ATMOSPHERE": 1} if self.exact_atmosphere else {}
 
     def capture_program(self, field: bool) -> moderngl.Program:
         """The water vertex shader alone, capturing v_rel by transform feedback (tests, quality)."""
@@ -438,7 +443,8 @@ class WaterPass(RenderPass):
         surface = float(sea.query(np.asarray(frame.view.position[:2])[None], frame.scene.time.sim_time)["height"][0])
         if height - surface > frame.view.near + mesh_error + 0.05:
             return
-        program = self.programs.program("common/fullscreen.vert.glsl", "water/body.frag.glsl")
+        program = self.programs.program("common/fullscreen.vert.glsl", "water/body.frag.glsl",
+                                        self._atmosphere_define())
         set_uniforms(program, frame.uniforms)
         set_uniforms(program, table_uniforms)
         set_uniforms(program, {"u_plane_height": -height - 1.05 * sphere})
