@@ -420,29 +420,45 @@ class WaterPass(RenderPass):
         vao = self._vao(program, selection.nodes)
         targets.scene_fbo.use()
         self.ctx.enable(moderngl.DEPTH_TEST)
-        self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
+        self.ctx.disable(moderngl.BLEND)
+        under = self._sees_under_mesh(frame, sea, selection)
+        if under:
+            self.ctx.disable(moderngl.CULL_FACE)
+        else:
+            # Seen from above, the first surface a ray meets faces the camera (the sea is a height
+            # field): back faces (the far slopes of waves) are always hidden, so they are not drawn.
+            self.ctx.enable(moderngl.CULL_FACE)
+            self.ctx.front_face = "ccw"  # the patch's triangles wind counter-clockwise seen from above
         vao.render(moderngl.TRIANGLES, instances=len(selection.nodes))
-        self._fill_under_crests(frame, sea, selection, table_uniforms)
+        self.ctx.disable(moderngl.CULL_FACE)
+        self.stats["culled_back_faces"] = not under
+        if under:
+            self._fill_under_crests(frame, selection, table_uniforms)
 
-    def _fill_under_crests(self, frame, sea: SeaSurface, selection: lod.LodSelection, table_uniforms: dict) -> None:
-        """A camera below the surface (a crest over it) looks under the mesh, and one closer to the
-        water than the near plane sees the mesh clipped below it: those rays meet the water body. Draw
-        the sphere below every trough (level − ΣA, no near clip) in deep-water colour; the depth test
-        keeps the mesh wherever it is nearer. Only then: it costs a full-screen pass. A camera above
-        the surface right below it (the host's height query at its xy, less what the finest mesh level
-        leaves out) by more than the near distance cannot see under the mesh: the sea is a height
-        field out to the horizon, so every ray going down meets it before passing beneath it."""
+    @staticmethod
+    def _sees_under_mesh(frame, sea: SeaSurface, selection: lod.LodSelection) -> bool:
+        """Whether the camera may see the underside of the mesh or past it: when it is below the
+        surface (a crest over it) or nearer to it than the near plane. A camera above the surface
+        right below it (the host's height query at its xy, less what the finest mesh level leaves out)
+        by more than the near distance cannot: the sea is a height field out to the horizon, so every
+        ray going down meets its top side before passing beneath it."""
         sphere = selection.error_sphere
         height = float(frame.view.position[2]) - frame.scene.ocean.level
         if height > 1.05 * sphere + frame.view.near:
-            return
+            return False
         w = sea.waves
         x = w.k * selection.finest_spacing  # mesh deviation near the camera: interpolation + faded waves
         mesh_error = float(np.sum(w.amplitude * np.minimum(1.0, x * x / 8.0))) * (
             float(np.max(sea.field.factor)) if sea.field is not None else 1.0)
         surface = float(sea.query(np.asarray(frame.view.position[:2])[None], frame.scene.time.sim_time)["height"][0])
-        if height - surface > frame.view.near + mesh_error + 0.05:
-            return
+        return height - surface <= frame.view.near + mesh_error + 0.05
+
+    def _fill_under_crests(self, frame, selection: lod.LodSelection, table_uniforms: dict) -> None:
+        """Rays that pass under the mesh (``_sees_under_mesh``) meet the water body: draw the sphere
+        below every trough (level − ΣA, no near clip) in deep-water colour; the depth test keeps the
+        mesh wherever it is nearer. Only then: it costs a full-screen pass."""
+        sphere = selection.error_sphere
+        height = float(frame.view.position[2]) - frame.scene.ocean.level
         program = self.programs.program("common/fullscreen.vert.glsl", "water/body.frag.glsl",
                                         self._atmosphere_define())
         set_uniforms(program, frame.uniforms)
