@@ -324,10 +324,16 @@ class WaterPass(RenderPass):
             if len(waves) == 0:  # not read by the water shader (WATER_DETAIL_MAPS)
                 continue
             fbo.use()
+            # Per wave: 2 pi (m, n) (rad per tile), phase; slope amplitude A k along the unit (m, n).
             table = np.zeros((MAX_DETAIL, 4), dtype=np.float32)
-            table[: len(waves)] = waves
-            program["u_detail_count"].value = len(waves)
+            slope = np.zeros((MAX_DETAIL, 4), dtype=np.float32)
+            n = len(waves)
+            table[:n, 0:2] = 2.0 * math.pi * waves[:, 0:2]
+            table[:n, 2] = waves[:, 3]
+            slope[:n, 0:2] = waves[:, 2:3] * waves[:, 0:2] / np.linalg.norm(waves[:, 0:2], axis=1, keepdims=True)
+            program["u_detail_count"].value = n
             program["u_detail_wave"].write(table.tobytes())
+            program["u_detail_slope"].write(slope.tobytes())
             self.fullscreen(program)
             tex.build_mipmaps()
         return tiles
