@@ -61,11 +61,12 @@ def _distance_to_polyline(points: np.ndarray, line: np.ndarray) -> np.ndarray:
     return np.min(np.linalg.norm(p - (a + t[..., None] * ab), axis=-1), axis=1)
 
 
-@pytest.mark.parametrize("height,wind", [(2.0, 12.0), (300.0, 20.0)])
-def test_lod_joins_are_watertight(renderer, height, wind):
+@pytest.mark.parametrize("height,wind,mesh", [(2.0, 12.0, "default"), (300.0, 20.0, "default"),
+                                              (2.0, 12.0, "coarse"), (300.0, 20.0, "coarse")])
+def test_lod_joins_are_watertight(renderer, height, wind, mesh):
     scene = sea_scene(camera={"position": [3.7, -8.2, height], "pitch": -20.0},
                       weather={"wind_speed": wind})
-    selection, pos = renderer.graph.passes["water"].capture(scene)
+    selection, pos = renderer.graph.passes["water"].capture(scene, mesh)
     nodes = selection.nodes.astype(np.float64)
     assert len(np.unique(nodes[:, 3])) >= 3  # several levels meet
     opposite = {"left": "right", "right": "left", "bottom": "top", "top": "bottom"}
@@ -192,6 +193,7 @@ def test_quality_presets_reach_the_water_knobs(renderer):
         seen[preset] = dict(renderer.graph.passes["water"].stats)
     assert [seen[p]["detail_resolution"] for p in ("low", "medium", "high")] == [64, 128, 256]
     assert [seen[p]["lod_error_px"] for p in ("low", "medium", "high")] == [2.0, 1.0, 0.5]
+    assert seen["low"]["triangles"] < seen["medium"]["triangles"]  # the coarse ring rule
     assert {seen[p]["waves"] for p in seen} == {24}
 
 

@@ -55,13 +55,14 @@ class WaterKnobs:
 
     detail_scale: float  # × ocean.detail_resolution (texels per side of each detail map)
     lod_error_scale: float  # × ocean.lod_error (px)
+    mesh: str = "default"  # the LOD ring rule (lod.MESHES): "coarse" draws 2.25× fewer vertices
 
 
 # From `igserver quality water`: the detail-map resolution costs its re-rendering each frame and moves
 # the picture by < 0.2 levels between 64² and 256²; the LOD error bound does not bind at 640x360
 # (the crack-free range rule decides the mesh there), it does on large frames and high seas.
 PRESETS = {
-    "low": WaterKnobs(detail_scale=0.5, lod_error_scale=2.0),
+    "low": WaterKnobs(detail_scale=0.5, lod_error_scale=2.0, mesh="coarse"),
     "medium": WaterKnobs(detail_scale=1.0, lod_error_scale=1.0),
     "high": WaterKnobs(detail_scale=2.0, lod_error_scale=0.5),
 }
@@ -372,12 +373,13 @@ class WaterPass(RenderPass):
             self._field_tex[0].use(FIELD_UNIT)
             self._field_tex[1].use(FIELD_SCALAR_UNIT)
 
-    def select(self, sea: SeaSurface, scene: Scene, view: CameraView, lod_error_scale: float = 1.0) -> lod.LodSelection:
+    def select(self, sea: SeaSurface, scene: Scene, view: CameraView, lod_error_scale: float = 1.0,
+               mesh: str = "default") -> lod.LodSelection:
         cam = scene.camera
         fov = cam.fov_y if cam.frustum is None else cam.frustum.top - cam.frustum.bottom
         return lod.select(view, float(view.position[2] - scene.ocean.level), sea.waves.k, sea.waves.amplitude
                           * (np.max(sea.field.factor, axis=(1, 2)) if sea.field is not None else 1.0),
-                          fov, min(scene.ocean.lod_error * lod_error_scale, 16.0), view.far)
+                          fov, min(scene.ocean.lod_error * lod_error_scale, 16.0), view.far, mesh)
 
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
@@ -386,7 +388,7 @@ class WaterPass(RenderPass):
         knobs = self.knobs(frame)
         resolution = int(min(max(round(scene.ocean.detail_resolution * knobs.detail_scale), 32), 512))
         tiles = self._render_detail(sea, t, resolution)
-        selection = self.select(sea, scene, view, knobs.lod_error_scale)
+        selection = self.select(sea, scene, view, knobs.lod_error_scale, knobs.mesh)
         hulls = hull_boxes(scene, view)
         if self._tables is None:
             self._tables = SeaTables(self.ctx)
@@ -472,14 +474,14 @@ class WaterPass(RenderPass):
         set_uniforms(program, {"u_plane_height": -height - 1.05 * sphere})
         self.fullscreen(program)
 
-    def capture(self, scene: Scene) -> tuple[lod.LodSelection, np.ndarray]:
+    def capture(self, scene: Scene, mesh: str = "default") -> tuple[lod.LodSelection, np.ndarray]:
         """The displaced mesh the GPU would draw for ``scene``: the water vertex shader run by transform
         feedback on every selected block. Returns (selection, camera-relative positions (N, G+1, G+1, 3))."""
         from ..camera import make_view
 
         view = make_view(scene.camera)
         sea = sea_surface(scene.ocean, scene.weather)
-        selection = self.select(sea, scene, view)
+        selection = self.select(sea, scene, view, mesh=mesh)
         program = self.capture_program(sea.field is not None)
         self._bind_waves(program, sea, scene, view)
         morph = np.minimum(selection.morph, 1e30).astype(np.float32)
