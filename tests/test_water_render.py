@@ -221,3 +221,25 @@ def test_sea_tables_refill_when_the_sky_changes_not_when_the_view_turns(renderer
     assert water._tables.fills == fills + 1
     renderer.render(sea_scene(camera={"heading": 70.0}, time={"utc": "2026-06-21T09:30:00Z"}))  # the sun moves
     assert water._tables.fills == fills + 2
+
+
+def test_pier_piles_and_the_boat_keep_the_sea_out():
+    """Each pile of the demo pier is its own hull box (the piles are one glTF node of many pieces): the
+    sea stays out of every pile and shows between them; the moored boat's hull is kept beside 20 piles."""
+    from igserver.render.camera import make_view
+    from igserver.render.water.water import hull_boxes, model_hulls
+    from igserver.scene import load_scene
+
+    piles = model_hulls("pier")
+    assert len(piles) == 20
+    centres = np.array([c for c, _ in piles])
+    halves = np.array([h for _, h in piles])
+    assert np.all(halves[:, :2] < 1.0)  # one pile each (0.7 m square), not the pier's 60 m footprint
+    # A point between two neighbouring piles lies in no box: the sea shows there.
+    a, b = centres[0], centres[np.argmin(np.linalg.norm(centres[1:] - centres[0], axis=1)) + 1]
+    mid = 0.5 * (a + b)
+    assert not np.any(np.all(np.abs(mid - centres) < halves, axis=1))
+    scene = load_scene("demo")
+    boxes = hull_boxes(scene, make_view(scene.camera))
+    expected = sum(len(model_hulls(e.model)) for e in scene.entities if e.visible)  # piles, hull, buoy, ...
+    assert expected > len(piles) and len(boxes) == expected  # nothing dropped for the piles

@@ -8,7 +8,7 @@
 #include "water/sea_tables.glsl"
 
 #ifndef MAX_HULLS
-#define MAX_HULLS 16
+#define MAX_HULLS 32
 #endif
 uniform int u_hull_count;
 uniform mat4 u_hull_inv[MAX_HULLS];   // camera-relative world -> hull box [-1, 1]^3

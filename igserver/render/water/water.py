@@ -31,7 +31,7 @@ from . import lod
 
 MAX_WAVES = 64
 MAX_DETAIL = 48
-MAX_HULLS = 16
+MAX_HULLS = 32  # a pier's piles count one each
 DETAIL_MAPS = 3
 DETAIL_RATIO = 23.7  # tile sizes L, L/23.7, L/23.7² (not a power of two: no aligned repetition)
 # Texture units bound for the water draw (the frame keeps 8..15: haze table, sky-view table, 4D tables).
@@ -72,10 +72,14 @@ presets.register("water", PRESETS)
 _HULL_CACHE: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
 
 
+HULL_PARTS = ("hull", "pile", "float")  # glTF node names (substrings) of the parts that stand or float in the sea
+
+
 def model_hulls(name: str) -> list[tuple[np.ndarray, np.ndarray]]:
-    """(centre, half extent) in the entity frame of a model's hull boxes: the glTF nodes named ``*hull*``
-    (their axis-aligned box in the entity frame), or the whole built-in box. Other parts (decks, piles,
-    superstructure) let the sea show between them."""
+    """(centre, half extent) in the entity frame of a model's hull boxes: one axis-aligned box per
+    connected piece of the glTF nodes named ``*hull*``, ``*pile*`` or ``*float*`` (a pier's piles are
+    one node but many pieces: the sea shows between them), or the whole built-in box. Other parts
+    (decks, superstructure) let the sea show under and around them."""
     if name not in _HULL_CACHE:
         from ..surfaces.loader import load_model
         from ..surfaces.models import BUILTIN, box_model
@@ -88,13 +92,34 @@ def model_hulls(name: str) -> list[tuple[np.ndarray, np.ndarray]]:
         matrices = model.node_matrices()
         boxes = []
         for prim in model.primitives:
-            if name not in BUILTIN and "hull" not in model.nodes[prim.node].name.lower():
+            if name not in BUILTIN and not any(part in model.nodes[prim.node].name.lower() for part in HULL_PARTS):
                 continue
             p = np.c_[prim.vertices[:, :3].astype(np.float64), np.ones(len(prim.vertices))] @ matrices[prim.node].T
-            lo, hi = p[:, :3].min(axis=0), p[:, :3].max(axis=0)
-            boxes.append((0.5 * (lo + hi), 0.5 * (hi - lo)))
+            p = p[:, :3][np.asarray(prim.indices).reshape(-1)] if prim.indices is not None else p[:, :3]
+            for piece in _pieces(p):
+                lo, hi = piece.min(axis=0), piece.max(axis=0)
+                boxes.append((0.5 * (lo + hi), 0.5 * (hi - lo)))
         _HULL_CACHE[name] = boxes
     return _HULL_CACHE[name]
+
+
+def _pieces(corners: np.ndarray) -> list[np.ndarray]:
+    """The connected pieces of a triangle list (corners (3T, 3)): triangles sharing a vertex position
+    (to 0.1 mm) belong to one piece; labels spread by min over each triangle until stable."""
+    _, vid = np.unique(np.round(corners / 1e-4).astype(np.int64), axis=0, return_inverse=True)
+    tri = vid.reshape(-1, 3)
+    label = np.arange(int(vid.max()) + 1 if len(vid) else 0)
+    while True:
+        low = label[tri].min(axis=1)
+        new = label.copy()
+        for c in range(3):
+            np.minimum.at(new, tri[:, c], low)
+        new = new[new]  # follow the chains
+        if np.array_equal(new, label):
+            break
+        label = new
+    piece = label[vid]
+    return [corners[piece == k] for k in np.unique(piece)]
 
 
 def hull_boxes(scene: Scene, view: CameraView) -> list[np.ndarray]:
@@ -112,8 +137,9 @@ def hull_boxes(scene: Scene, view: CameraView) -> list[np.ndarray]:
             lowest = m[2, 3] - np.sum(np.abs(m[2, :3]))
             if lowest + view.position[2] > scene.ocean.level + 30.0:  # well above any sea: not in it
                 continue
-            boxes.append(np.linalg.inv(m))
-    return boxes[:MAX_HULLS]
+            boxes.append((float(np.linalg.norm(m[:3, 3])), np.linalg.inv(m)))
+    # The nearest first: beyond MAX_HULLS the farthest go (they cover the fewest pixels).
+    return [inv for _, inv in sorted(boxes, key=lambda b: b[0])[:MAX_HULLS]]
 
 
 def detail_tiles(sea: SeaSurface, t: float) -> list[tuple[float, np.ndarray]]:
