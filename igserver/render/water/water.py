@@ -210,7 +210,8 @@ class SeaTables:
 
     def key(self, frame, level_z: float, air_map: tuple[float, float]) -> tuple:
         sky_view, tables = frame.resources.get("sky_view"), frame.resources.get("atmosphere_tables")
-        state = tuple(sorted((k, v) for k, v in frame.uniforms.items() if not k.startswith(self.VIEW_ONLY)))
+        state = tuple(sorted((k, v.tobytes() if isinstance(v, np.ndarray) else v)  # arrays compare as bytes
+                             for k, v in frame.uniforms.items() if not k.startswith(self.VIEW_ONLY)))
         return (state, level_z, air_map, id(tables), getattr(tables, "key", None), id(sky_view),
                 getattr(sky_view, "fills", None))
 
