@@ -61,11 +61,12 @@ def _distance_to_polyline(points: np.ndarray, line: np.ndarray) -> np.ndarray:
     return np.min(np.linalg.norm(p - (a + t[..., None] * ab), axis=-1), axis=1)
 
 
-@pytest.mark.parametrize("height,wind", [(2.0, 12.0), (300.0, 20.0)])
-def test_lod_joins_are_watertight(renderer, height, wind):
+@pytest.mark.parametrize("height,wind,mesh", [(2.0, 12.0, "default"), (300.0, 20.0, "default"),
+                                              (2.0, 12.0, "coarse"), (300.0, 20.0, "coarse")])
+def test_lod_joins_are_watertight(renderer, height, wind, mesh):
     scene = sea_scene(camera={"position": [3.7, -8.2, height], "pitch": -20.0},
                       weather={"wind_speed": wind})
-    selection, pos = renderer.graph.passes["water"].capture(scene)
+    selection, pos = renderer.graph.passes["water"].capture(scene, mesh)
     nodes = selection.nodes.astype(np.float64)
     assert len(np.unique(nodes[:, 3])) >= 3  # several levels meet
     opposite = {"left": "right", "right": "left", "bottom": "top", "top": "bottom"}
@@ -192,6 +193,7 @@ def test_quality_presets_reach_the_water_knobs(renderer):
         seen[preset] = dict(renderer.graph.passes["water"].stats)
     assert [seen[p]["detail_resolution"] for p in ("low", "medium", "high")] == [64, 128, 256]
     assert [seen[p]["lod_error_px"] for p in ("low", "medium", "high")] == [2.0, 1.0, 0.5]
+    assert seen["low"]["triangles"] < seen["medium"]["triangles"]  # the coarse ring rule
     assert {seen[p]["waves"] for p in seen} == {24}
 
 
@@ -219,3 +221,25 @@ def test_sea_tables_refill_when_the_sky_changes_not_when_the_view_turns(renderer
     assert water._tables.fills == fills + 1
     renderer.render(sea_scene(camera={"heading": 70.0}, time={"utc": "2026-06-21T09:30:00Z"}))  # the sun moves
     assert water._tables.fills == fills + 2
+
+
+def test_pier_piles_and_the_boat_keep_the_sea_out():
+    """Each pile of the demo pier is its own hull box (the piles are one glTF node of many pieces): the
+    sea stays out of every pile and shows between them; the moored boat's hull is kept beside 20 piles."""
+    from igserver.render.camera import make_view
+    from igserver.render.water.water import hull_boxes, model_hulls
+    from igserver.scene import load_scene
+
+    piles = model_hulls("pier")
+    assert len(piles) == 20
+    centres = np.array([c for c, _ in piles])
+    halves = np.array([h for _, h in piles])
+    assert np.all(halves[:, :2] < 1.0)  # one pile each (0.7 m square), not the pier's 60 m footprint
+    # A point between two neighbouring piles lies in no box: the sea shows there.
+    a, b = centres[0], centres[np.argmin(np.linalg.norm(centres[1:] - centres[0], axis=1)) + 1]
+    mid = 0.5 * (a + b)
+    assert not np.any(np.all(np.abs(mid - centres) < halves, axis=1))
+    scene = load_scene("demo")
+    boxes = hull_boxes(scene, make_view(scene.camera))
+    expected = sum(len(model_hulls(e.model)) for e in scene.entities if e.visible)  # piles, hull, buoy, ...
+    assert expected > len(piles) and len(boxes) == expected  # nothing dropped for the piles

@@ -13,10 +13,15 @@ Two errors per setting, next to the water pass's median ms and the triangles dra
   The LOD and detail knobs are compared with a 24-wave reference (the same sea, pixel for pixel);
   wave counts with the 64-wave one: a different realisation of the same spectrum, so their per-pixel
   RMSE is large by construction and the lowpass error and the statistics are the fair measure.
+* Atmosphere: the shipped water shades with per-frame tables of the sky reflection and the aerial
+  perspective (render/water/sea_tables.glsl); the references evaluate the same atmosphere functions
+  per pixel and per vertex instead, so every row's picture error includes the tables' error, and the
+  ``atmosphere`` row (exact vs tables at the defaults) shows it alone with both costs.
 * Statistics: Hs (4σ of the mesh surface) and mean-square slope of mesh + detail against the targets
   (WMO Hs; Cox–Munk slope variance).
 
-Knobs: ocean.wave_count, ocean.lod_error, ocean.detail_resolution (one at a time from the default).
+Knobs: ocean.wave_count, ocean.lod_error, ocean.detail_resolution (one at a time from the default), the
+mesh's ring rule (``mesh coarse``: the ``low`` preset's) and the atmosphere (tables or exact).
 
 Usage: igserver quality water [--out out/quality_water.md] [--size 640x360] [--frames 3]
        [--waves 8,16,24,32,48] [--lod 0.5,1,2,4] [--detail 64,128,256] [--wind 9.4]
@@ -52,10 +57,10 @@ def study_scene(width: int, height: int, wind: float, settings: dict):
     })
 
 
-def surface_errors(renderer, scene) -> dict:
+def surface_errors(renderer, scene, mesh: str = "default") -> dict:
     from ..water import sea_surface
 
-    selection, pos = renderer.graph.passes["water"].capture(scene)
+    selection, pos = renderer.graph.passes["water"].capture(scene, mesh)
     sea = sea_surface(scene.ocean, scene.weather)
     cam = np.asarray(scene.camera.position)
     flat = pos.reshape(-1, 3).astype(np.float64)
@@ -103,7 +108,13 @@ def run(argv: list[str]) -> int:
     width, height = (int(v) for v in args.size.split("x"))
     renderer = Renderer()
 
-    def render(settings: dict):
+    water = renderer.graph.passes["water"]
+
+    def render(settings: dict, exact: bool = False, mesh: str = "default"):
+        from ..render.water.water import WaterKnobs
+
+        water.exact_atmosphere = exact
+        water.settings = WaterKnobs(detail_scale=1.0, lod_error_scale=1.0, mesh=mesh)  # the scene's own values
         scene = study_scene(width, height, args.wind, settings)
         times = []
         for i in range(args.frames + 1):
@@ -114,25 +125,27 @@ def run(argv: list[str]) -> int:
             if i:
                 times.append(result.pass_ms["water"])
         final = renderer.render(scene)  # the picture at sim_time 100
+        water.exact_atmosphere, water.settings = False, None
         return scene, final.rgba[..., :3].astype(np.float64), statistics.median(times)
 
-    _, ref_many, ref_ms = render(REFERENCE)
+    _, ref_many, ref_ms = render(REFERENCE, exact=True)
     # LOD and detail knobs are compared with the same 24 waves at high LOD and detail (the same sea,
     # pixel for pixel); wave counts with the 64-wave reference (another realisation: lowpass, stats).
-    _, ref_same, _ = render({**REFERENCE, "wave_count": DEFAULTS["wave_count"]})
+    _, ref_same, _ = render({**REFERENCE, "wave_count": DEFAULTS["wave_count"]}, exact=True)
     sky_only = renderer.render(study_scene(width, height, args.wind, {**DEFAULTS, "enabled": False})).rgba[..., :3]
     sea_mask = np.any(np.abs(ref_same - sky_only) > 2, axis=-1)
     rows = []
     variants = ([("wave_count", int(v)) for v in args.waves.split(",")]
                 + [("lod_error", float(v)) for v in args.lod.split(",")]
-                + [("detail_resolution", int(v)) for v in args.detail.split(",")])
+                + [("detail_resolution", int(v)) for v in args.detail.split(",")]
+                + [("mesh", "coarse"), ("atmosphere", "exact"), ("atmosphere", "tables")])
     for knob, value in variants:
-        settings = {**DEFAULTS, knob: value}
-        scene, img, ms = render(settings)
+        settings = {**DEFAULTS, knob: value} if knob not in ("atmosphere", "mesh") else dict(DEFAULTS)
+        scene, img, ms = render(settings, exact=value == "exact", mesh=value if knob == "mesh" else "default")
         ref_img = ref_many if knob == "wave_count" else ref_same
         rmse = float(np.sqrt(np.mean((img - ref_img)[sea_mask] ** 2)))
         low = float(np.sqrt(np.mean((box_blur(img) - box_blur(ref_img))[sea_mask] ** 2)))
-        surf = surface_errors(renderer, scene)
+        surf = surface_errors(renderer, scene, value if knob == "mesh" else "default")
         hs, mss = statistics_of(scene)
         row = {"knob": knob, "value": value, **settings, "ms": ms, "triangles": surf["triangles"],
                "rmse": rmse, "lowpass": low, "near_rms_cm": surf["near"][0], "near_max_cm": surf["near"][1],
@@ -158,7 +171,7 @@ def run(argv: list[str]) -> int:
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
-        mark = " **(default)**" if all(r[k] == DEFAULTS[k] for k in DEFAULTS) else ""
+        mark = " **(default)**" if all(r[k] == DEFAULTS[k] for k in DEFAULTS) and r["value"] not in ("exact", "coarse") else ""
         lines.append(f"| {r['knob']} | {r['value']}{mark} | {r['ms']:.1f} | {r['triangles']} | {r['rmse']:.1f} | "
                      f"{r['lowpass']:.1f} | {r['near_rms_cm']:.3f} / {r['near_max_cm']:.3f} | "
                      f"{r['far_rms_cm']:.1f} / {r['far_max_cm']:.1f} | {r['hs']:.2f} | {r['mss']:.4f} |")

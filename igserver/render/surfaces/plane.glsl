@@ -4,6 +4,7 @@
 #include "common/atmosphere.glsl"
 #include "common/brdf.glsl"
 #include "common/lights.glsl"
+#include "common/earth.glsl"
 
 uniform float u_plane_height;   // m, camera-relative height of the plane
 uniform vec3 u_base_color;
@@ -13,24 +14,16 @@ in vec2 v_uv;
 layout(location = 0) out vec4 out_color;
 layout(location = 1) out float out_distance;
 
-const float EARTH_RADIUS = 6.371e6;  // m
-
 void main() {
     vec3 dir = view_ray(v_uv);
     float t;
     vec3 n;
     if (u_plane_height < 0.0) {
-        // Seen from above, the surface is a sphere of the earth's radius R (the horizon dips and
-        // the sea ends there). Camera height H above it; centre c = (0, 0, -(R + H)). Solve
-        // t^2 - 2 b t + C = 0 with b = d.c = -(R + H) d_z and C = |c|^2 - R^2 = H (2R + H), written
-        // without the cancellation of |c|^2 - R^2, and take the near root as C / (b + sqrt(b^2 - C)).
+        // Seen from above, the surface is a sphere of the earth's radius (common/earth.glsl).
         float H = -u_plane_height;
-        float b = -(EARTH_RADIUS + H) * dir.z;
-        float C = H * (2.0 * EARTH_RADIUS + H);
-        float disc = b * b - C;
-        if (b <= 0.0 || disc < 0.0) discard;
-        t = C / (b + sqrt(disc));
-        vec3 centre = vec3(0.0, 0.0, -(EARTH_RADIUS + H));
+        t = earth_sphere_distance(dir, H);
+        if (t < 0.0) discard;
+        vec3 centre = vec3(0.0, 0.0, -(EARTH_SPHERE_RADIUS + H));
         n = normalize(dir * t - centre);
     } else {
         // Seen from below (under water / under ground): a flat plane is enough.

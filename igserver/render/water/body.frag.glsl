@@ -5,6 +5,7 @@
 #include "common/frame.glsl"
 #include "common/brdf.glsl"
 #include "common/lights.glsl"
+#include "common/earth.glsl"
 #include "water/sea_tables.glsl"
 
 uniform float u_plane_height;   // m, camera-relative height of the sphere's top (< 0)
@@ -13,17 +14,10 @@ in vec2 v_uv;
 layout(location = 0) out vec4 out_color;
 layout(location = 1) out float out_distance;
 
-const float EARTH_RADIUS = 6.371e6;  // m
-
 void main() {
     vec3 dir = view_ray(v_uv);
-    // Sphere of radius R below the camera at height H (cancellation-free near root, as plane.glsl).
-    float H = -u_plane_height;
-    float b = -(EARTH_RADIUS + H) * dir.z;
-    float C = H * (2.0 * EARTH_RADIUS + H);
-    float disc = b * b - C;
-    if (b <= 0.0 || disc < 0.0) discard;
-    float t = C / (b + sqrt(disc));
+    float t = earth_sphere_distance(dir, -u_plane_height);  // the sphere below every trough
+    if (t < 0.0) discard;
     vec3 p = dir * t;
     vec3 e = sea_downwelling();
     for (int i = 0; i < u_light_count; ++i) {

@@ -6,19 +6,17 @@
 #define MAX_DETAIL 48
 #endif
 uniform int u_detail_count;
-uniform vec4 u_detail_wave[MAX_DETAIL];  // m, n (cycles per tile), slope amplitude A k, phase (rad)
+uniform vec4 u_detail_wave[MAX_DETAIL];   // 2 pi (m, n) for m, n cycles per tile, phase (rad)
+uniform vec4 u_detail_slope[MAX_DETAIL];  // xy: slope amplitude A k along the unit (m, n)
 
 in vec2 v_uv;
 layout(location = 0) out vec4 out_slope;
-
-const float TAU = 6.28318530717959;
 
 void main() {
     vec2 s = vec2(0.0);
     for (int i = 0; i < u_detail_count; ++i) {
         vec4 w = u_detail_wave[i];
-        float theta = TAU * dot(w.xy, v_uv) + w.w;
-        s += w.z * normalize(w.xy) * cos(theta);
+        s += u_detail_slope[i].xy * cos(dot(w.xy, v_uv) + w.z);
     }
     out_slope = vec4(s, s * s);
 }

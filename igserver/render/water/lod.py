@@ -13,7 +13,13 @@ draw call and no stitching index buffers.
 - Geomorphing: in the outer part of a level's range the odd vertices slide onto the next coarser
   grid (morph 0 → 1), so a block meets a coarser neighbour with exactly the coarser vertices (no
   cracks, no T-junctions) and nothing pops when a block changes level. This needs each level's range
-  to reach past the shared border: ranges[l] ≥ 2·ranges[l−1] and ranges[l] ≥ MORPH_MARGIN·S_l.
+  to reach past the shared border: ranges[l] ≥ 2·ranges[l−1] and ranges[l] ≥ margin·S_l. Why: a
+  level-l block exists because its parent (side 2·S_l) came nearer than ranges[l], so its farthest
+  point lies within ranges[l] + 2√2·S_l; its border with a level-(l+1) block lies beyond ranges[l]
+  (fully morphed there), and the coarse block must not have started morphing at that border:
+  ranges[l] + start·(ranges[l+1] − ranges[l]) ≥ ranges[l] + 2√2·S_l, i.e. with ranges doubling,
+  start·margin ≥ 2√2. Two such pairs (``MESHES``): the default (morph over the outer half, rings of
+  6 block sides) and a coarse one (outer quarter, 4 sides: 2.25× fewer vertices, shorter morphs).
 """
 
 from __future__ import annotations
@@ -29,6 +35,8 @@ PATCH_QUADS = 8  # G: quads per block side
 MAX_LEVELS = 24
 MORPH_START = 0.5  # morph over the outer half of each level's ring
 MORPH_MARGIN = 6.0  # ranges[l] ≥ 6·S_l: the ring is wide enough for the neighbour rule (see above)
+MESHES = {"default": (MORPH_START, MORPH_MARGIN), "coarse": (0.75, 4.0)}  # (start, margin) per mesh density
+assert all(start * margin >= 2.0 * math.sqrt(2.0) for start, margin in MESHES.values())
 EARTH_RADIUS = 6.371e6
 
 
@@ -63,8 +71,10 @@ def horizon_distance(height: float) -> float:
 
 
 def select(view: CameraView, cam_height: float, k: np.ndarray, amplitude: np.ndarray, fov_y_deg: float,
-           lod_error_px: float, max_distance: float) -> LodSelection:
-    """Blocks to draw this frame. ``cam_height``: camera height above the mean sea level (m)."""
+           lod_error_px: float, max_distance: float, mesh: str = "default") -> LodSelection:
+    """Blocks to draw this frame. ``cam_height``: camera height above the mean sea level (m);
+    ``mesh``: the ring rule (``MESHES``)."""
+    morph_start, morph_margin = MESHES[mesh]
     sphere = float(np.sum(amplitude))
     h_abs = abs(cam_height)
     # Finest spacing: 1/8 of the shortest wave, but no finer than 4 pixels straight below the camera
@@ -81,7 +91,7 @@ def select(view: CameraView, cam_height: float, k: np.ndarray, amplitude: np.nda
     for level in range(MAX_LEVELS):
         err = level_error(k, amplitude, spacing * 2**level)
         r = err * pixels_per_rad / lod_error_px
-        r = max(r, MORPH_MARGIN * s0 * 2**level, 2.0 * ranges[-1] if ranges else 0.0, h_abs * 1.05)
+        r = max(r, morph_margin * s0 * 2**level, 2.0 * ranges[-1] if ranges else 0.0, h_abs * 1.05)
         ranges.append(r)
         if r >= reach * 1.5 and s0 * 2**level >= reach:
             break
@@ -89,7 +99,7 @@ def select(view: CameraView, cam_height: float, k: np.ndarray, amplitude: np.nda
     morph = np.zeros((MAX_LEVELS, 2))
     for level, r in enumerate(ranges):
         lo = ranges[level - 1] if level else 0.0
-        morph[level] = (lo + MORPH_START * (r - lo), r)
+        morph[level] = (lo + morph_start * (r - lo), r)
     morph[top] = (1e30, 2e30)  # the root level never morphs (there is nothing coarser)
 
     cam = view.position

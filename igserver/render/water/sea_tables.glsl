@@ -15,7 +15,11 @@
 //                   own azimuth and distance: its height changes only the direction within a few
 //                   degrees of the surface, which matters only near the camera where the air in front
 //                   is thin.
-// Needs PI (common/frame.glsl).
+// Needs PI (common/frame.glsl). WATER_EXACT_ATMOSPHERE: the same functions evaluated directly instead
+// (per pixel / per vertex; the reference of `igserver quality water` for the tables' error).
+#ifdef WATER_EXACT_ATMOSPHERE
+#include "common/atmosphere.glsl"
+#endif
 uniform sampler2D u_sky_reflect;
 uniform sampler2D u_sea_air_t;
 uniform sampler2D u_sea_air_s;
@@ -26,6 +30,9 @@ float sea_azimuth_u(vec2 xy) {
 }
 
 vec3 sky_reflection(vec3 dir) {  // dir.z >= 0
+#ifdef WATER_EXACT_ATMOSPHERE
+    return sky_radiance(vec3(dir.xy, max(dir.z, 0.0)));
+#endif
     vec2 st = dir.xy / (1.0 + max(dir.z, 0.0));
     return texture(u_sky_reflect, 0.5 + 0.5 * st * length(st)).rgb;
 }
@@ -36,6 +43,11 @@ vec2 sea_air_uv(vec3 rel) {
 
 // apply_aerial_perspective for a sea point, as the affine map L -> L * t + s.
 void sea_aerial_perspective(vec3 rel, out vec3 t, out vec3 s) {
+#ifdef WATER_EXACT_ATMOSPHERE
+    s = apply_aerial_perspective(vec3(0.0), rel);
+    t = apply_aerial_perspective(vec3(1.0), rel) - s;
+    return;
+#endif
     vec2 uv = sea_air_uv(rel);
     t = textureLod(u_sea_air_t, uv, 0.0).rgb;
     s = textureLod(u_sea_air_s, uv, 0.0).rgb;

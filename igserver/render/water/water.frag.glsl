@@ -8,7 +8,7 @@
 #include "water/sea_tables.glsl"
 
 #ifndef MAX_HULLS
-#define MAX_HULLS 16
+#define MAX_HULLS 32
 #endif
 uniform int u_hull_count;
 uniform mat4 u_hull_inv[MAX_HULLS];   // camera-relative world -> hull box [-1, 1]^3
@@ -106,22 +106,30 @@ void main() {
     // Light entering the water (lux on the surface) and coming back up: deep backscatter, or the
     // sand bottom seen through depth h along the down-and-up path (Beer-Lambert), in the shallows.
     vec3 e_down = sea_downwelling() + e_local;
+#ifdef WATER_FIELD
     float cos_t = sqrt(1.0 - (1.0 - n_dot_v * n_dot_v) / (1.333 * 1.333));  // refracted ray
     vec3 through = exp(-ABSORPTION * max(v_depth, 0.0) * (1.0 + 1.0 / cos_t));
     vec3 body = (DEEP_ALBEDO * (1.0 - through) + BOTTOM_ALBEDO * through) * e_down / PI;
+#else  // no bathymetry field: deep water everywhere (v_depth 1e4: nothing shows through, no surf, no beach)
+    vec3 body = DEEP_ALBEDO * e_down / PI;
+#endif
     vec3 lit = fresnel * sky + direct + (1.0 - fresnel) * body;
     // Foam where the Gerstner surface pinches (J small): breaking crests and the surf zone.
     float foam = smoothstep(u_foam_jacobian + 0.02, u_foam_jacobian - 0.06, v_jacobian);
     // Surf zone: where the breaking cap cut the waves, the broken water is white on the crests.
     // (J < 1 on the compressed crests, > 1 in the troughs.)
+#ifdef WATER_FIELD
     foam = max(foam, smoothstep(0.1, 0.7, v_breaking) * smoothstep(1.02, 0.9, v_jacobian));
+#endif
     foam *= smoothstep(0.15, 0.85, 0.5 + 4.0 * (d1.x - d2.y));  // streaky texture from the detail maps
     lit = mix(lit, FOAM_ALBEDO * e_down / PI, foam);
     // Dry land of the bathymetry (h <= 0): no water, the bare beach at the water level (there is no
     // terrain pipeline yet), wet sand darker for the last few centimetres.
+#ifdef WATER_FIELD
     float wet = smoothstep(0.0, 0.05, v_depth);
     vec3 sand = BOTTOM_ALBEDO * mix(1.0, 0.6, smoothstep(-0.3, 0.0, v_depth)) * e_down / PI;  // Lambert
     lit = mix(sand, lit, wet);
+#endif
     out_color = vec4(pre_expose(lit * v_air_t + v_air_s), 1.0);  // apply_aerial_perspective, per vertex
     out_distance = dist;
 }

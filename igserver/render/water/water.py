@@ -31,7 +31,7 @@ from . import lod
 
 MAX_WAVES = 64
 MAX_DETAIL = 48
-MAX_HULLS = 16
+MAX_HULLS = 32  # a pier's piles count one each
 DETAIL_MAPS = 3
 DETAIL_RATIO = 23.7  # tile sizes L, L/23.7, L/23.7² (not a power of two: no aligned repetition)
 # Texture units bound for the water draw (the frame keeps 8..15: haze table, sky-view table, 4D tables).
@@ -55,13 +55,14 @@ class WaterKnobs:
 
     detail_scale: float  # × ocean.detail_resolution (texels per side of each detail map)
     lod_error_scale: float  # × ocean.lod_error (px)
+    mesh: str = "default"  # the LOD ring rule (lod.MESHES): "coarse" draws 2.25× fewer vertices
 
 
 # From `igserver quality water`: the detail-map resolution costs its re-rendering each frame and moves
 # the picture by < 0.2 levels between 64² and 256²; the LOD error bound does not bind at 640x360
 # (the crack-free range rule decides the mesh there), it does on large frames and high seas.
 PRESETS = {
-    "low": WaterKnobs(detail_scale=0.5, lod_error_scale=2.0),
+    "low": WaterKnobs(detail_scale=0.5, lod_error_scale=2.0, mesh="coarse"),
     "medium": WaterKnobs(detail_scale=1.0, lod_error_scale=1.0),
     "high": WaterKnobs(detail_scale=2.0, lod_error_scale=0.5),
 }
@@ -71,10 +72,14 @@ presets.register("water", PRESETS)
 _HULL_CACHE: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
 
 
+HULL_PARTS = ("hull", "pile", "float")  # glTF node names (substrings) of the parts that stand or float in the sea
+
+
 def model_hulls(name: str) -> list[tuple[np.ndarray, np.ndarray]]:
-    """(centre, half extent) in the entity frame of a model's hull boxes: the glTF nodes named ``*hull*``
-    (their axis-aligned box in the entity frame), or the whole built-in box. Other parts (decks, piles,
-    superstructure) let the sea show between them."""
+    """(centre, half extent) in the entity frame of a model's hull boxes: one axis-aligned box per
+    connected piece of the glTF nodes named ``*hull*``, ``*pile*`` or ``*float*`` (a pier's piles are
+    one node but many pieces: the sea shows between them), or the whole built-in box. Other parts
+    (decks, superstructure) let the sea show under and around them."""
     if name not in _HULL_CACHE:
         from ..surfaces.loader import load_model
         from ..surfaces.models import BUILTIN, box_model
@@ -87,13 +92,34 @@ def model_hulls(name: str) -> list[tuple[np.ndarray, np.ndarray]]:
         matrices = model.node_matrices()
         boxes = []
         for prim in model.primitives:
-            if name not in BUILTIN and "hull" not in model.nodes[prim.node].name.lower():
+            if name not in BUILTIN and not any(part in model.nodes[prim.node].name.lower() for part in HULL_PARTS):
                 continue
             p = np.c_[prim.vertices[:, :3].astype(np.float64), np.ones(len(prim.vertices))] @ matrices[prim.node].T
-            lo, hi = p[:, :3].min(axis=0), p[:, :3].max(axis=0)
-            boxes.append((0.5 * (lo + hi), 0.5 * (hi - lo)))
+            p = p[:, :3][np.asarray(prim.indices).reshape(-1)] if prim.indices is not None else p[:, :3]
+            for piece in _pieces(p):
+                lo, hi = piece.min(axis=0), piece.max(axis=0)
+                boxes.append((0.5 * (lo + hi), 0.5 * (hi - lo)))
         _HULL_CACHE[name] = boxes
     return _HULL_CACHE[name]
+
+
+def _pieces(corners: np.ndarray) -> list[np.ndarray]:
+    """The connected pieces of a triangle list (corners (3T, 3)): triangles sharing a vertex position
+    (to 0.1 mm) belong to one piece; labels spread by min over each triangle until stable."""
+    _, vid = np.unique(np.round(corners / 1e-4).astype(np.int64), axis=0, return_inverse=True)
+    tri = vid.reshape(-1, 3)
+    label = np.arange(int(vid.max()) + 1 if len(vid) else 0)
+    while True:
+        low = label[tri].min(axis=1)
+        new = label.copy()
+        for c in range(3):
+            np.minimum.at(new, tri[:, c], low)
+        new = new[new]  # follow the chains
+        if np.array_equal(new, label):
+            break
+        label = new
+    piece = label[vid]
+    return [corners[piece == k] for k in np.unique(piece)]
 
 
 def hull_boxes(scene: Scene, view: CameraView) -> list[np.ndarray]:
@@ -111,8 +137,9 @@ def hull_boxes(scene: Scene, view: CameraView) -> list[np.ndarray]:
             lowest = m[2, 3] - np.sum(np.abs(m[2, :3]))
             if lowest + view.position[2] > scene.ocean.level + 30.0:  # well above any sea: not in it
                 continue
-            boxes.append(np.linalg.inv(m))
-    return boxes[:MAX_HULLS]
+            boxes.append((float(np.linalg.norm(m[:3, 3])), np.linalg.inv(m)))
+    # The nearest first: beyond MAX_HULLS the farthest go (they cover the fewest pixels).
+    return [inv for _, inv in sorted(boxes, key=lambda b: b[0])[:MAX_HULLS]]
 
 
 def detail_tiles(sea: SeaSurface, t: float) -> list[tuple[float, np.ndarray]]:
@@ -183,7 +210,8 @@ class SeaTables:
 
     def key(self, frame, level_z: float, air_map: tuple[float, float]) -> tuple:
         sky_view, tables = frame.resources.get("sky_view"), frame.resources.get("atmosphere_tables")
-        state = tuple(sorted((k, v) for k, v in frame.uniforms.items() if not k.startswith(self.VIEW_ONLY)))
+        state = tuple(sorted((k, v.tobytes() if isinstance(v, np.ndarray) else v)  # arrays compare as bytes
+                             for k, v in frame.uniforms.items() if not k.startswith(self.VIEW_ONLY)))
         return (state, level_z, air_map, id(tables), getattr(tables, "key", None), id(sky_view),
                 getattr(sky_view, "fills", None))
 
@@ -232,6 +260,7 @@ class WaterPass(RenderPass):
         self._detail_key = None
         self._instances = None
         self._tables: SeaTables | None = None
+        self.exact_atmosphere = False  # the atmosphere per pixel/vertex instead of the tables (quality study)
         self.stats: dict = {}
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
@@ -239,12 +268,16 @@ class WaterPass(RenderPass):
 
     # ---- resources ------------------------------------------------------------------------------
     def _program(self, field: bool, hulls: bool = False, detail_maps: int = DETAIL_MAPS) -> moderngl.Program:
-        defines = {"MAX_WAVES": MAX_WAVES, "MAX_HULLS": MAX_HULLS, "WATER_DETAIL_MAPS": detail_maps}
+        defines = {"MAX_WAVES": MAX_WAVES, "MAX_HULLS": MAX_HULLS, "WATER_DETAIL_MAPS": detail_maps,
+                   **self._atmosphere_define()}
         if field:
             defines["WATER_FIELD"] = 1
         if hulls:
             defines["WATER_HULLS"] = 1
         return self.programs.program("water/water.vert.glsl", "water/water.frag.glsl", defines)
+
+    def _atmosphere_define(self) -> dict:
+        return {"WATER_EXACT_ATMOSPHERE": 1} if self.exact_atmosphere else {}
 
     def capture_program(self, field: bool) -> moderngl.Program:
         """The water vertex shader alone, capturing v_rel by transform feedback (tests, quality)."""
@@ -319,10 +352,16 @@ class WaterPass(RenderPass):
             if len(waves) == 0:  # not read by the water shader (WATER_DETAIL_MAPS)
                 continue
             fbo.use()
+            # Per wave: 2 pi (m, n) (rad per tile), phase; slope amplitude A k along the unit (m, n).
             table = np.zeros((MAX_DETAIL, 4), dtype=np.float32)
-            table[: len(waves)] = waves
-            program["u_detail_count"].value = len(waves)
+            slope = np.zeros((MAX_DETAIL, 4), dtype=np.float32)
+            n = len(waves)
+            table[:n, 0:2] = 2.0 * math.pi * waves[:, 0:2]
+            table[:n, 2] = waves[:, 3]
+            slope[:n, 0:2] = waves[:, 2:3] * waves[:, 0:2] / np.linalg.norm(waves[:, 0:2], axis=1, keepdims=True)
+            program["u_detail_count"].value = n
             program["u_detail_wave"].write(table.tobytes())
+            program["u_detail_slope"].write(slope.tobytes())
             self.fullscreen(program)
             tex.build_mipmaps()
         return tiles
@@ -361,12 +400,13 @@ class WaterPass(RenderPass):
             self._field_tex[0].use(FIELD_UNIT)
             self._field_tex[1].use(FIELD_SCALAR_UNIT)
 
-    def select(self, sea: SeaSurface, scene: Scene, view: CameraView, lod_error_scale: float = 1.0) -> lod.LodSelection:
+    def select(self, sea: SeaSurface, scene: Scene, view: CameraView, lod_error_scale: float = 1.0,
+               mesh: str = "default") -> lod.LodSelection:
         cam = scene.camera
         fov = cam.fov_y if cam.frustum is None else cam.frustum.top - cam.frustum.bottom
         return lod.select(view, float(view.position[2] - scene.ocean.level), sea.waves.k, sea.waves.amplitude
                           * (np.max(sea.field.factor, axis=(1, 2)) if sea.field is not None else 1.0),
-                          fov, min(scene.ocean.lod_error * lod_error_scale, 16.0), view.far)
+                          fov, min(scene.ocean.lod_error * lod_error_scale, 16.0), view.far, mesh)
 
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
@@ -375,7 +415,7 @@ class WaterPass(RenderPass):
         knobs = self.knobs(frame)
         resolution = int(min(max(round(scene.ocean.detail_resolution * knobs.detail_scale), 32), 512))
         tiles = self._render_detail(sea, t, resolution)
-        selection = self.select(sea, scene, view, knobs.lod_error_scale)
+        selection = self.select(sea, scene, view, knobs.lod_error_scale, knobs.mesh)
         hulls = hull_boxes(scene, view)
         if self._tables is None:
             self._tables = SeaTables(self.ctx)
@@ -415,43 +455,60 @@ class WaterPass(RenderPass):
         vao = self._vao(program, selection.nodes)
         targets.scene_fbo.use()
         self.ctx.enable(moderngl.DEPTH_TEST)
-        self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
+        self.ctx.disable(moderngl.BLEND)
+        under = self._sees_under_mesh(frame, sea, selection)
+        if under:
+            self.ctx.disable(moderngl.CULL_FACE)
+        else:
+            # Seen from above, the first surface a ray meets faces the camera (the sea is a height
+            # field): back faces (the far slopes of waves) are always hidden, so they are not drawn.
+            self.ctx.enable(moderngl.CULL_FACE)
+            self.ctx.front_face = "ccw"  # the patch's triangles wind counter-clockwise seen from above
         vao.render(moderngl.TRIANGLES, instances=len(selection.nodes))
-        self._fill_under_crests(frame, sea, selection, table_uniforms)
+        self.ctx.disable(moderngl.CULL_FACE)
+        self.stats["culled_back_faces"] = not under
+        if under:
+            self._fill_under_crests(frame, selection, table_uniforms)
 
-    def _fill_under_crests(self, frame, sea: SeaSurface, selection: lod.LodSelection, table_uniforms: dict) -> None:
-        """A camera below the surface (a crest over it) looks under the mesh, and one closer to the
-        water than the near plane sees the mesh clipped below it: those rays meet the water body. Draw
-        the sphere below every trough (level − ΣA, no near clip) in deep-water colour; the depth test
-        keeps the mesh wherever it is nearer. Only then: it costs a full-screen pass. A camera above
-        the surface right below it (the host's height query at its xy, less what the finest mesh level
-        leaves out) by more than the near distance cannot see under the mesh: the sea is a height
-        field out to the horizon, so every ray going down meets it before passing beneath it."""
+    @staticmethod
+    def _sees_under_mesh(frame, sea: SeaSurface, selection: lod.LodSelection) -> bool:
+        """Whether the camera may see the underside of the mesh or past it: when it is below the
+        surface (a crest over it) or nearer to it than the near plane. A camera above the surface
+        right below it (the host's height query at its xy, less what the finest mesh level leaves out)
+        by more than the near distance cannot: the sea is a height field out to the horizon, so every
+        ray going down meets its top side before passing beneath it."""
         sphere = selection.error_sphere
         height = float(frame.view.position[2]) - frame.scene.ocean.level
         if height > 1.05 * sphere + frame.view.near:
-            return
+            return False
         w = sea.waves
         x = w.k * selection.finest_spacing  # mesh deviation near the camera: interpolation + faded waves
         mesh_error = float(np.sum(w.amplitude * np.minimum(1.0, x * x / 8.0))) * (
             float(np.max(sea.field.factor)) if sea.field is not None else 1.0)
         surface = float(sea.query(np.asarray(frame.view.position[:2])[None], frame.scene.time.sim_time)["height"][0])
-        if height - surface > frame.view.near + mesh_error + 0.05:
-            return
-        program = self.programs.program("common/fullscreen.vert.glsl", "water/body.frag.glsl")
+        return height - surface <= frame.view.near + mesh_error + 0.05
+
+    def _fill_under_crests(self, frame, selection: lod.LodSelection, table_uniforms: dict) -> None:
+        """Rays that pass under the mesh (``_sees_under_mesh``) meet the water body: draw the sphere
+        below every trough (level − ΣA, no near clip) in deep-water colour; the depth test keeps the
+        mesh wherever it is nearer. Only then: it costs a full-screen pass."""
+        sphere = selection.error_sphere
+        height = float(frame.view.position[2]) - frame.scene.ocean.level
+        program = self.programs.program("common/fullscreen.vert.glsl", "water/body.frag.glsl",
+                                        self._atmosphere_define())
         set_uniforms(program, frame.uniforms)
         set_uniforms(program, table_uniforms)
         set_uniforms(program, {"u_plane_height": -height - 1.05 * sphere})
         self.fullscreen(program)
 
-    def capture(self, scene: Scene) -> tuple[lod.LodSelection, np.ndarray]:
+    def capture(self, scene: Scene, mesh: str = "default") -> tuple[lod.LodSelection, np.ndarray]:
         """The displaced mesh the GPU would draw for ``scene``: the water vertex shader run by transform
         feedback on every selected block. Returns (selection, camera-relative positions (N, G+1, G+1, 3))."""
         from ..camera import make_view
 
         view = make_view(scene.camera)
         sea = sea_surface(scene.ocean, scene.weather)
-        selection = self.select(sea, scene, view)
+        selection = self.select(sea, scene, view, mesh=mesh)
         program = self.capture_program(sea.field is not None)
         self._bind_waves(program, sea, scene, view)
         morph = np.minimum(selection.morph, 1e30).astype(np.float32)
