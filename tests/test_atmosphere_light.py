@@ -84,10 +84,10 @@ def test_no_glow_band_toward_the_sun_below_minus_16(renderer):
         assert (rows[180.0] - rows[0.0]).max() < max_excess, (elevation, rows)
 
 
-@pytest.mark.parametrize("elevation", [0.0, pytest.param(-6.0, marks=pytest.mark.xfail(
-    strict=True, reason="known: the clear-sky model gives 8 lx at -6 deg, 3x the AMS 2-3.5 lx (its zenith "
-    "luminance is 1.6x Patat's there; the twilight arch on the horizon is too bright)")), -12.0, -18.0])
+@pytest.mark.parametrize("elevation", [0.0, -6.0, -12.0, -18.0])
 def test_twilight_illuminance_within_a_factor_two_of_measurements(renderer, elevation):
+    # Issue 11's bound (a factor of 2 of published clear-sky measurements): the spread of the AMS
+    # Glossary's own ranges (410-585 lx, 2-3.5 lx) and of clear-sky turbidity between evenings.
     e = build_frame(renderer.ctx, scene(elevation)).illuminance_lux
     published = AMS_ILLUMINANCE[elevation]
     assert 0.5 < e / published < 2.0, (elevation, e, published)
