@@ -51,19 +51,40 @@ float hg_phase(float g, float c) {
     return (1.0 - g * g) / (4.0 * ATMO_PI * pow(max(1.0 + g * g - 2.0 * g * c, 1e-6), 1.5));
 }
 
-vec3 apply_cirrus(vec3 radiance, vec3 dir) {
-    if (u_cirrus_coverage <= 0.0) return radiance;
+// Distance (km) from the camera to the layer along dir; -1 where the ray misses it.
+float cirrus_distance(vec3 dir) {
     float R = u_bottom_radius_km;
     float r_cam = R + max(u_camera_altitude * 0.001, 0.001);
     float rc = R + u_cirrus_altitude_km;
     // Ray-sphere: |c + t dir| = rc, c = (0, 0, r_cam).
     float b = r_cam * dir.z;
     float disc = b * b - (r_cam - rc) * (r_cam + rc);
-    if (disc < 0.0) return radiance;
+    if (disc < 0.0) return -1.0;
     float sq = sqrt(disc);
     float t = r_cam < rc ? -b + sq : -b - sq;  // below: far root (only one ahead); above: near root
-    if (t <= 0.0) return radiance;
-    if (r_cam < rc && ray_hits_ground(r_cam, dir.z)) return radiance;
+    if (t <= 0.0) return -1.0;
+    if (r_cam < rc && ray_hits_ground(r_cam, dir.z)) return -1.0;
+    return t;
+}
+
+// Transmittance from the camera to the layer (clear air and haze); smooth, evaluated per pixel.
+vec3 cirrus_transmittance(vec3 dir, float t) {
+    if (!use_precomputed()) return vec3(1.0);
+    float r_cam = u_bottom_radius_km + max(u_camera_altitude * 0.001, 0.001);
+    vec3 t_cam = transmittance_segment(u_transmittance_lut, r_cam, dir.z, t, false);
+    if (haze_present()) t_cam *= exp(-min(haze_tau_up(haze_height(), dir.z), vec3(80.0)));
+    return t_cam;
+}
+
+// The layer along a view direction: (cloud radiance x alpha, alpha), before the camera-to-layer
+// transmittance (premultiplied, so a low-resolution table of it interpolates correctly); the
+// composite is L (1 - alpha T) + rgb T (apply_cirrus). Zero where the ray misses the layer.
+vec4 cirrus_layer(vec3 dir) {
+    if (u_cirrus_coverage <= 0.0) return vec4(0.0);
+    float R = u_bottom_radius_km;
+    float t = cirrus_distance(dir);
+    if (t <= 0.0) return vec4(0.0);
+    float r_cam = R + max(u_camera_altitude * 0.001, 0.001);
     vec3 p = vec3(0.0, 0.0, r_cam) + dir * t;
     // Layer coordinates: the horizontal offset from the camera (km) in noise units, plus the
     // camera's own (wind-drifted, wrapped) position; streaks stretched 3:1 along x.
@@ -77,12 +98,11 @@ vec3 apply_cirrus(vec3 radiance, vec3 dir) {
     // Thin at the horizon where the shell is seen edge-on far away: fade beyond ~150 km.
     density *= exp(-t / 150.0);
     float alpha = clamp(0.7 * density, 0.0, 0.95);
-    if (alpha <= 0.0) return radiance;
+    if (alpha <= 0.0) return vec4(0.0);
     float rp = length(p);
     float mu_s = dot(p, u_sun_dir) / rp;
     float shadow = earth_shadow(p);
     vec3 sun_at_cloud;
-    vec3 t_cam;
     vec3 ambient;
     if (use_precomputed()) {
         float mu_h = -safe_sqrt(1.0 - (R / rp) * (R / rp));
@@ -97,9 +117,6 @@ vec3 apply_cirrus(vec3 radiance, vec3 dir) {
             tau += mu_s < 0.0 ? 2.0 * haze_tau_up(max(h_min, 0.0), 0.0) : haze_tau_up(h_cloud, mu_s);
         }
         sun_at_cloud = u_solar_illuminance * exp(-min(tau, vec3(80.0))) * shadow;
-        float mu_v = dir.z;
-        t_cam = transmittance_segment(u_transmittance_lut, r_cam, mu_v, t, false);
-        if (haze_present()) t_cam *= exp(-min(haze_tau_up(haze_height(), dir.z), vec3(80.0)));
         // Sky irradiance at the cloud, scaled from the ground's ambient (which also holds the moon
         // and the night sky) by the table's ratio of the sun's sky light at the two altitudes.
         vec3 e_cloud = irradiance_lookup(u_irradiance_lut, rp, mu_s);
@@ -109,11 +126,18 @@ vec3 apply_cirrus(vec3 radiance, vec3 dir) {
         ambient = (ATMO_PI * u_sky_ambient * ratio + ground_up) / (2.0 * ATMO_PI);
     } else {
         sun_at_cloud = u_sun_illuminance * shadow;
-        t_cam = vec3(1.0);
         ambient = u_sky_ambient * 0.8;
     }
     float c = dot(dir, u_sun_dir);
     float phase = 0.6 * hg_phase(0.75, c) + 0.4 / (4.0 * ATMO_PI);
     vec3 cloud = sun_at_cloud * phase + ambient;
-    return mix(radiance, cloud, alpha * t_cam);
+    return vec4(cloud * alpha, alpha);
 }
+
+// Composite of a layer sample c = cirrus_layer(dir) (per pixel, or from the per-frame table).
+vec3 composite_cirrus(vec3 radiance, vec3 dir, vec4 c) {
+    if (c.a <= 0.0) return radiance;
+    vec3 t_cam = cirrus_transmittance(dir, max(cirrus_distance(dir), 0.0));
+    return radiance * (1.0 - c.a * t_cam) + c.rgb * t_cam;
+}
+vec3 apply_cirrus(vec3 radiance, vec3 dir) { return composite_cirrus(radiance, dir, cirrus_layer(dir)); }
