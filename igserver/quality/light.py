@@ -10,8 +10,12 @@ by ``time.sun_override``), at the sea surface with the default atmosphere:
   * L_z, the zenith luminance (cd/m^2) of sky_radiance(), against the V-band zenith twilight sky
     brightness of Patat, Ugolnikov & Postylyakov (2006, A&A 455, 385; ESO Paranal, 2600 m): the
     quadratic fit m_V(z) = 11.84 + 1.518 (z - 95) - 0.057 (z - 95)^2 mag/arcsec^2 for sun zenith
-    distances 95..105 deg (their table 3 as used here; they find a sea-level site ~30 % brighter,
-    applied), converted with L = 10.8e4 10^(-0.4 m) cd/m^2;
+    distances 95..105 deg (they find a sea-level site ~30 % brighter, applied), converted with
+    L = 10.8e4 10^(-0.4 m) cd/m^2. The coefficients were first written from memory; the paper's
+    table could not be read here, so they are checked against the V-band zenith points digitised
+    from the paper's figure by the LSST sky-brightness project (lsst-sims/legacy_sims_skybrightness,
+    doc/PatatTwi/vband.dat, PATAT_V_DIGITISED below): within 0.16 mag over z = 99..105 deg
+    (tests/test_atmosphere_light.py); the study reports both;
   * the smoothness: the largest ratio of E_h and of L_z between elevations 0.1 deg apart
     (0 .. -18 deg), the issue's bound being 1.25;
   * per table preset (low / medium / high): the same curves and their error against the high
@@ -49,13 +53,34 @@ AMS_ILLUMINANCE = {0.0: math.sqrt(410.0 * 585.0), -6.0: math.sqrt(2.0 * 3.5), -1
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 
+# (sun zenith distance deg, V mag/arcsec^2) at Paranal, digitised from Patat et al. (2006)'s V-band
+# zenith figure by the LSST sky-brightness project (legacy_sims_skybrightness doc/PatatTwi/vband.dat;
+# rounded to 0.01). Past 105 deg the night sky (21.5) takes over.
+PATAT_V_DIGITISED = ((99.06, 17.04), (100.02, 17.86), (100.93, 18.72), (101.89, 19.51), (102.84, 20.25),
+                     (103.75, 20.78), (104.82, 21.19), (106.78, 21.44), (108.41, 21.52), (110.89, 21.52))
+
+
+def patat_v_mag(zenith_distance: float) -> float:
+    """The quadratic V-band fit (mag/arcsec^2) at a sun zenith distance of 95..105 deg."""
+    x = zenith_distance - 95.0
+    return 11.84 + 1.518 * x - 0.057 * x * x
+
+
+def patat_digitised_luminance(sun_elevation: float) -> float | None:
+    """Zenith luminance (cd/m^2, +30 % sea level) interpolated in the digitised points (99..111 deg)."""
+    z = 90.0 - sun_elevation
+    zs, ms = zip(*PATAT_V_DIGITISED)
+    if not zs[0] <= z <= zs[-1]:
+        return None
+    return 1.3 * 10.8e4 * 10.0 ** (-0.4 * float(np.interp(z, zs, ms)))
+
+
 def patat_zenith_luminance(sun_elevation: float) -> float | None:
     """Zenith luminance (cd/m^2) from Patat et al. (2006), V band, sea-level corrected (+30 %)."""
     z = 90.0 - sun_elevation
     if not 95.0 <= z <= 105.0:
         return None
-    m = 11.84 + 1.518 * (z - 95.0) - 0.057 * (z - 95.0) ** 2
-    return 1.3 * 10.8e4 * 10.0 ** (-0.4 * m)
+    return 1.3 * 10.8e4 * 10.0 ** (-0.4 * patat_v_mag(z))
 
 
 def light_scene(sun_elevation: float, quality: str = "medium", utc: str = MOONLESS_UTC, **extra) -> Scene:
@@ -196,18 +221,19 @@ def _markdown(report: dict, presets: list[str]) -> str:
     lines = ["# Light levels: noon to night", "",
              "Natural horizontal illuminance E_h (lux) and zenith luminance L_z (cd/m^2), moonless, sea level, "
              "default atmosphere; published: AMS Glossary (E_h), Patat et al. 2006 V band +30 % (L_z).", ""]
-    head = "| sun (deg) | " + " | ".join(f"E_h {q} | L_z {q}" for q in presets) + " | E_h published | L_z published |"
-    lines += [head, "|" + "---|" * (2 * len(presets) + 3)]
+    head = ("| sun (deg) | " + " | ".join(f"E_h {q} | L_z {q}" for q in presets)
+            + " | E_h published | L_z published (fit) | L_z published (figure) |")
+    lines += [head, "|" + "---|" * (2 * len(presets) + 4)]
+
+    def cell(v):
+        return f"{v:.3g}" if v else ""
     for i, el in enumerate(ELEVATIONS):
         cells = []
         for q in presets:
             c = report["curves"][q][i]
             cells.append(f"{c['illuminance_lux']:.3g} | {c['zenith_cd_m2']:.3g}")
-        pub_e = AMS_ILLUMINANCE.get(el)
-        pub_z = patat_zenith_luminance(el)
-        lines.append(f"| {el:+.0f} | " + " | ".join(cells) + f" | {pub_e:.3g} |" if pub_e else f"| {el:+.0f} | "
-                     + " | ".join(cells) + " | |")
-        lines[-1] += f" {pub_z:.3g} |" if pub_z else " |"
+        published = [AMS_ILLUMINANCE.get(el), patat_zenith_luminance(el), patat_digitised_luminance(el)]
+        lines.append(f"| {el:+.0f} | " + " | ".join(cells + [cell(v) for v in published]) + " |")
     lines += ["", "| preset | precompute (s, fresh) | sky pass (ms, 640x360) | sizes |", "|---|---|---|---|"]
     for q in presets:
         p = report["presets"][q]

@@ -1,4 +1,4 @@
-"""Float64 reference sky for the precomputed tables: per wavelength (the R, G, B channels at 680,
+"""Float64 reference sky for the precomputed tables: per wavelength (the R, G, B channels at 610,
 550, 440 nm), brute-force ray marching of the same atmosphere (atmosphere_model.py).
 
   L(x, v) = L_1(x, v) + L_ms(x, v)
@@ -64,7 +64,7 @@ def single_scattering(params: AtmosphereParameters, altitude_m: float, dirs: np.
         tau_sun = optical_depth_to_top(params, r, mu_s, samples=samples)
         t_total = np.exp(-np.minimum(tau_view + tau_sun, 200.0)) * (~blocked)[..., None]
         rho_r = np.exp(-h / params.rayleigh_scale_height_km)[..., None]
-        rho_m = np.exp(-h / params.mie_scale_height_km)[..., None]
+        rho_m = params.mie_density(h)[..., None]
         nu = v @ sun_dir
         src = t_total * (beta_r * rho_r * rayleigh_phase(nu)[:, None, None]
                          + beta_m * rho_m * mie_phase(params.mie_g, nu)[:, None, None])

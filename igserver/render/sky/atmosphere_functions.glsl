@@ -20,6 +20,7 @@ uniform vec3 u_mie_scattering_km;
 uniform vec3 u_mie_extinction_km;
 uniform float u_mie_scale_height_km;
 uniform float u_mie_g;
+uniform vec2 u_mie_background;           // (k_ft, k_st): free-tropospheric, stratospheric aerosol
 uniform vec3 u_ozone_absorption_km;      // 1/km at the 25 km peak of the tent profile
 uniform float u_ground_albedo;
 uniform float u_mu_s_min;                // cos of the largest sun zenith angle in the tables
@@ -51,7 +52,12 @@ float distance_to_nearest_boundary(float r, float mu, bool hits_ground) {
 
 // --- composition --------------------------------------------------------------------------------
 float rayleigh_density(float h_km) { return exp(-max(h_km, 0.0) / u_rayleigh_scale_height_km); }
-float mie_density(float h_km) { return exp(-max(h_km, 0.0) / u_mie_scale_height_km); }
+// Boundary layer + the background aerosol above it (atmosphere_model.py AtmosphereParameters.mie_density).
+float mie_density(float h_km) {
+    float h = max(h_km, 0.0);
+    return exp(-h / u_mie_scale_height_km) + u_mie_background.x * (exp(-h / 3.0) - exp(-h / 1.2))
+         + u_mie_background.y * max(0.0, 1.0 - abs(h - 20.0) / 8.0);
+}
 float ozone_density(float h_km) { return max(0.0, 1.0 - abs(h_km - 25.0) / 15.0); }
 vec3 extinction_km(float h_km) {
     return u_rayleigh_scattering_km * rayleigh_density(h_km) + u_mie_extinction_km * mie_density(h_km)

@@ -80,6 +80,18 @@ vec3 scattering_of_order(float r, float mu, float mu_s, float nu, bool hits_grou
     }
     return scattering_lookup(u_delta_multiple_in, r, mu, mu_s, nu, hits_ground).rgb;
 }
+// The same with GEOMETRIC interpolation between the sun rows (what the sky-view table shows):
+// in twilight the sky falls by ~10x per 2 deg of sun depression, and a straight line between rows
+// 1.25 deg apart overshoots; the irradiance integrated from linear lookups came out 24 % above a
+// float64 hemisphere integral of single scattering at -6 deg.
+vec3 scattering_of_order_geometric(float r, float mu, float mu_s, float nu, bool hits_ground, int order) {
+    if (order == 1) {
+        vec3 rayleigh = scattering_lookup_geometric(u_delta_rayleigh_in, r, mu, mu_s, nu, hits_ground).rgb;
+        vec3 mie = scattering_lookup_geometric(u_delta_mie_in, r, mu, mu_s, nu, hits_ground).rgb;
+        return rayleigh * rayleigh_phase(nu) + mie * mie_phase(u_mie_g, nu);
+    }
+    return scattering_lookup_geometric(u_delta_multiple_in, r, mu, mu_s, nu, hits_ground).rgb;
+}
 
 #if defined(STAGE_TRANSMITTANCE)
 layout(binding = 0, rgba32f) uniform writeonly image2D u_out;
@@ -222,8 +234,9 @@ void main() {
     vec2 x = unit_range_vec(texel, size);
     float r = u_bottom_radius_km + x.y * (u_top_radius_km - u_bottom_radius_km);
     float mu_s = irradiance_mu_s_of_x(x.x);
-    // E = integral over the upper hemisphere of L(omega) cos(theta) d omega.
-    const int NT = 16;
+    // E = integral over the upper hemisphere of L(omega) cos(theta) d omega; 32 zenith-angle
+    // steps of 5.6 deg (in twilight the light comes from low over the horizon toward the sun).
+    const int NT = 32;
     float dphi = ATMO_PI / float(NT);
     float dtheta = ATMO_PI / float(NT);
     vec3 omega_s = vec3(safe_sqrt(1.0 - mu_s * mu_s), 0.0, mu_s);
@@ -234,7 +247,7 @@ void main() {
             float phi = (float(i) + 0.5) * dphi;
             vec3 w = vec3(cos(phi) * sin(theta), sin(phi) * sin(theta), cos(theta));
             float domega = dtheta * dphi * sin(theta);
-            result += scattering_of_order(r, w.z, mu_s, dot(w, omega_s), false, u_order) * w.z * domega;
+            result += scattering_of_order_geometric(r, w.z, mu_s, dot(w, omega_s), false, u_order) * w.z * domega;
         }
     }
     imageStore(u_out_delta, texel, vec4(result, 0.0));

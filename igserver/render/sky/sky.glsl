@@ -10,6 +10,9 @@ in vec2 v_uv;
 layout(location = 0) out vec4 out_color;
 layout(location = 1) out float out_distance;
 
+#if defined(CIRRUS) && !defined(CIRRUS_PER_PIXEL)
+layout(binding = 7) uniform sampler2D u_cirrus_table;  // cirrus_table.glsl, drawn this frame
+#endif
 uniform float u_moon_disk_cos;       // cos of the moon's angular radius
 uniform vec3 u_moon_disk_luminance;  // cd/m^2 of the lit part, after the atmosphere
 
@@ -56,8 +59,10 @@ void main() {
         radiance += sun_disk(dir);
     }
     radiance += moon_disk(dir) * t_view;
-#ifdef CIRRUS
+#if defined(CIRRUS) && defined(CIRRUS_PER_PIXEL)
     radiance = apply_cirrus(radiance, dir);  // a variant: the noise costs 2x the sky even when skipped
+#elif defined(CIRRUS)
+    radiance = composite_cirrus(radiance, dir, texture(u_cirrus_table, v_uv));
 #endif
     out_color = vec4(pre_expose(radiance), 1.0);
     out_distance = 1e30;  // sky: infinitely far

@@ -14,6 +14,10 @@ from ..passes import RenderPass
 from ..shaders import set_uniforms
 
 STAR_POINT_PX = 2.0
+# The cirrus layer is evaluated once per frame on a grid this many times coarser per axis than the
+# frame (cirrus_table.glsl), 1 = per pixel in the sky pass (the reference for the picture error).
+CIRRUS_TABLE_SCALE = 2
+CIRRUS_TABLE_UNIT = 7
 STARS_BELOW_SUN_ELEVATION = -2.0  # deg; above this the day sky hides even Sirius
 
 
@@ -33,6 +37,10 @@ class SkyPass(RenderPass):
         defines = {"SKY_" + model.upper(): 1}
         if frame.scene.weather.cirrus_coverage > 0.0:
             defines["CIRRUS"] = 1  # compiled in only when drawn: llvmpipe pays for it even when skipped
+            if self.cirrus_scale <= 1:
+                defines["CIRRUS_PER_PIXEL"] = 1
+            else:
+                self._cirrus_table(frame, model, targets)
         if surface_below(frame.scene):
             defines["SURFACE_BELOW"] = 1
         program = self.programs.program("common/fullscreen.vert.glsl", "sky/sky.glsl", defines)
@@ -44,6 +52,29 @@ class SkyPass(RenderPass):
         if frame.celestial.sun_elevation < STARS_BELOW_SUN_ELEVATION:
             self._stars(frame, model)
         self.ctx.depth_func = depth.NEAREST_WINS
+
+    cirrus_scale = CIRRUS_TABLE_SCALE
+
+    def _cirrus_table(self, frame, model: str, targets) -> None:
+        """Draw the cirrus layer at 1/cirrus_scale resolution into a float texture on unit 7."""
+        w, h = targets.size
+        size = (max(w // self.cirrus_scale, 1), max(h // self.cirrus_scale, 1))
+        table = getattr(self, "_cirrus", None)
+        if table is None or table[0].size != size:
+            if table is not None:
+                table[1].release()
+                table[0].release()
+            tex = self.ctx.texture(size, 4, dtype="f4")
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            tex.repeat_x = tex.repeat_y = False
+            table = self._cirrus = (tex, self.ctx.framebuffer([tex]))
+        program = self.programs.program("common/fullscreen.vert.glsl", "sky/cirrus_table.glsl",
+                                        {"SKY_" + model.upper(): 1})
+        set_uniforms(program, frame.uniforms)
+        self.ctx.disable(moderngl.DEPTH_TEST)
+        table[1].use()
+        self.fullscreen(program)
+        table[0].use(location=CIRRUS_TABLE_UNIT)
 
     def _stars(self, frame, model: str) -> None:
         scene = frame.scene
