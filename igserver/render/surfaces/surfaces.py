@@ -226,8 +226,16 @@ class SurfacesPass(RenderPass):
                 prim.material.bind()
                 prim.draw(program, use, stacked[:, p, :])
 
-    def _receiver_defines(self) -> dict:
-        return {"SURFACE_SHADOWS": 1, "SHADOW_TAPS": self.shadow_taps}
+    def _receiver_defines(self, frame) -> dict:
+        """The frame's light terms, and shadow lookups only for the maps this frame drew."""
+        defines = dict(frame.defines)
+        if self.last_shadow_passes:
+            defines.update({"SURFACE_SHADOWS": 1, "SHADOW_TAPS": self.shadow_taps})
+            if any(p in ("sun", "moon") for p in self.last_shadow_passes):
+                defines["KEY_SHADOW_MAP"] = 1
+            if "spot" in self.last_shadow_passes:
+                defines["SPOT_SHADOW_MAP"] = 1
+        return defines
 
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
@@ -238,7 +246,7 @@ class SurfacesPass(RenderPass):
         self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
         if scene.ground.enabled and not scene.ocean.enabled:
             program = self.programs.program("common/fullscreen.vert.glsl", "surfaces/plane.glsl",
-                                            self._receiver_defines())
+                                            self._receiver_defines(frame))
             set_uniforms(program, frame.uniforms)
             set_uniforms(program, shadow_uniforms)
             set_uniforms(program, {
@@ -249,7 +257,7 @@ class SurfacesPass(RenderPass):
             self.fullscreen(program)
         if not any(len(batch.rows["view"]) for batch in batches.values()):
             return
-        program = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl", self._receiver_defines())
+        program = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl", self._receiver_defines(frame))
         set_uniforms(program, frame.uniforms)
         set_uniforms(program, shadow_uniforms)
         self._set_samplers(program)
