@@ -34,6 +34,7 @@ uniform float u_voxel;               // m, the texture's voxel size
 uniform float u_pixel_angle;         // rad per pixel of the march's resolution
 uniform float u_sigma;               // 1/m, extinction at density 1
 uniform float u_jitter_offset;       // per-frame shift of the start jitter, in [0,1)
+uniform vec2 u_layer_range;          // cross-fade: drawn where the pixel's dither value is in [x, y) (volumes.py)
 #ifdef SMOKE
 uniform float u_hg_g;                // Henyey-Greenstein asymmetry
 uniform float u_albedo_scale;        // x the profile's albedo (sooty fire smoke)
@@ -67,7 +68,15 @@ vec3 to_volume(vec3 p) {
     return vec3(q.xy / u_extent.xy * 0.5 + 0.5, z);
 }
 
+// Dither value of a pixel for the cross-fade of two march resolutions (a dissolve: each pixel shows
+// exactly one of them, so the mix is exact per pixel and linear in the weight over any area).
+float layer_dither(vec2 pixel) {
+    return fract(sin(dot(pixel, vec2(12.9898, 78.233))) * 43758.5453);
+}
+
 void main() {
+    float keep = layer_dither(floor(gl_FragCoord.xy));
+    if (keep < u_layer_range.x || keep >= u_layer_range.y) discard;
     vec3 dir = normalize(v_rel);
     // Slab test against the AABB.
     vec3 inv = 1.0 / dir;
