@@ -28,7 +28,6 @@ from the old to the new (a dissolve), so the switch fades instead of popping.
 from __future__ import annotations
 
 import math
-import zlib
 from collections import OrderedDict
 from dataclasses import dataclass
 
@@ -102,13 +101,6 @@ def texture_size(vol: Volume, view: CameraView, settings: VolumeSettings) -> tup
     aspect = vol.height / max(2.0 * vol.radius, 1e-6)
     res_z = int(min(max(round(res_xy * aspect), settings.min_resolution), 4 * res_xy))
     return res_xy, res_xy, res_z
-
-
-def keyframe_phase(vol: Volume) -> float:
-    """Offset in [0, 1) key periods of a volume's keyframes: from its effect's id (crc32, the same in
-    every process), the smoke half a period after its fire."""
-    base = zlib.crc32(vol.key[0].encode()) / 2.0**32
-    return (base + (0.5 if vol.kind == "smoke" else 0.0)) % 1.0
 
 
 def screen_rect(volumes: list[Volume], view: CameraView, width: int, height: int, pad: int):
@@ -244,11 +236,8 @@ class VolumesPass(RenderPass):
                 slot.models = [model]
             return model.texture
         # Capped rate: keyframes k and k + 1 around sim_time (float64), blended by the fraction.
-        # Each volume's keyframes are offset by its own phase, so a fire and its smoke (and
-        # several fires) model in different frames instead of all in one (a frame-time spike).
         period = 1.0 / settings.model_hz
-        phase = keyframe_phase(vol)
-        x = sim_time * settings.model_hz - phase
+        x = sim_time * settings.model_hz
         k = math.floor(x)
         if x - k > 1.0 - 1e-6:  # on a keyframe up to rounding (100 + 3/30 s at 10 Hz)
             k += 1
@@ -261,7 +250,7 @@ class VolumesPass(RenderPass):
         for key in (k, k + 1):
             if any(m.key == key for m in slot.models):
                 continue  # modelled already (perhaps with the previous soft state: it blends in)
-            model = self._model_into(slot, None, vol, frame, settings, size, (key + phase) * period)
+            model = self._model_into(slot, None, vol, frame, settings, size, key * period)
             model.state, model.key = static, key
             slot.models.append(model)
         slot.models.sort(key=lambda m: m.key)
