@@ -124,3 +124,34 @@ def test_blended_keyframes_err_less_than_the_motion_they_bridge(renderer, volume
     # The blend of two keyframes is wrong by less than the picture moves over one key period
     # (what a capped rate without blending would show as a jump).
     assert error < motion, (error, motion)
+
+
+def test_march_resolution_change_fades_instead_of_popping(renderer, volumes):
+    """A changed march scale in a running stream (auto quality moving a rung) cross-fades over
+    SCALE_FADE_FRAMES frames: each step changes the picture by a fraction of the switch, and the
+    fade ends on exactly the new scale's picture."""
+    from igserver.render.volumes.volumes import SCALE_FADE_FRAMES
+
+    half, full = replace(MEDIUM, scale=2), replace(MEDIUM, scale=1)
+    scene = close_fire()
+    t0 = scene.time.sim_time
+    dt = 1e-4  # a running stream (0 < dt <= 1 s) in which the turbulence has not visibly moved
+    at = lambda k: apply_patch(scene, {"time": {"sim_time": t0 + k * dt}})  # noqa: E731
+    # The pop: the two scales' pictures of one instant (a re-render shows the new scale at once).
+    render_with(renderer, volumes, at(0), half)
+    pop_from = render_with(renderer, volumes, at(0), half)
+    pop_to = render_with(renderer, volumes, at(0), full)
+    pop = np.abs(pop_to - pop_from).mean()
+    assert pop > 0.2, "the two scales must differ for this test to mean anything"
+    # The same switch in a stream (the re-render at the same instant shows half alone: no fade).
+    render_with(renderer, volumes, at(0), half)
+    render_with(renderer, volumes, at(1), half)
+    frames = [render_with(renderer, volumes, at(2), half)]
+    for k in range(SCALE_FADE_FRAMES + 1):
+        frames.append(render_with(renderer, volumes, at(3 + k), full))
+    steps = [np.abs(b - a).mean() for a, b in zip(frames, frames[1:])]
+    # Eight steps share the switch: none may carry more than half of it (a pop carries all of it).
+    assert max(steps) < 0.5 * pop, (steps, pop)
+    # After the fade: the new scale alone (same picture as a fresh render of that instant, up to the
+    # turbulence's motion over dt, far below one level).
+    assert np.abs(frames[-1] - render_with(renderer, volumes, at(3 + SCALE_FADE_FRAMES), full)).mean() < 0.05

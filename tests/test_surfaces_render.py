@@ -259,3 +259,22 @@ def test_grazing_sun_has_neither_acne_nor_peter_panning(renderer):
     assert far / lit < expected + 0.05, (far, lit, expected)
     # the shadow reaches the foot of the box: as dark there as far inside (5 % of the contrast)
     assert foot / lit < expected + 0.05 * (1.0 - expected) + 0.05, (foot, lit, expected)
+
+
+def test_shadow_map_is_reused_only_while_nothing_changed(renderer):
+    surfaces = renderer.graph.passes["surfaces"]
+    scene = _shadow_scene()
+    first = renderer.render(scene).rgba
+    reused = surfaces.shadow_maps_reused
+    again = renderer.render(scene).rgba
+    assert surfaces.shadow_maps_reused == reused + 1  # same sun, casters, camera: not redrawn
+    assert np.array_equal(first, again)
+    # A moved caster redraws the map (its shadow moves): the frame equals one with the map forced
+    # to be drawn again.
+    moved = scene.model_copy(deep=True)
+    moved.entities[0].position = [0.0, 2.0, 0.0]
+    out = renderer.render(moved).rgba
+    assert surfaces.shadow_maps_reused == reused + 1
+    assert not np.array_equal(out, first)
+    surfaces._shadow_signatures.clear()
+    assert np.array_equal(renderer.render(moved).rgba, out)

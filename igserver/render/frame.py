@@ -78,6 +78,8 @@ class FrameContext:
     resources: dict = field(default_factory=dict)
     # Quality level in force (presets.knobs(pipeline, frame.quality)): a level name or an auto rung.
     quality: object = "medium"
+    # Compile-time switches of the lit passes' shaders for this frame (light_defines).
+    defines: dict = field(default_factory=dict)
 
     @property
     def camera_altitude(self) -> float:
@@ -161,7 +163,21 @@ def build_frame(ctx: moderngl.Context, scene: Scene, state: FrameState | None = 
     frame.resources["frame_state"] = state
     frame.uniforms = common_uniforms(frame)
     frame.uniforms.update(sky.uniforms)
+    frame.defines = light_defines(celestial)
     return frame
+
+
+# common/lights.glsl skips the sun's or moon's term below this direction z (about -5.7 deg).
+BODY_TERM_MIN_Z = -0.1
+
+
+def light_defines(celestial: SunMoon) -> dict:
+    """SUN_TERM / MOON_TERM for common/lights.glsl: 0 when that body's term would be skipped at run
+    time (same test, same float32 direction), so the frame's shaders do not carry its code. Passes
+    that do not add these defines compile both terms and test at run time."""
+    sun_z = float(np.float32(celestial.sun_dir[2]))
+    moon_z = float(np.float32(celestial.moon_dir[2]))
+    return {"SUN_TERM": int(sun_z > BODY_TERM_MIN_Z), "MOON_TERM": int(moon_z > BODY_TERM_MIN_Z)}
 
 
 def pixel_angle(camera) -> float:

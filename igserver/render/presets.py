@@ -10,7 +10,8 @@ Auto without popping: the controller does not jump between presets. It walks a l
 ``low`` to ``high`` in which neighbouring rungs differ in ONE knob of ONE pipeline (``ladder``),
 one rung per decision, with hysteresis (step down when the median frame time over a window exceeds
 the target, step up only when it is below ``UP_FRACTION`` of it, and never twice within
-``HOLD_FRAMES``); volume textures blend between models (volumes.py), so a changed knob fades in.
+``HOLD_FRAMES``); volume textures blend between models (volumes.py), so a changed knob fades in,
+and a changed march resolution dissolves from the old to the new over a few frames (volumes.py).
 """
 
 from __future__ import annotations

@@ -12,6 +12,16 @@
 #ifndef MAX_LIGHTS
 #define MAX_LIGHTS 64
 #endif
+// Compile-time light terms (frame.py light_defines): a pass that knows the frame defines SUN_TERM /
+// MOON_TERM as 0 when that body is below -0.1 (its term would be skipped at run time anyway). On
+// llvmpipe a branch not taken still costs much of its body (SIMD code runs masked), so the
+// night frame drops the sun's BRDF and shadow code entirely. Undefined: both compiled, run-time test.
+#ifndef SUN_TERM
+#define SUN_TERM 1
+#endif
+#ifndef MOON_TERM
+#define MOON_TERM 1
+#endif
 uniform int u_light_count;
 uniform vec4 u_light_pos[MAX_LIGHTS];    // xyz camera-relative m, w = range m
 uniform vec4 u_light_color[MAX_LIGHTS];  // rgb = colour * intensity (cd), w = 1 spot / 0 point
@@ -76,10 +86,14 @@ vec3 ambient_light(Material m, vec3 n, vec3 v, float ao) {
 
 vec3 shade_surface_ao(Material m, vec3 p, vec3 n, vec3 v, float ao) {
     vec3 radiance = ambient_light(m, n, v, ao);  // Ra * Ia
+#if SUN_TERM
     if (u_sun_dir.z > -0.1)
         radiance += shadowed_light(m, n, v, u_sun_dir, u_sun_illuminance, light_shadow(SUN_LIGHT, p, n, u_sun_dir));
+#endif
+#if MOON_TERM
     if (u_moon_dir.z > -0.1)
         radiance += shadowed_light(m, n, v, u_moon_dir, u_moon_illuminance, light_shadow(MOON_LIGHT, p, n, u_moon_dir));
+#endif
     for (int i = 0; i < u_light_count; ++i) {
         vec3 d = u_light_pos[i].xyz - p;
         if (dot(d, d) >= u_light_pos[i].w * u_light_pos[i].w) continue;  // out of range: no cost

@@ -11,6 +11,8 @@
 #ifndef SHADOW_TAPS
 #define SHADOW_TAPS 4
 #endif
+// KEY_SHADOW_MAP / SPOT_SHADOW_MAP: compile the lookup of a map only when the frame drew it
+// (surfaces.py); a run-time test alone still pays for the lookup on llvmpipe.
 uniform sampler2DShadow u_key_shadow_map;
 uniform mat4 u_key_shadow_matrix;
 uniform int u_key_shadow_light;      // SUN_LIGHT, MOON_LIGHT, or 0 when there is no map
@@ -47,15 +49,19 @@ float pcf_shadow(sampler2DShadow map, vec4 coord_h, float radius_texels) {
 float light_shadow(int light, vec3 p, vec3 n, vec3 l) {
     float cos_nl = clamp(dot(n, l), 0.0, 1.0);
     float sin_nl = sqrt(1.0 - cos_nl * cos_nl);
+#ifdef KEY_SHADOW_MAP
     if (light == u_key_shadow_light && light < 0) {
         // 1.5 texels along the normal at grazing light, half a texel toward the light always
         vec3 q = p + u_key_shadow_texel * (1.5 * sin_nl * n + 0.5 * l);
         return pcf_shadow(u_key_shadow_map, u_key_shadow_matrix * vec4(q, 1.0), u_shadow_softness / u_key_shadow_texel);
     }
+#endif
+#ifdef SPOT_SHADOW_MAP
     if (light >= 0 && light == u_spot_shadow_light) {
         float texel = u_spot_shadow_texel * length(u_light_pos[light].xyz - p);
         vec3 q = p + texel * (1.5 * sin_nl * n + 0.5 * l);
         return pcf_shadow(u_spot_shadow_map, u_spot_shadow_matrix * vec4(q, 1.0), u_shadow_softness / texel);
     }
+#endif
     return 0.0;
 }

@@ -3,6 +3,7 @@
 // except where the surface distance jumps, and even one table lookup per end of the ray costs
 // several ms per full-resolution frame on llvmpipe.
 #include "common/frame.glsl"
+#include "common/nearest_distance.glsl"
 // Halos of lights in fog (issue 10: a night fog glows around fires and lamps, more as visibility
 // falls): the single-scattered light of each point source along the pixel's view ray up to the
 // surface, in a homogeneous medium of the fog's extinction at the camera (beta, albedo omega,
@@ -53,12 +54,6 @@ out vec4 out_color;
 void main() {
     // The nearest surface of the block this pixel covers (as the volumes' reduced march); its
     // distance goes in alpha (log2) for the depth-aware upsampling in tonemap.glsl.
-    ivec2 base = ivec2(gl_FragCoord.xy) * u_halo_scale;
-    ivec2 size = textureSize(u_distance, 0);
-    float d = 3.0e38;
-    for (int y = 0; y < u_halo_scale; ++y)
-        for (int x = 0; x < u_halo_scale; ++x)
-            d = min(d, texelFetch(u_distance, min(base + ivec2(x, y), size - 1), 0).r);
-    d = clamp(d, 1e-3, u_halo_far);
+    float d = clamp(nearest_distance(u_distance, ivec2(gl_FragCoord.xy), u_halo_scale), 1e-3, u_halo_far);
     out_color = vec4(pre_expose(light_halos(view_ray(v_uv), d)), log2(d));
 }

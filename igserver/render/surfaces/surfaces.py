@@ -4,11 +4,14 @@ Per frame: the visible entities become instances (one camera-relative matrix per
 node, articulated parts posed by name); the key light (sun, or moon when brighter) and the
 brightest spot light render depth-only shadow maps of the casters, but only when something casts
 and the light is up (FrameGraph philosophy: no casters, no shadow pass); then the ground plane and
-every primitive are drawn once, instanced, opaque and masked first, blended last.
+every primitive are drawn once, instanced, opaque and masked first, blended last. A shadow map is
+redrawn only when its projection or its casters changed (a still camera over still casters under
+the same sun reuses it).
 """
 
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, field
 
 import moderngl
@@ -94,6 +97,8 @@ class SurfacesPass(RenderPass):
         self._shadow_maps: dict[str, tuple[moderngl.Texture, moderngl.Framebuffer]] = {}
         self.last_shadow_passes: list[str] = []  # which shadow maps the last frame drew
         self.shadow_taps = DEFAULT_SHADOW_TAPS  # PCF taps per lookup (quality knob: igserver quality surfaces)
+        self._shadow_signatures: dict[str, tuple] = {}  # what each map holds (skip redrawing it)
+        self.shadow_maps_reused = 0
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
         return (scene.ground.enabled and not scene.ocean.enabled) or any(e.visible for e in scene.entities)
@@ -123,6 +128,7 @@ class SurfacesPass(RenderPass):
             if held is not None:
                 held[1].release()
                 held[0].release()
+            self._shadow_signatures.pop(key, None)
             tex, _ = depth.float_depth_texture(self.ctx, (size, size))
             tex.compare_func = ">="  # lit where the receiver is at least as near the light (reversed depth)
             tex.filter = (moderngl.LINEAR, moderngl.LINEAR)  # hardware 2x2 PCF per tap
@@ -131,7 +137,18 @@ class SurfacesPass(RenderPass):
         return self._shadow_maps[key]
 
     def _render_shadow_map(self, key: str, size: int, projection: ShadowProjection, batches) -> moderngl.Texture:
+        """Draw the casters into the map, unless it already holds exactly this: same projection,
+        same caster instances (camera-relative rows, so a moved camera redraws) and materials."""
         tex, fbo = self._shadow_target(key, size)
+        digest = hashlib.blake2b(np.asarray(projection.view_proj, dtype=np.float64).tobytes(), digest_size=16)
+        for name, batch in sorted(batches.items()):
+            digest.update(name.encode())
+            digest.update(np.ascontiguousarray(batch.rows["shadow"]).tobytes())
+        signature = (size, digest.digest())
+        if self._shadow_signatures.get(key) == signature:
+            self.shadow_maps_reused += 1
+            return tex
+        self._shadow_signatures[key] = signature
         fbo.use()
         fbo.clear(depth=depth.CLEAR_DEPTH)
         opaque = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl", {"SHADOW_PASS": 1})
@@ -226,8 +243,16 @@ class SurfacesPass(RenderPass):
                 prim.material.bind()
                 prim.draw(program, use, stacked[:, p, :])
 
-    def _receiver_defines(self) -> dict:
-        return {"SURFACE_SHADOWS": 1, "SHADOW_TAPS": self.shadow_taps}
+    def _receiver_defines(self, frame) -> dict:
+        """The frame's light terms, and shadow lookups only for the maps this frame drew."""
+        defines = dict(frame.defines)
+        if self.last_shadow_passes:
+            defines.update({"SURFACE_SHADOWS": 1, "SHADOW_TAPS": self.shadow_taps})
+            if any(p in ("sun", "moon") for p in self.last_shadow_passes):
+                defines["KEY_SHADOW_MAP"] = 1
+            if "spot" in self.last_shadow_passes:
+                defines["SPOT_SHADOW_MAP"] = 1
+        return defines
 
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
@@ -238,7 +263,7 @@ class SurfacesPass(RenderPass):
         self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
         if scene.ground.enabled and not scene.ocean.enabled:
             program = self.programs.program("common/fullscreen.vert.glsl", "surfaces/plane.glsl",
-                                            self._receiver_defines())
+                                            self._receiver_defines(frame))
             set_uniforms(program, frame.uniforms)
             set_uniforms(program, shadow_uniforms)
             set_uniforms(program, {
@@ -249,7 +274,7 @@ class SurfacesPass(RenderPass):
             self.fullscreen(program)
         if not any(len(batch.rows["view"]) for batch in batches.values()):
             return
-        program = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl", self._receiver_defines())
+        program = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl", self._receiver_defines(frame))
         set_uniforms(program, frame.uniforms)
         set_uniforms(program, shadow_uniforms)
         self._set_samplers(program)

@@ -10,8 +10,8 @@
 // pattern: the stripes seen from inside a plume. Near the camera the step is therefore one voxel;
 // further out it grows with the footprint (where neighbouring pixels see different voxels
 // anyway) up to the knob's step.
-// With BLEND the texture is a blend of two models of the turbulence (re-modelled at a capped
-// rate, keyframes at sim times k/rate and (k+1)/rate; volumes.py), weight u_blend of the second.
+// At a capped modelling rate the texture is the frame's mix of two keyframes of the turbulence
+// (sim times k/rate and (k+1)/rate; volumes.py, blend.comp.glsl): one 3D lookup per sample.
 // Front-to-back, energy conserving per segment of optical depth s = sigma * dt:
 //   L += T * S * (1 - exp(-s)),   T *= exp(-s)
 // with S the segment's source radiance: fire = emitted colour * luminance (optically thick fire
@@ -23,10 +23,6 @@
 #include "common/atmosphere.glsl"
 
 uniform sampler3D u_volume;
-#ifdef BLEND
-uniform sampler3D u_volume_next;
-uniform float u_blend;
-#endif
 uniform sampler2D u_scene_distance;  // m along the view ray, 1e30 = sky
 uniform vec3 u_box_min;              // m, camera-relative AABB of the (bent) container
 uniform vec3 u_box_max;
@@ -38,6 +34,7 @@ uniform float u_voxel;               // m, the texture's voxel size
 uniform float u_pixel_angle;         // rad per pixel of the march's resolution
 uniform float u_sigma;               // 1/m, extinction at density 1
 uniform float u_jitter_offset;       // per-frame shift of the start jitter, in [0,1)
+uniform vec2 u_layer_range;          // cross-fade: drawn where the pixel's dither value is in [x, y) (volumes.py)
 #ifdef SMOKE
 uniform float u_hg_g;                // Henyey-Greenstein asymmetry
 uniform float u_albedo_scale;        // x the profile's albedo (sooty fire smoke)
@@ -71,7 +68,15 @@ vec3 to_volume(vec3 p) {
     return vec3(q.xy / u_extent.xy * 0.5 + 0.5, z);
 }
 
+// Dither value of a pixel for the cross-fade of two march resolutions (a dissolve: each pixel shows
+// exactly one of them, so the mix is exact per pixel and linear in the weight over any area).
+float layer_dither(vec2 pixel) {
+    return fract(sin(dot(pixel, vec2(12.9898, 78.233))) * 43758.5453);
+}
+
 void main() {
+    float keep = layer_dither(floor(gl_FragCoord.xy));
+    if (keep < u_layer_range.x || keep >= u_layer_range.y) discard;
     vec3 dir = normalize(v_rel);
     // Slab test against the AABB.
     vec3 inv = 1.0 / dir;
@@ -105,9 +110,6 @@ void main() {
         vec3 uvw = to_volume(dir * tc);
         if (any(lessThan(uvw, vec3(0.0))) || any(greaterThan(uvw, vec3(1.0)))) continue;
         vec4 voxel = textureLod(u_volume, uvw, 0.0);
-#ifdef BLEND
-        voxel = mix(voxel, textureLod(u_volume_next, uvw, 0.0), u_blend);
-#endif
         float s = voxel.a * u_sigma * (sb - sa);
         if (s <= 1e-6) continue;
         float absorbed = 1.0 - exp(-s);

@@ -10,6 +10,7 @@ uniform sampler2D u_scene_distance;   // full resolution (m)
 uniform int u_scale;
 uniform float u_volumes_far;          // m, farthest point of any volume box: beyond it, every
                                       // distance marches alike (ground 500 m away = the sky)
+uniform vec2 u_layer_range;           // cross-fade: drawn where the pixel's dither value is in [x, y) (volumes.py)
 layout(location = 0) out vec4 out_color;
 
 // Relative: a low-resolution pixel holds the nearest of its block, so on ground seen at a grazing
@@ -17,7 +18,14 @@ layout(location = 0) out vec4 out_color;
 // crate before a fire) differ by far more.
 const float DEPTH_TOLERANCE = 0.2;
 
+// The same dither as march.frag.glsl's layer_dither (full-resolution pixels).
+float layer_dither(vec2 pixel) {
+    return fract(sin(dot(pixel, vec2(12.9898, 78.233))) * 43758.5453);
+}
+
 void main() {
+    float keep = layer_dither(floor(gl_FragCoord.xy));
+    if (keep < u_layer_range.x || keep >= u_layer_range.y) discard;
     ivec2 pixel = ivec2(gl_FragCoord.xy);
     float d = min(texelFetch(u_scene_distance, pixel, 0).r, u_volumes_far);
     ivec2 low_size = textureSize(u_volume_color, 0);

@@ -11,15 +11,18 @@ scroll tau (sim_time). It is re-modelled only when that state changed since the 
 repeated frames of one state (several channels, a paused simulation, the quality study) cost only
 the march. While time runs, the turbulence moves: with ``model_hz`` = 0 every frame re-models at
 its exact tau; with a capped rate (``model_hz`` > 0) the textures are keyframes at sim times
-k / rate, two are kept (k and k + 1) and the march blends them by the fraction of the period
-elapsed, so a 30 Hz host pays one modelling every 30 / rate frames and the motion stays
+k / rate, two are kept (k and k + 1) and mixed once per frame by the fraction of the period
+elapsed into the texture the march reads (blend.comp.glsl), so a 30 Hz host pays one modelling every 30 / rate frames and the motion stays
 continuous (a parameter change, e.g. a fade, is picked up at the next keyframe and blends in).
 Its resolution is the smaller of the quality knob and the container's size on screen (about one
 voxel per 1.5 pixels), so far-away fires cost a few thousand voxels.
 
 Reduced-resolution march (``scale`` 2 or 4): the scene distance is reduced to the nearest of each
 block (downsample.frag.glsl), the volumes are marched into a low-resolution premultiplied target,
-and a depth-aware upsampling blends it into the frame (upsample.frag.glsl).
+and a depth-aware upsampling blends it into the frame (upsample.frag.glsl). When the scale changes
+in a running stream (the auto preset moving a rung), the old and new marches are both drawn for
+SCALE_FADE_FRAMES frames, each pixel showing one of them by a fixed dither against a weight going
+from the old to the new (a dissolve), so the switch fades instead of popping.
 """
 
 from __future__ import annotations
@@ -47,6 +50,8 @@ FIRE_SIGMA_D = 1.5  # extinction of fire density 1 times the diameter: optical d
 SMOKE_SIGMA_D = 3.0
 ROUGHNESS = {"fire": 0.6, "gas_burner": 0.12, "smoke": 0.35}
 EVICT_AFTER_FRAMES = 120
+SCALE_FADE_FRAMES = 8  # frames over which a changed march resolution cross-fades (~0.27 s at 30 Hz)
+MAX_STREAM_DT = 1.0  # s: frames further apart in sim_time are not one continuous view (no fade)
 
 
 @dataclass(frozen=True)
@@ -132,16 +137,22 @@ class _Model:
 
 
 class _Slot:
-    """An effect's modelled textures: one (every frame) or two keyframes (capped rate)."""
+    """An effect's modelled textures: one (every frame) or two keyframes (capped rate), and the
+    keyframes' mix the march reads (capped rate)."""
 
     def __init__(self):
         self.models: list[_Model] = []
         self.last_frame = 0
+        self.mixed: moderngl.Texture | None = None
+        self.mixed_state: tuple | None = None  # (keyframe ids, blend) it holds
 
     def release(self) -> None:
         for m in self.models:
             m.release()
         self.models = []
+        if self.mixed is not None:
+            self.mixed.release()
+            self.mixed, self.mixed_state = None, None
 
 
 def _unit_cube_corners() -> np.ndarray:
@@ -165,7 +176,10 @@ class VolumesPass(RenderPass):
         self._cube_vbo = None
         self._vaos: dict = {}
         self._frame = 0
-        self._low = None  # (size, colour, distance, colour fbo, distance fbo) of the reduced march
+        self._low: dict = {}  # size -> (colour, distance, colour fbo, distance fbo) of the reduced march
+        self._low_last = None
+        self._scale_state: tuple[int | None, float | None] = (None, None)  # last march scale, its sim_time
+        self._fade: tuple[int, int] | None = None  # (old scale, frames left) of a running cross-fade
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
         return volumes_needed(scene, view)
@@ -206,8 +220,8 @@ class VolumesPass(RenderPass):
                 vol.effect.intensity, vol.effect.active)
         return hard, (vol.radius, vol.height, vol.opacity, vol.level, sun)
 
-    def _models_for(self, vol: Volume, frame, settings: VolumeSettings) -> tuple[moderngl.Texture, moderngl.Texture, float]:
-        """(texture, next texture, blend weight of the next) for this frame, modelling what is missing."""
+    def _models_for(self, vol: Volume, frame, settings: VolumeSettings) -> moderngl.Texture:
+        """The texture the march reads this frame, modelling (and mixing keyframes) as needed."""
         slot = self._slots.setdefault(vol.key, _Slot())
         slot.last_frame = self._frame
         size = texture_size(vol, frame.view, settings)
@@ -220,7 +234,7 @@ class VolumesPass(RenderPass):
                 model = self._model_into(slot, model, vol, frame, settings, size, sim_time)
                 model.state, model.key = state, None
                 slot.models = [model]
-            return model.texture, model.texture, 0.0
+            return model.texture
         # Capped rate: keyframes k and k + 1 around sim_time (float64), blended by the fraction.
         period = 1.0 / settings.model_hz
         x = sim_time * settings.model_hz
@@ -240,7 +254,31 @@ class VolumesPass(RenderPass):
             model.state, model.key = static, key
             slot.models.append(model)
         slot.models.sort(key=lambda m: m.key)
-        return slot.models[0].texture, slot.models[1].texture, blend
+        return self._mix(slot, blend)
+
+    def _mix(self, slot: _Slot, blend: float) -> moderngl.Texture:
+        """The two keyframes mixed by ``blend`` into the slot's one texture (volumes/blend.comp.glsl),
+        redone only when a keyframe or the weight changed."""
+        first, second = slot.models[0], slot.models[1]
+        state = (id(first), id(second), first.state, second.state, blend)
+        size = second.size
+        if slot.mixed is None or slot.mixed.size != size:
+            if slot.mixed is not None:
+                slot.mixed.release()
+            slot.mixed = self.ctx.texture3d(size, 4, dtype="f2")
+            slot.mixed.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            slot.mixed.repeat_x = slot.mixed.repeat_y = slot.mixed.repeat_z = False
+            slot.mixed_state = None
+        if slot.mixed_state != state:
+            program = self.programs.compute("volumes/blend.comp.glsl")
+            set_uniforms(program, {"u_volume": 0, "u_volume_next": 2, "u_blend": float(blend)})
+            first.texture.use(0)
+            second.texture.use(2)
+            slot.mixed.bind_to_image(0, read=False, write=True)
+            program.run(*(math.ceil(n / 4) for n in size))
+            self.ctx.memory_barrier()
+            slot.mixed_state = state
+        return slot.mixed
 
     def _model_into(self, slot: _Slot, model: "_Model | None", vol: Volume, frame, settings: VolumeSettings,
                     size, sim_time: float) -> _Model:
@@ -291,18 +329,40 @@ class VolumesPass(RenderPass):
         return vao
 
     def _low_targets(self, size: tuple[int, int]):
-        """Low-resolution colour + distance targets of the reduced-resolution march."""
-        if self._low is None or self._low[0] != size:
-            if self._low is not None:
-                for obj in self._low[1:]:
+        """Low-resolution colour + distance targets of the reduced-resolution march (one set per
+        size: two are in use while the march resolution cross-fades)."""
+        held = self._low.get(size)
+        if held is None:
+            for old in [k for k in self._low if k != self._low_last]:
+                for obj in self._low.pop(old):
                     obj.release()
             color = self.ctx.texture(size, 4, dtype="f2")
             distance = self.ctx.texture(size, 1, dtype="f4")
             for tex in (color, distance):
                 tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
                 tex.repeat_x = tex.repeat_y = False
-            self._low = (size, color, distance, self.ctx.framebuffer([color]), self.ctx.framebuffer([distance]))
-        return self._low[1:]
+            held = self._low[size] = (color, distance, self.ctx.framebuffer([color]), self.ctx.framebuffer([distance]))
+        self._low_last = size
+        return held
+
+    def _layers(self, scale: int, sim_time: float) -> list[tuple[int, tuple[float, float]]]:
+        """(march scale, dither range) of this frame's layers. When the scale changes in a running
+        stream (auto quality moving a rung), the old and the new march dissolve into each other
+        over SCALE_FADE_FRAMES frames instead of popping (a pixel shows the new one when its
+        dither value is below the weight w, else the old); a re-render or a jump shows the new one."""
+        last_scale, last_time = self._scale_state
+        self._scale_state = (scale, sim_time)
+        dt = sim_time - last_time if last_time is not None else 0.0
+        streaming = 0.0 < dt <= MAX_STREAM_DT
+        if last_scale is not None and last_scale != scale and streaming:
+            self._fade = (last_scale, SCALE_FADE_FRAMES)
+        if self._fade is None or not streaming or self._fade[0] == scale:
+            self._fade = None
+            return [(scale, (0.0, 1.0))]
+        old, left = self._fade
+        w = 1.0 - left / (SCALE_FADE_FRAMES + 1)
+        self._fade = (old, left - 1) if left > 1 else None
+        return [(old, (w, 1.0)), (scale, (0.0, w))]
 
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
@@ -311,9 +371,16 @@ class VolumesPass(RenderPass):
         self.stats = {"modelled": 0, "drawn": 0, "voxels": 0}
         volumes = visible_volumes(scene, view)
         textures = [self._models_for(vol, frame, settings) for vol in volumes]
-        distance = frame.resources["scene_distance"]
-        scale = max(int(settings.scale), 1)
+        for scale, dither in self._layers(max(int(settings.scale), 1), scene.time.sim_time):
+            self._draw_layer(frame, targets, volumes, textures, settings, scale, dither)
+        self._evict()
 
+    def _draw_layer(self, frame, targets, volumes, textures, settings: VolumeSettings, scale: int,
+                    dither: tuple[float, float]) -> None:
+        """March at 1 / ``scale`` resolution and composite into the frame's pixels whose dither
+        value is in ``dither`` (a cross-fade layer; [0, 1) otherwise)."""
+        view = frame.view
+        distance = frame.resources["scene_distance"]
         if scale > 1:
             width, height = targets.size
             low_size = (-(-width // scale), -(-height // scale))
@@ -332,7 +399,7 @@ class VolumesPass(RenderPass):
             distance_fbo.scissor = None
             color_fbo.use()
             color_fbo.clear(0.0, 0.0, 0.0, 0.0)
-            self._march(frame, volumes, textures, settings, low_distance, low_size[1])
+            self._march(frame, volumes, textures, settings, low_distance, low_size[1], (0.0, 1.0))
             targets.color_fbo.use()
             targets.color_fbo.scissor = (x, y, w, h)
             self.ctx.enable(moderngl.BLEND)
@@ -341,7 +408,7 @@ class VolumesPass(RenderPass):
             far = max((float(np.linalg.norm(view.relative(v.bounding_sphere[0]))) + v.bounding_sphere[1]
                        for v in volumes), default=1.0)
             set_uniforms(up, {"u_volume_color": 0, "u_volume_distance": 2, "u_scene_distance": 1, "u_scale": scale,
-                              "u_volumes_far": far})
+                              "u_volumes_far": far, "u_layer_range": dither})
             low_color.use(0)
             distance.use(1)
             low_distance.use(2)
@@ -350,12 +417,13 @@ class VolumesPass(RenderPass):
             self.ctx.disable(moderngl.BLEND)
         else:
             targets.color_fbo.use()
-            self._march(frame, volumes, textures, settings, distance, targets.size[1])
-        self._evict()
+            self._march(frame, volumes, textures, settings, distance, targets.size[1], dither)
 
-    def _march(self, frame, volumes, textures, settings: VolumeSettings, distance, march_height: int) -> None:
-        """Draw every volume's box into the bound framebuffer (premultiplied, far to near);
-        ``march_height``: its height in pixels (for the footprint of a pixel)."""
+    def _march(self, frame, volumes, textures, settings: VolumeSettings, distance, march_height: int,
+               dither: tuple[float, float]) -> None:
+        """Draw every volume's box into the bound framebuffer (premultiplied, far to near) at the
+        pixels whose dither value is in ``dither``; ``march_height``: its height in pixels (for
+        the footprint of a pixel)."""
         scene, view = frame.scene, frame.view
         self.ctx.disable(moderngl.DEPTH_TEST)
         self.ctx.enable(moderngl.BLEND | moderngl.CULL_FACE)
@@ -366,11 +434,9 @@ class VolumesPass(RenderPass):
         jitter_offset = (scene.host_frame * 0.6180339887) % 1.0  # golden-ratio sequence per frame
         _, _, bottom, top = view.tangents
         pixel_angle = (math.atan(top) - math.atan(bottom)) / max(march_height, 1)  # rad per march pixel
-        for vol, (tex, tex_next, blend) in zip(volumes, textures):
+        for vol, tex in zip(volumes, textures):
             smoke = vol.kind == "smoke"
             defines = {"SMOKE": 1} if smoke else {}
-            if settings.model_hz > 0.0:
-                defines["BLEND"] = 1
             program = self.programs.program("volumes/march.vert.glsl", "volumes/march.frag.glsl", defines or None)
             set_uniforms(program, frame.uniforms)
             lo, hi = vol.box
@@ -380,7 +446,7 @@ class VolumesPass(RenderPass):
             step = float(np.linalg.norm(hi - lo)) / settings.steps
             voxel = min(2.0 * vol.radius / size[0], 2.0 * vol.radius / size[1], vol.height / size[2])
             uniforms = {
-                "u_volume": 0, "u_volume_next": 2, "u_blend": blend, "u_scene_distance": 1,
+                "u_volume": 0, "u_scene_distance": 1,
                 "u_box_min": tuple(float(x) for x in view.relative(lo)),
                 "u_box_max": tuple(float(x) for x in view.relative(hi)),
                 "u_base": tuple(float(x) for x in view.relative(vol.base)),
@@ -391,6 +457,7 @@ class VolumesPass(RenderPass):
                 "u_pixel_angle": pixel_angle,
                 "u_sigma": (SMOKE_SIGMA_D if smoke else FIRE_SIGMA_D) / max(vol.effect.diameter, 1e-3),
                 "u_jitter_offset": jitter_offset,
+                "u_layer_range": dither,
             }
             if smoke:
                 uniforms["u_hg_g"] = 0.6
@@ -405,7 +472,6 @@ class VolumesPass(RenderPass):
                 uniforms["u_emission"] = (lum, lum, lum)
             set_uniforms(program, uniforms)
             tex.use(0)
-            tex_next.use(2)
             self._vao(program).render(moderngl.TRIANGLES)
             self.stats["drawn"] += 1
         self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)

@@ -1,0 +1,13 @@
+// Reduced-resolution passes (volumes' march, fog halos): the scene distance of a low-resolution
+// pixel is the NEAREST of the scale x scale full-resolution pixels it covers, so what is computed
+// there for the nearest surface is never drawn over it; the depth-aware upsampling fills the
+// further pixels from neighbours whose distance matches theirs.
+float nearest_distance(sampler2D distance, ivec2 low_pixel, int scale) {
+    ivec2 base = low_pixel * scale;
+    ivec2 size = textureSize(distance, 0);
+    float d = 3.0e38;
+    for (int y = 0; y < scale; ++y)
+        for (int x = 0; x < scale; ++x)
+            d = min(d, texelFetch(distance, min(base + ivec2(x, y), size - 1), 0).r);
+    return d;
+}
