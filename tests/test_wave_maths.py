@@ -353,3 +353,41 @@ def test_surface_key_ignores_what_does_not_shape_the_waves():
     assert surface_key(Ocean(enabled=True), Weather(wind_speed=7.5, wind_direction=10.0)) != base
     assert surface_key(Ocean(enabled=True), Weather(wind_speed=7.0, wind_direction=11.0)) != base
     assert surface_key(Ocean(enabled=True, bathymetry=BEACH), weather) != base
+
+
+def _write_map(folder, name: str, array: np.ndarray) -> None:
+    from PIL import Image
+
+    (folder / "bathymetry").mkdir(parents=True, exist_ok=True)
+    Image.fromarray(array).save(folder / "bathymetry" / f"{name}.png")
+
+
+def test_bathymetry_maps_are_read_as_fractions_of_full_scale(tmp_path, monkeypatch):
+    """A map's grey level is its fraction of the format's full scale: 8-bit levels over 255, 16-bit over
+    65535 (whatever the largest level in the picture), white is exactly 1, RGB is read as its luminance."""
+    from igserver.water.bathymetry import load_map
+
+    monkeypatch.setenv("IGSERVER_ASSETS", str(tmp_path))
+    _write_map(tmp_path, "eight", np.array([[0, 51], [204, 255]], np.uint8))
+    _write_map(tmp_path, "sixteen", np.array([[0, 200], [40000, 65535]], np.uint16))
+    _write_map(tmp_path, "sixteen_dark", np.array([[0, 200]], np.uint16))  # 16-bit levels all below 256
+    _write_map(tmp_path, "colour", np.full((2, 2, 3), 255, np.uint8))
+    assert np.array_equal(load_map("eight"), np.array([[0.0, 0.2], [0.8, 1.0]]))
+    assert np.array_equal(load_map("sixteen"), np.array([[0.0, 200 / 65535], [40000 / 65535, 1.0]]))
+    assert np.array_equal(load_map("sixteen_dark"), np.array([[0.0, 200 / 65535]]))
+    assert np.array_equal(load_map("colour"), np.ones((2, 2)))
+    assert load_map("eight").dtype == np.float64
+
+
+def test_bathymetry_maps_over_4096_squared_pixels_are_refused(tmp_path, monkeypatch):
+    """The documented bound is 4096x4096 pixels (16.8 Mpx): that size loads, one pixel row more does not."""
+    from igserver.water.bathymetry import load_map
+
+    monkeypatch.setenv("IGSERVER_ASSETS", str(tmp_path))
+    _write_map(tmp_path, "largest", np.zeros((4096, 4096), np.uint8))
+    _write_map(tmp_path, "too_tall", np.zeros((4097, 4096), np.uint8))
+    _write_map(tmp_path, "too_wide", np.zeros((4096, 4097), np.uint8))
+    assert load_map("largest").shape == (4096, 4096)
+    for name in ("too_tall", "too_wide"):
+        with pytest.raises(ValueError, match="larger than 4096x4096"):
+            load_map(name)
