@@ -391,3 +391,15 @@ def test_bathymetry_maps_over_4096_squared_pixels_are_refused(tmp_path, monkeypa
     for name in ("too_tall", "too_wide"):
         with pytest.raises(ValueError, match="larger than 4096x4096"):
             load_map(name)
+
+
+def test_query_of_no_points_is_empty_and_quiet():
+    """A batch of zero points answers empty arrays of the right shapes, with no warning (no mean of an
+    empty batch)."""
+    import warnings
+
+    sea = sea_surface(Ocean(enabled=True), Weather(wind_speed=6.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        got = sea.query(np.zeros((0, 2)), 5.0)
+    assert got["height"].shape == (0,) and got["normal"].shape == (0, 3) and got["velocity"].shape == (0, 3)
