@@ -65,8 +65,8 @@ def test_group_velocity_limits():
 # --------------------------------------------------------------------------- spectrum (water/spectrum.py)
 
 from igserver.water.spectrum import (  # noqa: E402
-    SPREADING_S, SWELL_SPREADING_S, beaufort_hs, calibrate_detail, jonswap, mean_square_slope, peak_omega,
-    sea_spectrum, wave_bands, wind_for_hs,
+    SPREADING_S, SWELL_SPREADING_S, beaufort_hs, calibrate_detail, jonswap, peak_omega, pm_fully_developed_hs,
+    WaveSet, sea_spectrum, wave_bands, wind_for_hs,
 )
 
 
@@ -92,9 +92,11 @@ def test_beaufort_heights_and_their_inverse():
     binds); wind_for_hs inverts it."""
     assert beaufort_hs(6.7) == pytest.approx(1.0) and beaufort_hs(18.95) == pytest.approx(5.5)
     assert beaufort_hs(32.7) == pytest.approx(14.0)
+    assert beaufort_hs(31.6) == pytest.approx(11.5 + (14.0 - 11.5) * (31.6 - 30.55) / (32.7 - 30.55))  # Bf 11..12
     for wind in (36.0, 60.0):  # U² from Bf 12 on, below the fully developed sea (both grow as U²)
         assert beaufort_hs(wind) == pytest.approx(14.0 * (wind / 32.7) ** 2)
-        assert beaufort_hs(wind) < 0.21 * (1.075 * wind) ** 2 / G
+        assert pm_fully_developed_hs(wind) == pytest.approx(0.21 * (1.075 * wind) ** 2 / G)
+        assert beaufort_hs(wind) < pm_fully_developed_hs(wind)
     for hs in (0.05, 0.4, 1.0, 3.7, 9.0, 14.0, 17.5):
         assert beaufort_hs(wind_for_hs(hs)) == pytest.approx(hs, rel=1e-12), hs
 
@@ -128,20 +130,38 @@ def test_directional_spreading_has_the_cos2s_mean_resultant(s, swell):
     assert float(np.mean(direction @ mean_direction)) == pytest.approx(s / (s + 1.0), rel=0.01)
 
 
+def _mss(waves: WaveSet) -> float:
+    """Mean-square slope of a sum of sinusoids: Σ (k_i A_i)² / 2."""
+    return float(np.sum((waves.k * waves.amplitude) ** 2) / 2.0)
+
+
 def test_slopes_match_cox_munk_after_calibration():
     """Cox & Munk (1954), clean surface: total mean-square slope 0.003 + 5.12e-3 U (U at 12.5 m): mesh
-    plus calibrated detail band reach it (1e-12: a scale factor, exact up to round-off)."""
-    for wind in (3.0, 8.0, 15.0):
+    plus calibrated detail band reach it (1e-12: a scale factor, exact up to round-off); at wind 0 (no
+    mesh waves) the detail band alone holds the calm-sea 0.003. Only amplitudes are scaled."""
+    for wind in (0.0, 3.0, 8.0, 15.0):
         mesh, detail = wave_bands(sea_spectrum(wind, 0.0, None), 64, 64)
-        total = mean_square_slope(mesh) + mean_square_slope(calibrate_detail(mesh, detail, wind))
-        assert total == pytest.approx(0.003 + 5.12e-3 * wind, rel=1e-12), wind
+        calibrated = calibrate_detail(mesh, detail, wind)
+        assert _mss(mesh) + _mss(calibrated) == pytest.approx(0.003 + 5.12e-3 * wind, rel=1e-12), wind
+        for field in ("omega", "k", "direction", "phase"):
+            assert np.array_equal(getattr(calibrated, field), getattr(detail, field)), field
+    assert _mss(wave_bands(sea_spectrum(0.0, 0.0, None), 64, 64)[0]) == 0.0
+
+
+def test_detail_band_keeps_a_floor_of_capillary_roughness():
+    """Where the mesh band alone is steeper than Cox–Munk (a 1 m/s sea here), the detail band keeps a
+    quarter of the calm-sea slope (0.25 × 0.003) rather than vanishing: the sea is never a mirror."""
+    mesh, detail = wave_bands(sea_spectrum(1.0, 0.0, None), 24, 36)
+    assert _mss(mesh) > 0.003 + 5.12e-3 * 1.0
+    assert _mss(calibrate_detail(mesh, detail, 1.0)) == pytest.approx(0.25 * 0.003, rel=1e-12)
+    empty = WaveSet(*(np.zeros(0) for _ in range(2)), np.zeros((0, 2)), np.zeros(0), np.zeros(0))
+    assert calibrate_detail(mesh, empty, 1.0).n == 0
 
 
 # --------------------------------------------------------------------------- bathymetry (water/bathymetry.py)
 
 from igserver.scene.model import Bathymetry, Ocean, Weather  # noqa: E402
 from igserver.water.bathymetry import depth_at, reference_waves, shore_steepness, wave_field  # noqa: E402
-from igserver.water.spectrum import WaveSet  # noqa: E402
 from igserver.water.surface import SeaSurface, sea_surface, surface_key  # noqa: E402
 
 
@@ -333,3 +353,53 @@ def test_surface_key_ignores_what_does_not_shape_the_waves():
     assert surface_key(Ocean(enabled=True), Weather(wind_speed=7.5, wind_direction=10.0)) != base
     assert surface_key(Ocean(enabled=True), Weather(wind_speed=7.0, wind_direction=11.0)) != base
     assert surface_key(Ocean(enabled=True, bathymetry=BEACH), weather) != base
+
+
+def _write_map(folder, name: str, array: np.ndarray) -> None:
+    from PIL import Image
+
+    (folder / "bathymetry").mkdir(parents=True, exist_ok=True)
+    Image.fromarray(array).save(folder / "bathymetry" / f"{name}.png")
+
+
+def test_bathymetry_maps_are_read_as_fractions_of_full_scale(tmp_path, monkeypatch):
+    """A map's grey level is its fraction of the format's full scale: 8-bit levels over 255, 16-bit over
+    65535 (whatever the largest level in the picture), white is exactly 1, RGB is read as its luminance."""
+    from igserver.water.bathymetry import load_map
+
+    monkeypatch.setenv("IGSERVER_ASSETS", str(tmp_path))
+    _write_map(tmp_path, "eight", np.array([[0, 51], [204, 255]], np.uint8))
+    _write_map(tmp_path, "sixteen", np.array([[0, 200], [40000, 65535]], np.uint16))
+    _write_map(tmp_path, "sixteen_dark", np.array([[0, 200]], np.uint16))  # 16-bit levels all below 256
+    _write_map(tmp_path, "colour", np.full((2, 2, 3), 255, np.uint8))
+    assert np.array_equal(load_map("eight"), np.array([[0.0, 0.2], [0.8, 1.0]]))
+    assert np.array_equal(load_map("sixteen"), np.array([[0.0, 200 / 65535], [40000 / 65535, 1.0]]))
+    assert np.array_equal(load_map("sixteen_dark"), np.array([[0.0, 200 / 65535]]))
+    assert np.array_equal(load_map("colour"), np.ones((2, 2)))
+    assert load_map("eight").dtype == np.float64
+
+
+def test_bathymetry_maps_over_4096_squared_pixels_are_refused(tmp_path, monkeypatch):
+    """The documented bound is 4096x4096 pixels (16.8 Mpx): that size loads, one pixel row more does not."""
+    from igserver.water.bathymetry import load_map
+
+    monkeypatch.setenv("IGSERVER_ASSETS", str(tmp_path))
+    _write_map(tmp_path, "largest", np.zeros((4096, 4096), np.uint8))
+    _write_map(tmp_path, "too_tall", np.zeros((4097, 4096), np.uint8))
+    _write_map(tmp_path, "too_wide", np.zeros((4096, 4097), np.uint8))
+    assert load_map("largest").shape == (4096, 4096)
+    for name in ("too_tall", "too_wide"):
+        with pytest.raises(ValueError, match="larger than 4096x4096"):
+            load_map(name)
+
+
+def test_query_of_no_points_is_empty_and_quiet():
+    """A batch of zero points answers empty arrays of the right shapes, with no warning (no mean of an
+    empty batch)."""
+    import warnings
+
+    sea = sea_surface(Ocean(enabled=True), Weather(wind_speed=6.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        got = sea.query(np.zeros((0, 2)), 5.0)
+    assert got["height"].shape == (0,) and got["normal"].shape == (0, 3) and got["velocity"].shape == (0, 3)
