@@ -25,8 +25,8 @@ from ..shaders import set_uniforms
 from .gpu_models import INSTANCE_FLOATS, SAMPLER_UNITS, GpuModel, ModelCache
 from .shadow_fit import ShadowProjection, fit_directional, fit_spot
 
-SHADOW_UNIT_KEY = 10   # texture units of the shadow maps (materials use 0..4, the sky 12..15)
-SHADOW_UNIT_SPOT = 11
+SHADOW_UNIT_KEY = 16   # texture units of the shadow maps: above the frame-wide 8..15 (haze, sky view, tables)
+SHADOW_UNIT_SPOT = 17
 SPOT_SHADOW_RESOLUTION = 1024
 DEFAULT_SHADOW_TAPS = 4  # from `igserver quality surfaces`: 8 and 16 taps lower the error by < 1 % (README)
 SUN_LIGHT, MOON_LIGHT = -1, -2
