@@ -191,3 +191,19 @@ def test_rendered_star_lands_where_the_textbook_puts_it(renderer, name, utc, lat
     yy, xx = np.mgrid[y - 3:y + 4, x - 3:x + 4]
     found = np.array([(weights * (xx + 0.5)).sum(), (weights * (yy + 0.5)).sum()]) / weights.sum()
     assert np.all(np.abs(found - expect) <= 1.3), (name, expect, found)
+
+
+def test_refraction_lift_matches_bennett_and_stops_below_the_horizon():
+    """igserver lifts a star by Saemundsson's formula (true → apparent); Bennett's (apparent → true,
+    Meeus 16.3) inverted here agrees with it to 0.07' from the horizon to the zenith (measured 0.06' at
+    10°): bound 0.1'. A star lower than −0.83° is not lifted (no refraction is defined for it)."""
+    from igserver.astro.stars import _refraction_deg
+
+    for true_alt in (0.0, 0.3, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 45.0, 80.0):
+        apparent = true_alt
+        for _ in range(30):
+            apparent = true_alt + 1.0 / math.tan(math.radians(apparent + 7.31 / (apparent + 4.4))) / 60.0
+        lift_arcmin = float(_refraction_deg(np.array(true_alt))) * 60.0
+        assert abs(lift_arcmin - (apparent - true_alt) * 60.0) < 0.1, (true_alt, lift_arcmin)
+    assert float(_refraction_deg(np.array(-0.82))) > 0.5  # still lifted just above the limit (~35')
+    assert float(_refraction_deg(np.array(-0.84))) == 0.0 and float(_refraction_deg(np.array(-1.5))) == 0.0

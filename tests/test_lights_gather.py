@@ -148,3 +148,18 @@ def test_light_uniforms_layout():
     assert np.allclose(dirs[0], 0.0) and np.allclose(dirs[1], [0.0, 1.0, 0.0, math.cos(math.radians(20))])
     assert cos_inner[0] == 1.0 and cos_inner[1] == pytest.approx(math.cos(math.radians(20)) + 1e-4, abs=1e-7)
     assert np.all(pos[2:] == 0) and np.all(col[2:] == 0) and np.all(cos_inner[2:] == 1.0)
+
+
+def test_flicker_partials_are_jittered_each_on_its_own():
+    """The partials sit near ln f + (−0.6, −0.5, …, 0.6), each moved by its own seeded jitter within ±0.03
+    (irregular beats, not a comb): the one nearest the peak stays within exp(±0.03) of f, and the spacings
+    in ln f vary (one shared shift would leave them all 0.1; independent uniform jitter gives them a
+    standard deviation of 0.024 ± 0.005 over 12 spacings: bound 0.005)."""
+    from igserver.render.lights import _partials
+
+    for seed in range(5):
+        freqs, _, _ = _partials(F, seed)
+        x = np.log(np.sort(freqs) / F)
+        assert abs(x[6]) <= 0.03 + 1e-12
+        assert np.all(np.abs(x - np.linspace(-0.6, 0.6, 13)) <= 0.03 + 1e-12)
+        assert np.std(np.diff(x)) > 0.005, seed

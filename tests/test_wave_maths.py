@@ -97,7 +97,7 @@ def test_beaufort_heights_and_their_inverse():
         assert beaufort_hs(wind) == pytest.approx(14.0 * (wind / 32.7) ** 2)
         assert pm_fully_developed_hs(wind) == pytest.approx(0.21 * (1.075 * wind) ** 2 / G)
         assert beaufort_hs(wind) < pm_fully_developed_hs(wind)
-    for hs in (0.05, 0.4, 1.0, 3.7, 9.0, 14.0, 17.5):
+    for hs in (0.05, 0.4, 1.0, 3.7, 9.0, 12.5, 14.0, 17.5):
         assert beaufort_hs(wind_for_hs(hs)) == pytest.approx(hs, rel=1e-12), hs
 
 
@@ -330,6 +330,18 @@ def test_whitecap_threshold_gives_monahans_coverage():
     coverage = 3.84e-6 * wind ** 3.41
     assert float(np.mean(j < threshold)) == pytest.approx(coverage, rel=0.25)
     assert sea_surface(Ocean(enabled=True), Weather(wind_speed=0.0)).foam_jacobian(0.0) == -1.0
+
+
+def test_whitecaps_cover_at_most_half_the_sea():
+    """Monahan's law passes 50 % at 31.6 m/s; past it the coverage is held at one half (the threshold is the
+    median J): at 40 m/s half of 20,000 fresh samples lie below it (± 0.06: the correlated field's
+    sampling spread, as above)."""
+    sea = sea_surface(Ocean(enabled=True), Weather(wind_speed=40.0, wind_direction=0.0))
+    threshold = sea.foam_jacobian(40.0)
+    rng = np.random.default_rng(7)
+    j = np.concatenate([sea.evaluate(rng.uniform(-2000, 2000, (5000, 2)), t, full=False)["jacobian"]
+                        for t in (3.0, 50.0, 111.0, 170.0)])
+    assert float(np.mean(j < threshold)) == pytest.approx(0.5, abs=0.06)
 
 
 def test_amplitude_sum_bounds_every_displacement():
