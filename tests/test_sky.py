@@ -249,3 +249,31 @@ def test_sun_disk_box_holds_the_whole_disk(renderer, heading, pitch, fov, monkey
     whole = radiance(renderer, s)
     assert whole[..., 1].max() > 100.0 * np.median(whole[..., 1])  # the sun is in the frame
     np.testing.assert_array_equal(boxed, whole)
+
+
+def test_planets_are_drawn_where_and_as_bright_as_pyephem_says(renderer):
+    # Jupiter at 2026-03-19 00:00 UTC from 43 N 5 E: 26.1 deg up, V -2.2 (PyEphem). The star field
+    # holds it at PyEphem's apparent place (to 0.01 deg: the same computation) and magnitude, and a
+    # night frame pointed at it shows its point at the frame's centre (within 1.5 px: the point
+    # sprite is 2 px wide) as the brightest pixel.
+    import math
+    from datetime import datetime, timezone
+
+    import ephem
+
+    from igserver.astro import star_field
+    field = star_field(datetime(2026, 3, 19, tzinfo=timezone.utc), 43.0, 5.0)
+    obs = ephem.Observer()
+    obs.lat, obs.lon, obs.date, obs.pressure = "43", "5", "2026/3/19 00:00", 1013.25
+    jupiter = ephem.Jupiter(obs)
+    i = field.names.index("Jupiter")
+    d = field.directions[i]
+    assert math.degrees(math.asin(d[2])) == pytest.approx(math.degrees(jupiter.alt), abs=0.01)
+    assert -2.5 * math.log10(field.illuminance[i] / 2.54e-6) == pytest.approx(jupiter.mag, abs=0.01)
+    az = math.degrees(math.atan2(d[0], d[1])) % 360.0
+    s = Scene.model_validate({
+        "camera": {"width": 64, "height": 36, "fov_y": 10.0, "heading": az, "pitch": math.degrees(math.asin(d[2]))},
+        "time": {"utc": "2026-03-19T00:00:00Z"}, "location": {"lat": 43.0, "lon": 5.0}})
+    y = radiance(renderer, s)[..., 1]
+    row, col = np.unravel_index(int(np.argmax(y)), y.shape)
+    assert abs(row + 0.5 - 18.0) <= 1.5 and abs(col + 0.5 - 32.0) <= 1.5, (row, col)
