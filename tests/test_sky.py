@@ -207,3 +207,73 @@ def test_extreme_cases_render_finite(renderer, name):
     assert np.all(np.isfinite(hdr)), name
     assert hdr[..., :3].max() > 1e-3, name  # not a black frame
     assert result.rgba[..., :3].mean() > 1.0, name
+
+
+def test_cirrus_table_matches_the_per_pixel_layer(renderer):
+    # The cirrus layer drawn once per frame at half resolution per axis (sky.py CIRRUS_TABLE_SCALE)
+    # against the per-pixel layer, at dusk with the layer toward the sun, 640x360. Bound: 35 dB PSNR
+    # / a mean of 2 levels; bilinear upsampling of the premultiplied layer only blurs the streaks
+    # narrower than 2 px near the horizon (measured 37.5 dB, mean 1.5 levels); a 256-px-wide frame
+    # on a 128-px table fell to 32 dB, hence CIRRUS_TABLE_MIN_WIDTH.
+    from igserver.render.sky.sky import SkyPass
+    s = scene(1.0, 180.0, pitch=8.0, weather={"cirrus_coverage": 0.5})
+    s = s.model_copy(update={"camera": s.camera.model_copy(update={"width": 640, "height": 360})})
+    old = SkyPass.cirrus_scale
+    try:
+        SkyPass.cirrus_scale = 1
+        a = renderer.render(s).rgba[..., :3].astype(float)
+        SkyPass.cirrus_scale = 2
+        b = renderer.render(s).rgba[..., :3].astype(float)
+    finally:
+        SkyPass.cirrus_scale = old
+    mse = float(((a - b) ** 2).mean())
+    assert mse > 0.0  # the two paths did run
+    assert 10 * np.log10(255.0 ** 2 / mse) > 35.0 and np.abs(a - b).mean() < 2.0
+
+
+@pytest.mark.parametrize("heading,pitch,fov", [(170.0, 10.0, 20.0), (188.0, 4.0, 20.0), (180.0, 16.0, 20.0),
+                                              (205.0, 30.0, 60.0), (180.0, 10.0, 2.0)])
+def test_sun_disk_box_holds_the_whole_disk(renderer, heading, pitch, fov, monkeypatch):
+    # The sun's disk is drawn only inside a scissor box (sky.py disk_box); wherever it sits in the
+    # frame (centre, off-axis, near the edge, a 2-deg telephoto where the disk spans pixels) the
+    # frame must be the one drawn with the box grown to the whole frame. Exact: the same shader
+    # runs on the same pixels; any pixel of the disk outside the box would differ.
+    from igserver.render.sky import sky
+    s = scene(10.0, 180.0, heading=heading, pitch=pitch, fov=fov)
+    boxed = radiance(renderer, s)
+    box = sky.disk_box
+
+    def sun_box_whole_frame(frame, d, r):
+        return (0, 0, frame.view.width, frame.view.height) if d is frame.celestial.sun_dir else box(frame, d, r)
+    monkeypatch.setattr(sky, "disk_box", sun_box_whole_frame)
+    whole = radiance(renderer, s)
+    assert whole[..., 1].max() > 100.0 * np.median(whole[..., 1])  # the sun is in the frame
+    np.testing.assert_array_equal(boxed, whole)
+
+
+def test_planets_are_drawn_where_and_as_bright_as_pyephem_says(renderer):
+    # Jupiter at 2026-03-19 00:00 UTC from 43 N 5 E: 26.1 deg up, V -2.2 (PyEphem). The star field
+    # holds it at PyEphem's apparent place (to 0.01 deg: the same computation) and magnitude, and a
+    # night frame pointed at it shows its point at the frame's centre (within 1.5 px: the point
+    # sprite is 2 px wide) as the brightest pixel.
+    import math
+    from datetime import datetime, timezone
+
+    import ephem
+
+    from igserver.astro import star_field
+    field = star_field(datetime(2026, 3, 19, tzinfo=timezone.utc), 43.0, 5.0)
+    obs = ephem.Observer()
+    obs.lat, obs.lon, obs.date, obs.pressure = "43", "5", "2026/3/19 00:00", 1013.25
+    jupiter = ephem.Jupiter(obs)
+    i = field.names.index("Jupiter")
+    d = field.directions[i]
+    assert math.degrees(math.asin(d[2])) == pytest.approx(math.degrees(jupiter.alt), abs=0.01)
+    assert -2.5 * math.log10(field.illuminance[i] / 2.54e-6) == pytest.approx(jupiter.mag, abs=0.01)
+    az = math.degrees(math.atan2(d[0], d[1])) % 360.0
+    s = Scene.model_validate({
+        "camera": {"width": 64, "height": 36, "fov_y": 10.0, "heading": az, "pitch": math.degrees(math.asin(d[2]))},
+        "time": {"utc": "2026-03-19T00:00:00Z"}, "location": {"lat": 43.0, "lon": 5.0}})
+    y = radiance(renderer, s)[..., 1]
+    row, col = np.unravel_index(int(np.argmax(y)), y.shape)
+    assert abs(row + 0.5 - 18.0) <= 1.5 and abs(col + 0.5 - 32.0) <= 1.5, (row, col)

@@ -8,6 +8,10 @@ PyEphem names keep their names and V magnitudes (matched by position), the rest 
 
 A star's illuminance outside the atmosphere at visual magnitude m (Allen's Astrophysical
 Quantities): E = 2.54e-6 lux * 10^(-0.4 m). The sky pass spreads it over the pixel it falls in.
+
+The naked-eye planets (Venus, Mars, Jupiter, Saturn) join the field as points too: PyEphem gives
+their apparent place (refracted, as for the moon) and visual magnitude for the instant (Venus -4.6
+at its brightest, 0.3 lux x 1e-4: the brightest point in the night sky after the moon).
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ import numpy as np
 from .ephemeris import _observer
 
 ZERO_MAGNITUDE_LUX = 2.54e-6
+PLANETS = ("Venus", "Mars", "Jupiter", "Saturn")
 CATALOGUE = "data/stars_v65.npz"
 
 
@@ -102,7 +107,15 @@ def _star_field(utc_key: float, lat: float, lon: float) -> StarField:
     el = np.radians(el + _refraction_deg(el))
     dirs = np.stack([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el)], axis=1)
     lux = ZERO_MAGNITUDE_LUX * 10.0 ** (-0.4 * cat.vmag)
-    return StarField(dirs, lux, cat.names)
+    p_dirs, p_lux, p_names = [], [], []
+    for name in PLANETS:
+        body = getattr(ephem, name)()
+        body.compute(obs)
+        alt, azp = float(body.alt), float(body.az)
+        p_dirs.append([math.cos(alt) * math.sin(azp), math.cos(alt) * math.cos(azp), math.sin(alt)])
+        p_lux.append(ZERO_MAGNITUDE_LUX * 10.0 ** (-0.4 * float(body.mag)))
+        p_names.append(name)
+    return StarField(np.vstack([dirs, np.array(p_dirs)]), np.concatenate([lux, p_lux]), cat.names + tuple(p_names))
 
 
 def star_field(utc: datetime, lat: float, lon: float) -> StarField:

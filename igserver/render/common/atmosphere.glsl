@@ -375,6 +375,18 @@ vec3 sky_radiance(vec3 dir) {
     return sky_radiance_and_transmittance(dir, t);
 }
 
+// The same radiance without the transmittance (one table fetch fewer: the sky pass's per-pixel path).
+vec3 sky_radiance_only(vec3 dir) {
+#if defined(ATMOSPHERE_DIRECT_TABLES)
+    return sky_radiance(dir);
+#else
+    if (!use_precomputed()) return gradient_sky(dir);
+    vec2 uv = sky_view_uv_sized(dir, vec2(textureSize(u_sky_view_radiance, 0)));
+    vec3 t_haze;
+    return haze_sky(texture(u_sky_view_radiance, uv).rgb, dir, t_haze);
+#endif
+}
+
 // Transmittance along a view direction from the camera to space (zero into the ground).
 vec3 sky_transmittance(vec3 dir) {
     if (!use_precomputed()) return vec3(1.0);

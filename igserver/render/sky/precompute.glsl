@@ -71,26 +71,24 @@ void scattering_params(ivec3 texel, ivec3 size, out float r, out float mu, out f
     nu = clamp(nu, mu * mu_s - s, mu * mu_s + s);
 }
 
-// Radiance of scattering order `order` arriving from direction (mu) at (r, mu_s, nu).
-vec3 scattering_of_order(float r, float mu, float mu_s, float nu, bool hits_ground, int order) {
-    if (order == 1) {
-        vec3 rayleigh = scattering_lookup(u_delta_rayleigh_in, r, mu, mu_s, nu, hits_ground).rgb;
-        vec3 mie = scattering_lookup(u_delta_mie_in, r, mu, mu_s, nu, hits_ground).rgb;
-        return rayleigh * rayleigh_phase(nu) + mie * mie_phase(u_mie_g, nu);
-    }
-    return scattering_lookup(u_delta_multiple_in, r, mu, mu_s, nu, hits_ground).rgb;
+// Radiance of scattering order `order` arriving from direction (mu) at (r, mu_s, nu). `geometric`:
+// interpolate GEOMETRICALLY between the sun rows (what the sky-view table shows): in twilight the
+// sky falls by ~10x per 2 deg of sun depression, and a straight line between rows 1.25 deg apart
+// overshoots; the irradiance integrated from linear lookups came out 24 % above a float64
+// hemisphere integral of single scattering at -6 deg (the density stage keeps the linear lookup:
+// geometric there doubled its cost for 3 % at -6 deg).
+vec4 scattering_lookup_either(sampler3D lut, float r, float mu, float mu_s, float nu, bool hits_ground,
+                              bool geometric) {
+    return geometric ? scattering_lookup_geometric(lut, r, mu, mu_s, nu, hits_ground)
+                     : scattering_lookup(lut, r, mu, mu_s, nu, hits_ground);
 }
-// The same with GEOMETRIC interpolation between the sun rows (what the sky-view table shows):
-// in twilight the sky falls by ~10x per 2 deg of sun depression, and a straight line between rows
-// 1.25 deg apart overshoots; the irradiance integrated from linear lookups came out 24 % above a
-// float64 hemisphere integral of single scattering at -6 deg.
-vec3 scattering_of_order_geometric(float r, float mu, float mu_s, float nu, bool hits_ground, int order) {
+vec3 scattering_of_order(float r, float mu, float mu_s, float nu, bool hits_ground, int order, bool geometric) {
     if (order == 1) {
-        vec3 rayleigh = scattering_lookup_geometric(u_delta_rayleigh_in, r, mu, mu_s, nu, hits_ground).rgb;
-        vec3 mie = scattering_lookup_geometric(u_delta_mie_in, r, mu, mu_s, nu, hits_ground).rgb;
+        vec3 rayleigh = scattering_lookup_either(u_delta_rayleigh_in, r, mu, mu_s, nu, hits_ground, geometric).rgb;
+        vec3 mie = scattering_lookup_either(u_delta_mie_in, r, mu, mu_s, nu, hits_ground, geometric).rgb;
         return rayleigh * rayleigh_phase(nu) + mie * mie_phase(u_mie_g, nu);
     }
-    return scattering_lookup_geometric(u_delta_multiple_in, r, mu, mu_s, nu, hits_ground).rgb;
+    return scattering_lookup_either(u_delta_multiple_in, r, mu, mu_s, nu, hits_ground, geometric).rgb;
 }
 
 #if defined(STAGE_TRANSMITTANCE)
@@ -210,7 +208,7 @@ void main() {
             vec3 omega_i = vec3(cos(phi) * st, sin(phi) * st, ct);
             float domega = dtheta * dphi * st;
             float nu1 = dot(omega_s, omega_i);
-            vec3 incident = scattering_of_order(r, ct, mu_s, nu1, ground, u_order - 1);
+            vec3 incident = scattering_of_order(r, ct, mu_s, nu1, ground, u_order - 1, false);
             if (ground) {
                 // Light reflected by the Lambertian ground at the end of omega_i.
                 vec3 n = normalize(vec3(0.0, 0.0, r) + omega_i * d_ground);
@@ -247,7 +245,7 @@ void main() {
             float phi = (float(i) + 0.5) * dphi;
             vec3 w = vec3(cos(phi) * sin(theta), sin(phi) * sin(theta), cos(theta));
             float domega = dtheta * dphi * sin(theta);
-            result += scattering_of_order_geometric(r, w.z, mu_s, dot(w, omega_s), false, u_order) * w.z * domega;
+            result += scattering_of_order(r, w.z, mu_s, dot(w, omega_s), false, u_order, true) * w.z * domega;
         }
     }
     imageStore(u_out_delta, texel, vec4(result, 0.0));

@@ -48,17 +48,36 @@ vec3 above_surface_horizon(vec3 dir) {
     return dir;
 }
 
-void main() {
-    vec3 dir = above_surface_horizon(view_ray(v_uv));
-    vec3 t_view;  // transmittance from the camera to space along dir (0 into the ground), fog included
-    vec3 radiance = sky_radiance_and_transmittance(dir, t_view);
+// The sun's and the moon's disks at one pixel: what the sky pass adds there, through the air and
+// the cirrus in front (SKY_DISKS: drawn by sky.py only inside scissor boxes around the two disks;
+// on llvmpipe every instruction of a full-screen shader costs on every pixel, and the two disks
+// cost 45 % of the sky pass when evaluated everywhere).
+vec3 disks(vec3 dir) {
+    vec3 t_view = sky_transmittance(dir);
+    vec3 radiance;
     if (use_precomputed()) {
         float sun_solid_angle = 2.0 * PI * (1.0 - u_sun_disk_cos);
-        radiance += u_solar_illuminance / sun_solid_angle * sun_disk_profile(dir) * t_view;
+        radiance = u_solar_illuminance / sun_solid_angle * sun_disk_profile(dir) * t_view;
     } else {
-        radiance += sun_disk(dir);
+        radiance = sun_disk(dir);
     }
     radiance += moon_disk(dir) * t_view;
+#if defined(CIRRUS) && defined(CIRRUS_PER_PIXEL)
+    radiance = composite_cirrus(radiance, dir, cirrus_layer(dir)) - composite_cirrus(vec3(0.0), dir, cirrus_layer(dir));
+#elif defined(CIRRUS)
+    vec4 c = texture(u_cirrus_table, v_uv);
+    radiance = composite_cirrus(radiance, dir, c) - composite_cirrus(vec3(0.0), dir, c);
+#endif
+    return radiance;
+}
+
+void main() {
+    vec3 dir = above_surface_horizon(view_ray(v_uv));
+#ifdef SKY_DISKS
+    out_color = vec4(pre_expose(disks(dir)), 0.0);
+    out_distance = 0.0;  // added to the sky's 1e30 by the blend
+#else
+    vec3 radiance = sky_radiance_only(dir);
 #if defined(CIRRUS) && defined(CIRRUS_PER_PIXEL)
     radiance = apply_cirrus(radiance, dir);  // a variant: the noise costs 2x the sky even when skipped
 #elif defined(CIRRUS)
@@ -66,4 +85,5 @@ void main() {
 #endif
     out_color = vec4(pre_expose(radiance), 1.0);
     out_distance = 1e30;  // sky: infinitely far
+#endif
 }
