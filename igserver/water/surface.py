@@ -37,7 +37,7 @@ from .spectrum import SeaSpectrum, WaveSet, calibrate_detail, sea_spectrum, wave
 DETAIL_WAVES = 36  # waves in the normal-map band
 TWO_PI = 2.0 * math.pi
 NEWTON_STEPS = 6
-QUERY_CHUNK = 1 << 17  # points x waves per chunk of a query (uniform depth; a quarter over a bathymetry)
+QUERY_CHUNK = 1 << 17  # points x waves per chunk of a query (uniform depth; half that over a bathymetry)
 
 
 @dataclass(frozen=True)
@@ -164,7 +164,7 @@ class SeaSurface:
         offsets = self.phase_offsets(t, o)
         out = {"height": np.zeros(n), "normal": np.zeros((n, 3)), "velocity": np.zeros((n, 3)),
                "residual": np.zeros(n), "rest": x.copy()}
-        chunk = max(64, (QUERY_CHUNK if self.field is None else QUERY_CHUNK // 4) // max(self.n, 1))
+        chunk = max(64, (QUERY_CHUNK if self.field is None else QUERY_CHUNK // 2) // max(self.n, 1))
         with _workspace() as w:
             for lo in range(0, n, chunk):
                 part = {k: v[lo:lo + chunk] for k, v in out.items()}
@@ -357,49 +357,52 @@ def _sincos(theta: np.ndarray, w: "_Work") -> tuple[np.ndarray, np.ndarray]:
             np.cos(reduced, out=w.get("c0a", theta.shape, np.float32)))
 
 
-_NODES: dict[int, tuple[WaveField, np.ndarray]] = {}
+_NODES: dict[int, tuple[WaveField, tuple[np.ndarray, np.ndarray]]] = {}
 
 
-def _field_nodes(f: WaveField) -> np.ndarray:
+def _field_nodes(f: WaveField) -> tuple[np.ndarray, np.ndarray]:
     """The field's per-wave node values node-major, (nu·nv, 4n + 1): R, F, Kx, Ky of every wave (n
-    each), then Q — one gather of rows fetches all of the points' parameters."""
+    each), then Q — one gather of rows fetches all of the points' parameters; and their differences
+    to the next node along u (the lerp's slope, the same float64 value it would compute)."""
     cached = _NODES.get(id(f))
     if cached is None or cached[0] is not f:
         n, nu, nv = f.residual.shape
         stacked = np.concatenate([f.residual, f.factor, f.kvec[..., 0], f.kvec[..., 1], f.steepness[None]])
-        nodes = np.ascontiguousarray(stacked.reshape(4 * n + 1, nu * nv).T)
+        nodes = np.ascontiguousarray(stacked.transpose(1, 2, 0))  # (nu, nv, 4n + 1)
+        slope = np.zeros_like(nodes)
+        slope[:-1] = nodes[1:] - nodes[:-1]  # the last node: clamped, i1 = i0 (never used with tu > 0)
+        cols = nodes.shape[-1]
         if len(_NODES) > 8:
             _NODES.clear()
-        _NODES[id(f)] = cached = (f, nodes)
+        _NODES[id(f)] = cached = (f, (nodes.reshape(nu * nv, cols), slope.reshape(nu * nv, cols)))
     return cached[1]
 
 
-def _interpolate(values: np.ndarray, grid: tuple[int, int], gu: np.ndarray, gv: np.ndarray, w: "_Work") -> np.ndarray:
+def _interpolate(table: tuple[np.ndarray, np.ndarray], grid: tuple[int, int], gu: np.ndarray, gv: np.ndarray,
+                 w: "_Work") -> np.ndarray:
     """Bilinear interpolation of node values (nu·nv, m) at fractional node coordinates (N,) → (m, N),
     wave-major — the grid clamped at its edges, as the shader's clamp-to-edge texel-centre fetch
     (gerstner.glsl); linear along u alone on a one-row grid (the plane beach). Gathered point-major
     (contiguous node rows), transposed once."""
+    values, slope = table
     nu, nv = grid
     npts, cols = len(gu), values.shape[1]
     i0 = np.minimum(np.floor(gu).astype(np.intp), max(nu - 2, 0))
-    i1 = np.minimum(i0 + 1, nu - 1)
     tu = (gu - i0)[:, None]
     lo, hi = w.get("lerp_lo", (npts, cols)), w.get("lerp_hi", (npts, cols))
     j0 = np.minimum(np.floor(gv).astype(np.intp), max(nv - 2, 0)) if nv > 1 else np.zeros(npts, np.intp)
-    j1 = np.minimum(j0 + 1, nv - 1)
     np.take(values, i0 * nv + j0, axis=0, out=lo)
-    np.take(values, i1 * nv + j0, axis=0, out=hi)
-    hi -= lo
+    np.take(slope, i0 * nv + j0, axis=0, out=hi)
     hi *= tu
     lo += hi  # along u at j0
     if nv > 1:
+        j1 = np.minimum(j0 + 1, nv - 1)
         tv = (gv - j0)[:, None]
-        top, top_hi = w.get("lerp_top", (npts, cols)), w.get("lerp_top_hi", (npts, cols))
+        top = w.get("lerp_top", (npts, cols))
         np.take(values, i0 * nv + j1, axis=0, out=top)
-        np.take(values, i1 * nv + j1, axis=0, out=top_hi)
-        top_hi -= top
-        top_hi *= tu
-        top += top_hi  # along u at j1
+        np.take(slope, i0 * nv + j1, axis=0, out=hi)
+        hi *= tu
+        top += hi  # along u at j1
         top -= lo
         top *= tv
         lo += top
