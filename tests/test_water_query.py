@@ -77,3 +77,32 @@ def test_websocket_query(client):
             if message.get("type") != "frame":
                 break
         assert message["type"] == "error" and message["id"] == 10
+
+
+@pytest.mark.parametrize("fmt", ["json", "msgpack"])
+def test_rest_query_rejects_non_finite_points_with_their_pointer(client, fmt):
+    """The codec's fast path over rows of numbers still finds a NaN or an Infinity and names it."""
+    points = [[0.0, 1.0], [2.0, float("nan")], [float("inf"), 3.0]]
+    if fmt == "json":
+        import json
+        reply = client.post("/v1/query/water-height", content=json.dumps({"points": points}),
+                            headers={"content-type": "application/json"})
+    else:
+        reply = client.post("/v1/query/water-height", content=msgpack.packb({"points": points}),
+                            headers={"content-type": "application/vnd.msgpack", "accept": "application/json"})
+    assert reply.status_code == 422
+    errors = reply.json()["errors"]  # the walk reports the first bad number it meets (one of the two)
+    assert len(errors) == 1 and errors[0]["pointer"] in ("#/points/1/1", "#/points/2/0")
+
+
+def test_codec_fast_path_keeps_depth_and_type_checks():
+    from igserver.protocol.codec import Limits, check_tree
+    from igserver.protocol.problems import ProblemError
+
+    check_tree({"points": [[1.0, 2]]}, Limits(max_depth=3))  # numbers at depth 3: allowed
+    with pytest.raises(ProblemError, match="nesting deeper"):
+        check_tree({"points": [[1.0, 2.0]]}, Limits(max_depth=2))  # the row's numbers sit at depth 3
+    with pytest.raises(ProblemError, match="binary"):
+        check_tree({"points": [[1.0, b"x"]]})
+    with pytest.raises(ProblemError, match="array longer"):
+        check_tree({"points": [[1.0] * 5]}, Limits(max_array=4))
