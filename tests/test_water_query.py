@@ -34,8 +34,11 @@ def test_rest_query_matches_the_wave_module(client):
     # None given: the IG clock's sim_time now (it starts at the state's 321 s and runs in free mode).
     assert 321.0 <= body["sim_time"] < 321.0 + 60.0
     ref = expected(points, body["sim_time"])
-    assert np.allclose(body["height"], ref["height"] + 2.5, atol=1e-9)  # ENU z: the level included
-    assert np.allclose(body["normal"], ref["normal"]) and np.allclose(body["velocity"], ref["velocity"])
+    # ENU z, the level included; answers rounded to 7 decimals (REPLY_DECIMALS): half a step, 5e-8
+    # (+1e-12: float64 rounding of the sum and of the decimal)
+    assert np.allclose(body["height"], ref["height"] + 2.5, rtol=0, atol=5e-8 + 1e-12)
+    assert np.allclose(body["normal"], ref["normal"], rtol=0, atol=5e-8 + 1e-12)
+    assert np.allclose(body["velocity"], ref["velocity"], rtol=0, atol=5e-8 + 1e-12)
     at = client.post("/v1/query/water-height", json={"points": points, "sim_time": 1e9}).json()
     assert at["sim_time"] == 1e9 and np.allclose(at["height"], expected(points, 1e9)["height"] + 2.5)
 
@@ -70,7 +73,7 @@ def test_websocket_query(client):
             if message.get("type") != "frame":
                 break
         assert message["type"] == "query_result" and message["id"] == 9
-        assert message["height"][0] == pytest.approx(expected([[5.0, 6.0]], 40.0)["height"][0] + 2.5, abs=1e-9)
+        assert message["height"][0] == pytest.approx(expected([[5.0, 6.0]], 40.0)["height"][0] + 2.5, abs=5e-8 + 1e-12)
         ws.send_bytes(msgpack.packb({"type": "query", "query": "water-height", "points": [], "id": 10}))
         while True:
             message = msgpack.unpackb(ws.receive_bytes())
