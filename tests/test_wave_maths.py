@@ -423,14 +423,24 @@ def _float64_reference(sea: SeaSurface, x: np.ndarray, t: float) -> dict:
             kv = w.k[:, None, None] * w.direction[:, :, None] * np.ones(len(p))
             return np.zeros((w.n, len(p))), w.amplitude[:, None] * np.ones(len(p)), kv[:, 0], kv[:, 1], \
                 np.full(len(p), sea.steepness)
-        gu = np.clip(((p - f.grid.origin) @ f.grid.u) / f.grid.du, 0, f.grid.nu - 1)
-        nodes = np.arange(f.grid.nu)
-        lerp = lambda values: np.interp(gu, nodes, values)  # noqa: E731
-        r = np.array([lerp(f.residual[i, :, 0]) for i in range(w.n)])
-        a = np.array([w.amplitude[i] * lerp(f.factor[i, :, 0]) for i in range(w.n)])
-        kx = np.array([lerp(f.kvec[i, :, 0, 0]) for i in range(w.n)])
-        ky = np.array([lerp(f.kvec[i, :, 0, 1]) for i in range(w.n)])
-        return r, a, kx, ky, lerp(f.steepness[:, 0])
+        g = f.grid
+        gu = np.clip(((p - g.origin) @ g.u) / g.du, 0, g.nu - 1)
+        if g.nv == 1:
+            nodes = np.arange(g.nu)
+            lerp = lambda values: np.interp(gu, nodes, values[:, 0])  # noqa: E731
+        else:  # bilinear, clamped at the edges
+            gv = np.clip(((p - g.origin) @ g.v) / g.dv, 0, g.nv - 1)
+            i, j = np.minimum(np.floor(gu).astype(int), g.nu - 2), np.minimum(np.floor(gv).astype(int), g.nv - 2)
+            tu, tv = gu - i, gv - j
+
+            def lerp(values):
+                return ((values[i, j] * (1 - tu) + values[i + 1, j] * tu) * (1 - tv)
+                        + (values[i, j + 1] * (1 - tu) + values[i + 1, j + 1] * tu) * tv)
+        r = np.array([lerp(f.residual[i]) for i in range(w.n)])
+        a = np.array([w.amplitude[i] * lerp(f.factor[i]) for i in range(w.n)])
+        kx = np.array([lerp(f.kvec[i, ..., 0]) for i in range(w.n)])
+        ky = np.array([lerp(f.kvec[i, ..., 1]) for i in range(w.n)])
+        return r, a, kx, ky, lerp(f.steepness)
 
     def surface(p):
         r, a, kx, ky, q = local(p)
@@ -457,12 +467,23 @@ def _float64_reference(sea: SeaSurface, x: np.ndarray, t: float) -> dict:
     return {"height": height, "normal": normal, "velocity": velocity, "residual": np.abs(p + disp - x).max(1)}
 
 
-@pytest.mark.parametrize("bathymetry", [None, BEACH])
-@pytest.mark.parametrize("wind", [3.0, 12.0, 30.0])
+ISLAND = Bathymetry(type="map", map="island", map_center=[500.0, 0.0], map_size=[1500.0, 1500.0], map_heading=20.0,
+                    map_elevation=[-50.0, 10.0], depth=60.0)
+
+
+# Over a height map the 2D phase march leaves the residual phase R jumping between neighbouring nodes
+# (|∂R/∂v| up to 324 rad/m against k ≤ 0.32; 27 % of node pairs above 2k, found by this test): the
+# displaced surface is not the smooth map Newton assumes and ~2/3 of the points end with residuals up to
+# 4-5 m, before this session's query work as after it. Strict: it fails loudly once the march is fixed.
+ISLAND_XFAIL = pytest.mark.xfail(strict=True, reason="2D bathymetry phase march unstable: R jumps between nodes")
+
+
+@pytest.mark.parametrize("bathymetry,wind", [(b, w) for b in (None, BEACH) for w in (3.0, 12.0, 30.0)]
+                         + [pytest.param(ISLAND, 12.0, marks=ISLAND_XFAIL)])
 def test_query_equals_a_float64_reference(bathymetry, wind):
     """The fast query (float32 sines and cosines of float64-reduced phases, angle addition across the
     Chebyshev iterations, reused buffers, chunks) against the plain float64 reference above, over the
-    open sea and the beach (surf zone and dry land included). Bounds per point: float32 trig ≤ 4e-7 of
+    open sea, the beach and a height-map island (surf zone and dry land included). Bounds per point: float32 trig ≤ 4e-7 of
     Σ A (Σ K A, Σ ω A; see test_query_finds_the_surface_above_a_world_point), plus the query's rest
     point error δ ≤ √2·residual/(1 − Q_SHORE) (J ≥ 1 − Q, Q ≤ 0.9 anywhere) times the slope (height),
     curvature ≤ Σ A K² (normal) or Σ A ω K (velocity). And never more than 1e-5 m in height: ≪ 1 mm,
