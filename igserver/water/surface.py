@@ -12,7 +12,8 @@ a, b and K over a wavelength: ∂P/∂p₀ = I − Σ b_i K̂_i K_iᵀ sin θ_i 
 so J ≥ 0: the surface never folds over.
 
 A host asks for the height at a WORLD point x: the rest point p₀ with p₀ + Δ(p₀) = x is found by
-Newton on that 2×2 map (unique while J > 0), then P, the normal and the velocity dP/dt at p₀.
+Chebyshev's method (Newton plus the second-order term) on that 2×2 map (unique while J > 0), then P,
+the normal and the velocity dP/dt at p₀ (``query``).
 
 Time: ω_i t + (k_i D_i·origin) is reduced modulo 2π in float64 here (``phase_offsets``), so the GPU
 only sees phases in [0, 2π) and a camera-relative position: the sea at t = 1e9 s looks like at 100 s.
