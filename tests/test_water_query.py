@@ -34,8 +34,11 @@ def test_rest_query_matches_the_wave_module(client):
     # None given: the IG clock's sim_time now (it starts at the state's 321 s and runs in free mode).
     assert 321.0 <= body["sim_time"] < 321.0 + 60.0
     ref = expected(points, body["sim_time"])
-    assert np.allclose(body["height"], ref["height"] + 2.5, atol=1e-9)  # ENU z: the level included
-    assert np.allclose(body["normal"], ref["normal"]) and np.allclose(body["velocity"], ref["velocity"])
+    # ENU z, the level included; answers rounded to 7 decimals (REPLY_DECIMALS): half a step, 5e-8
+    # (+1e-12: float64 rounding of the sum and of the decimal)
+    assert np.allclose(body["height"], ref["height"] + 2.5, rtol=0, atol=5e-8 + 1e-12)
+    assert np.allclose(body["normal"], ref["normal"], rtol=0, atol=5e-8 + 1e-12)
+    assert np.allclose(body["velocity"], ref["velocity"], rtol=0, atol=5e-8 + 1e-12)
     at = client.post("/v1/query/water-height", json={"points": points, "sim_time": 1e9}).json()
     assert at["sim_time"] == 1e9 and np.allclose(at["height"], expected(points, 1e9)["height"] + 2.5)
 
@@ -70,10 +73,39 @@ def test_websocket_query(client):
             if message.get("type") != "frame":
                 break
         assert message["type"] == "query_result" and message["id"] == 9
-        assert message["height"][0] == pytest.approx(expected([[5.0, 6.0]], 40.0)["height"][0] + 2.5, abs=1e-9)
+        assert message["height"][0] == pytest.approx(expected([[5.0, 6.0]], 40.0)["height"][0] + 2.5, abs=5e-8 + 1e-12)
         ws.send_bytes(msgpack.packb({"type": "query", "query": "water-height", "points": [], "id": 10}))
         while True:
             message = msgpack.unpackb(ws.receive_bytes())
             if message.get("type") != "frame":
                 break
         assert message["type"] == "error" and message["id"] == 10
+
+
+@pytest.mark.parametrize("fmt", ["json", "msgpack"])
+def test_rest_query_rejects_non_finite_points_with_their_pointer(client, fmt):
+    """The codec's fast path over rows of numbers still finds a NaN or an Infinity and names it."""
+    points = [[0.0, 1.0], [2.0, float("nan")], [float("inf"), 3.0]]
+    if fmt == "json":
+        import json
+        reply = client.post("/v1/query/water-height", content=json.dumps({"points": points}),
+                            headers={"content-type": "application/json"})
+    else:
+        reply = client.post("/v1/query/water-height", content=msgpack.packb({"points": points}),
+                            headers={"content-type": "application/vnd.msgpack", "accept": "application/json"})
+    assert reply.status_code == 422
+    errors = reply.json()["errors"]  # the walk reports the first bad number it meets (one of the two)
+    assert len(errors) == 1 and errors[0]["pointer"] in ("#/points/1/1", "#/points/2/0")
+
+
+def test_codec_fast_path_keeps_depth_and_type_checks():
+    from igserver.protocol.codec import Limits, check_tree
+    from igserver.protocol.problems import ProblemError
+
+    check_tree({"points": [[1.0, 2]]}, Limits(max_depth=3))  # numbers at depth 3: allowed
+    with pytest.raises(ProblemError, match="nesting deeper"):
+        check_tree({"points": [[1.0, 2.0]]}, Limits(max_depth=2))  # the row's numbers sit at depth 3
+    with pytest.raises(ProblemError, match="binary"):
+        check_tree({"points": [[1.0, b"x"]]})
+    with pytest.raises(ProblemError, match="array longer"):
+        check_tree({"points": [[1.0] * 5]}, Limits(max_array=4))

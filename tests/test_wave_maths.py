@@ -312,8 +312,14 @@ def test_query_finds_the_surface_above_a_world_point():
     got = sea.query(x, 81.0)
     back = sea.evaluate(got["rest"], 81.0)
     assert np.all(np.abs(back["position"][:, :2] - x) <= 1e-5)
-    assert np.allclose(back["position"][:, 2], got["height"]) and np.all(got["residual"] <= 1e-5)
-    assert np.allclose(back["normal"], got["normal"]) and np.allclose(back["velocity"], got["velocity"])
+    assert np.all(got["residual"] <= 1e-5)
+    # The query's sines come by angle addition from the phases at x, evaluate's straight from the
+    # reduced phases at the rest point: two float32 paths, each within ~2e-7 of the exact sine, so a
+    # sum weighted by A (K A, ω A) differs by at most 4e-7 of Σ A (Σ K A, Σ ω A).
+    w = sea.waves
+    assert np.allclose(back["position"][:, 2], got["height"], rtol=0, atol=4e-7 * np.sum(w.amplitude))
+    assert np.allclose(back["normal"], got["normal"], rtol=0, atol=4e-7 * np.sum(w.k * w.amplitude))
+    assert np.allclose(back["velocity"], got["velocity"], rtol=0, atol=4e-7 * np.sum(w.omega * w.amplitude))
 
 
 def test_whitecap_threshold_gives_monahans_coverage():
@@ -415,3 +421,101 @@ def test_query_of_no_points_is_empty_and_quiet():
         warnings.simplefilter("error")
         got = sea.query(np.zeros((0, 2)), 5.0)
     assert got["height"].shape == (0,) and got["normal"].shape == (0, 3) and got["velocity"].shape == (0, 3)
+
+
+def _float64_reference(sea: SeaSurface, x: np.ndarray, t: float) -> dict:
+    """The surface above world points x, written independently in plain float64: per-wave loops, np.sin
+    and np.cos in float64 on unreduced phases (|θ| < 1e4 rad here: 2e-12 rad of rounding), the field
+    interpolated by np.interp along the beach's one-row grid, and fixed-point-plus-Newton iterations
+    of p + Δ(p) = x run far past convergence (60 steps)."""
+    w, f = sea.waves, sea.field
+
+    def local(p):
+        if f is None:
+            kv = w.k[:, None, None] * w.direction[:, :, None] * np.ones(len(p))
+            return np.zeros((w.n, len(p))), w.amplitude[:, None] * np.ones(len(p)), kv[:, 0], kv[:, 1], \
+                np.full(len(p), sea.steepness)
+        g = f.grid
+        gu = np.clip(((p - g.origin) @ g.u) / g.du, 0, g.nu - 1)
+        if g.nv == 1:
+            nodes = np.arange(g.nu)
+            lerp = lambda values: np.interp(gu, nodes, values[:, 0])  # noqa: E731
+        else:  # bilinear, clamped at the edges
+            gv = np.clip(((p - g.origin) @ g.v) / g.dv, 0, g.nv - 1)
+            i, j = np.minimum(np.floor(gu).astype(int), g.nu - 2), np.minimum(np.floor(gv).astype(int), g.nv - 2)
+            tu, tv = gu - i, gv - j
+
+            def lerp(values):
+                return ((values[i, j] * (1 - tu) + values[i + 1, j] * tu) * (1 - tv)
+                        + (values[i, j + 1] * (1 - tu) + values[i + 1, j + 1] * tu) * tv)
+        r = np.array([lerp(f.residual[i]) for i in range(w.n)])
+        a = np.array([w.amplitude[i] * lerp(f.factor[i]) for i in range(w.n)])
+        kx = np.array([lerp(f.kvec[i, ..., 0]) for i in range(w.n)])
+        ky = np.array([lerp(f.kvec[i, ..., 1]) for i in range(w.n)])
+        return r, a, kx, ky, lerp(f.steepness)
+
+    def surface(p):
+        r, a, kx, ky, q = local(p)
+        theta = (w.k[:, None] * (w.direction @ p.T)) - w.omega[:, None] * t + w.phase[:, None] + r
+        s, c = np.sin(theta), np.cos(theta)
+        kmag = np.hypot(kx, ky)
+        b = np.minimum(q / (kmag * w.n), a)
+        ux, uy = b * kx / kmag, b * ky / kmag
+        disp = np.stack([np.sum(ux * c, 0), np.sum(uy * c, 0)], 1)
+        jac = np.stack([[1 - np.sum(ux * kx * s, 0), -np.sum(ux * ky * s, 0)],
+                        [-np.sum(uy * kx * s, 0), 1 - np.sum(uy * ky * s, 0)]]).transpose(2, 0, 1)
+        tx = np.stack([jac[:, 0, 0], jac[:, 1, 0], np.sum(a * kx * c, 0)], 1)
+        ty = np.stack([jac[:, 0, 1], jac[:, 1, 1], np.sum(a * ky * c, 0)], 1)
+        normal = np.cross(tx, ty)
+        velocity = np.stack([np.sum(ux * w.omega[:, None] * s, 0), np.sum(uy * w.omega[:, None] * s, 0),
+                             -np.sum(a * w.omega[:, None] * c, 0)], 1)
+        return disp, jac, np.sum(a * s, 0), normal / np.linalg.norm(normal, axis=1, keepdims=True), velocity
+
+    p = x.copy()
+    for _ in range(60):
+        disp, jac, *_ = surface(p)
+        p = p - np.linalg.solve(jac, (p + disp - x)[:, :, None])[:, :, 0]
+    disp, _, height, normal, velocity = surface(p)
+    return {"height": height, "normal": normal, "velocity": velocity, "residual": np.abs(p + disp - x).max(1)}
+
+
+ISLAND = Bathymetry(type="map", map="island", map_center=[500.0, 0.0], map_size=[1500.0, 1500.0], map_heading=20.0,
+                    map_elevation=[-50.0, 10.0], depth=60.0)
+
+
+# Over a height map the 2D phase march leaves the residual phase R jumping between neighbouring nodes
+# (|∂R/∂v| up to 324 rad/m against k ≤ 0.32; 27 % of node pairs above 2k, found by this test): the
+# displaced surface is not the smooth map Newton assumes and ~2/3 of the points end with residuals up to
+# 4-5 m, before this session's query work as after it. Strict: it fails loudly once the march is fixed.
+ISLAND_XFAIL = pytest.mark.xfail(strict=True, reason="2D bathymetry phase march unstable: R jumps between nodes")
+
+
+@pytest.mark.parametrize("bathymetry,wind", [(b, w) for b in (None, BEACH) for w in (3.0, 12.0, 30.0)]
+                         + [pytest.param(ISLAND, 12.0, marks=ISLAND_XFAIL)])
+def test_query_equals_a_float64_reference(bathymetry, wind):
+    """The fast query (float32 sines and cosines of float64-reduced phases, angle addition across the
+    Chebyshev iterations, reused buffers, chunks) against the plain float64 reference above, over the
+    open sea, the beach and a height-map island (surf zone and dry land included). Bounds per point: float32 trig ≤ 4e-7 of
+    Σ A (Σ K A, Σ ω A; see test_query_finds_the_surface_above_a_world_point), plus the query's rest
+    point error δ ≤ √2·residual/(1 − Q_SHORE) (J ≥ 1 − Q, Q ≤ 0.9 anywhere) times the slope (height),
+    curvature ≤ Σ A K² (normal) or Σ A ω K (velocity). And never more than 1e-5 m in height: ≪ 1 mm,
+    what a hull on these numbers can feel."""
+    ocean = Ocean(enabled=True, bathymetry=bathymetry) if bathymetry else Ocean(enabled=True)
+    sea = sea_surface(ocean, Weather(wind_speed=wind, wind_direction=70.0))
+    x = np.random.default_rng(21).uniform(-400.0, 830.0, (3000, 2))
+    t = 1234.5
+    got, ref = sea.query(x, t), _float64_reference(sea, x, t)
+    assert np.all(ref["residual"] < 1e-9)  # the reference converged
+    assert np.all(got["residual"] <= 1e-5)
+    amp = sea.amplitude_sum
+    kmax = float(np.max(np.hypot(sea.field.kvec[..., 0], sea.field.kvec[..., 1]) if sea.field else sea.waves.k))
+    omega = float(np.max(sea.waves.omega))
+    delta = math.sqrt(2.0) * got["residual"] / (1.0 - 0.9)
+    slope = np.hypot(*(ref["normal"][:, :2].T)) / ref["normal"][:, 2]
+    dh = np.abs(got["height"] - ref["height"])
+    assert np.all(dh <= 4e-7 * amp + slope * delta)
+    assert dh.max() < 1e-5
+    dn = np.max(np.abs(got["normal"] - ref["normal"]), axis=1)
+    assert np.all(dn <= 4e-7 * amp * kmax + amp * kmax ** 2 * delta)
+    dv = np.max(np.abs(got["velocity"] - ref["velocity"]), axis=1)
+    assert np.all(dv <= 4e-7 * amp * omega + amp * omega * kmax * delta)

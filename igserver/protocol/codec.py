@@ -148,6 +148,15 @@ def _loads_json(body: bytes) -> Any:
         raise ProblemError("malformed", f"invalid JSON: {exc}") from None
 
 
+def _plain_numbers(items: list) -> bool:
+    """Every item an int or a finite float (the common row of a long array)."""
+    for item in items:
+        kind = type(item)
+        if not (kind is int or (kind is float and math.isfinite(item))):
+            return False
+    return True
+
+
 def check_tree(value: Any, limits: Limits = DEFAULT_LIMITS) -> None:
     """Walk a decoded tree (iteratively: no recursion to exhaust) and enforce the limits.
 
@@ -186,7 +195,15 @@ def check_tree(value: Any, limits: Limits = DEFAULT_LIMITS) -> None:
         elif isinstance(node, (list, tuple)):
             if len(node) > limits.max_array:
                 raise ProblemError("limits", f"{json_pointer(path)}: array longer than {limits.max_array}")
+            # plain numbers, and short rows of them such as [x, y], need no walk (no path tuples for the
+            # thousands of coordinates of a query); anything else, a bad number included, is walked
+            numbers_ok, rows_ok = depth + 1 <= limits.max_depth, depth + 2 <= limits.max_depth
             for index, item in enumerate(node):
+                kind = type(item)
+                if numbers_ok and (kind is int or (kind is float and math.isfinite(item))):
+                    continue
+                if rows_ok and kind is list and len(item) <= limits.max_array and _plain_numbers(item):
+                    continue
                 stack.append((item, path + (index,), depth + 1))
 
 
