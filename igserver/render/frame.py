@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import moderngl
 import numpy as np
@@ -42,10 +43,15 @@ class SunMoon:
         return np.array(direction_enu(self.moon_elevation, self.moon_azimuth))
 
 
+# The ephemeris per (utc, place): sim_time does not move the sky, so a stream asks for the same
+# state every frame.
+_celestial_state = lru_cache(maxsize=64)(celestial_state)
+
+
 def sun_and_moon(scene: Scene) -> SunMoon:
     """From the ephemeris, or the instructor's fixed sun (the moon stays on the ephemeris)."""
     loc = scene.location
-    state = celestial_state(scene.time.utc, loc.lat, loc.lon, loc.altitude)
+    state = _celestial_state(scene.time.utc, loc.lat, loc.lon, loc.altitude)
     sun_el, sun_az = state.sun_elevation, state.sun_azimuth
     if scene.time.sun_override is not None:
         sun_el, sun_az = scene.time.sun_override.elevation, scene.time.sun_override.azimuth
