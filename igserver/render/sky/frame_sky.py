@@ -63,7 +63,12 @@ def scene_visibility(scene: Scene) -> float:
 
 def scene_haze(scene: Scene, params: AtmosphereParameters) -> HazeLayer:
     a = scene.atmosphere
-    return haze_layer(scene_visibility(scene), a.turbidity, a.fog_top, ground_extinction_550_per_m(params))
+    return haze_layer(scene_visibility(scene), a.turbidity, a.fog_top, _ground_extinction(params))
+
+
+@lru_cache(maxsize=64)
+def _ground_extinction(params: AtmosphereParameters) -> float:
+    return ground_extinction_550_per_m(params)  # memoised: it integrates the aerosol profile
 
 
 @dataclass
