@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -68,22 +69,23 @@ class CameraView:
         """Camera-relative position (float64 subtraction, result small enough for float32)."""
         return np.asarray(world_position, dtype=np.float64) - self.position
 
+    @cached_property
+    def _cull_planes(self) -> tuple[np.ndarray, np.ndarray]:
+        """The four side planes and the near plane of view_proj (camera-relative), unit normals."""
+        m = self.view_proj
+        planes = np.array([m[3] + m[0], m[3] - m[0], m[3] + m[1], m[3] - m[1], m[3] - m[2]])
+        length = np.linalg.norm(planes[:, :3], axis=1)
+        keep = length > 0.0
+        return planes[keep, :3] / length[keep, None], planes[keep, 3] / length[keep]
+
     def sphere_visible(self, world_center, radius: float) -> bool:
         """Conservative frustum test of a bounding sphere: the four side planes and the near plane
         (camera-relative, from view_proj; the same in both clip ranges), and the draw distance."""
         c = self.relative(world_center)
-        if float(np.linalg.norm(c)) - radius > self.far:
+        if math.sqrt(float(c @ c)) - radius > self.far:
             return False
-        m = self.view_proj
-        planes = (m[3] + m[0], m[3] - m[0], m[3] + m[1], m[3] - m[1], m[3] - m[2])
-        for plane in planes:
-            n = plane[:3]
-            length = float(np.linalg.norm(n))
-            if length == 0.0:
-                continue
-            if (float(n @ c) + plane[3]) / length < -radius:
-                return False
-        return True
+        normals, offsets = self._cull_planes
+        return not bool(np.any(normals @ c + offsets < -radius))
 
 
 def gl_matrix(m: np.ndarray) -> bytes:

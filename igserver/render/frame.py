@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import moderngl
 import numpy as np
@@ -42,10 +43,15 @@ class SunMoon:
         return np.array(direction_enu(self.moon_elevation, self.moon_azimuth))
 
 
+# The ephemeris per (utc, place): sim_time does not move the sky, so a stream asks for the same
+# state every frame.
+_celestial_state = lru_cache(maxsize=64)(celestial_state)
+
+
 def sun_and_moon(scene: Scene) -> SunMoon:
     """From the ephemeris, or the instructor's fixed sun (the moon stays on the ephemeris)."""
     loc = scene.location
-    state = celestial_state(scene.time.utc, loc.lat, loc.lon, loc.altitude)
+    state = _celestial_state(scene.time.utc, loc.lat, loc.lon, loc.altitude)
     sun_el, sun_az = state.sun_elevation, state.sun_azimuth
     if scene.time.sun_override is not None:
         sun_el, sun_az = scene.time.sun_override.elevation, scene.time.sun_override.azimuth
@@ -106,19 +112,47 @@ def meter_samples(sky: SkyFrame, scene: Scene, view, celestial, haze_height_m: f
     sky directions from the sky-view table seen through the fog layer; ground as its base colour
     under the horizontal illuminance; sea as the Fresnel-weighted reflected sky (~5 %); plus local
     lights' illuminance near the camera on the ground."""
-    dirs = frustum_directions(view)
     albedo = float(LUMA @ np.asarray(scene.ground.color)) if scene.ground.enabled else GROUND_REFLECTANCE
     e_local = LIGHT_METER_GAIN * local_light_illuminance(lights, view)
     ground = albedo * (sky.horizontal_illuminance + e_local) / np.pi
-    if sky.sky_view is None or sky.sky_view.radiance_host is None:
-        return np.full(len(dirs), ground)
+    n, is_sky, sky_lum, refl = _view_sky_samples(sky, scene, view, celestial, haze_height_m)
+    lum = np.full(n, ground)
+    if sky_lum is not None:
+        lum[is_sky] = sky_lum
+    if refl is not None:
+        lum[~is_sky] = 0.05 * refl + 0.02 * (sky.horizontal_illuminance + e_local) / np.pi
+    return lum
+
+
+_view_sky_cache: dict = {}
+
+
+def _view_sky_samples(sky: SkyFrame, scene: Scene, view, celestial, haze_height_m: float):
+    """The light-independent part of meter_samples: (sample count, sky mask, sky luminances seen
+    through the fog, mirrored-sky luminances for the sea), memoised on its exact inputs (the view's
+    basis and frustum, the filled sky-view table, the fog layer, sun and moon)."""
+    sv = sky.sky_view
+    have_table = sv is not None and sv.radiance_host is not None
+    haze = sky.haze
     u = sky.uniforms
+    key = None
+    if have_table:
+        key = (id(sv), sv._key, sv.fills, np.asarray(view.rotation, np.float64).tobytes(), tuple(view.tangents),
+               u["u_sky_view_sun_h"], u["u_horizon_elevation"], haze_height_m, bool(scene.ocean.enabled),
+               None if haze is None else (haze.beta.tobytes(), haze.top, haze.edge, haze.g, haze.omega,
+                                           u["u_haze_sun"], u["u_haze_moon"], u["u_haze_sky"]),
+               _vec3(celestial.sun_dir), _vec3(celestial.moon_dir))
+        hit = _view_sky_cache.get(key)
+        if hit is not None:
+            return hit
+    dirs = frustum_directions(view)
+    if not have_table:
+        return len(dirs), None, None, None
     is_sky = dirs[:, 2] > u["u_horizon_elevation"]
-    lum = np.full(len(dirs), ground)
+    sky_lum = refl = None
     if np.any(is_sky):
         d = dirs[is_sky]
-        clear = sky.sky_view.luminance(d, u["u_sky_view_sun_h"], u["u_horizon_elevation"])
-        haze = sky.haze
+        clear = sv.luminance(d, u["u_sky_view_sun_h"], u["u_horizon_elevation"])
         if haze is not None and haze.beta[1] > 0.0:
             tau = haze.tau_view(haze_height_m, d)
             sun_n = np.asarray(u["u_haze_sun"]); moon_n = np.asarray(u["u_haze_moon"])
@@ -127,12 +161,18 @@ def meter_samples(sky: SkyFrame, scene: Scene, view, celestial, haze_height_m: f
             src = haze.source(haze_height_m, d, flux, celestial.sun_dir, sun_n, celestial.moon_dir, moon_n)
             t = np.exp(-np.minimum(tau, 80.0))
             clear = clear * (t @ LUMA) + (src * (1.0 - t)) @ LUMA
-        lum[is_sky] = clear
-    if scene.ocean.enabled and np.any(~is_sky) and sky.sky_view is not None and sky.sky_view.radiance_host is not None:
+        sky_lum = clear
+    if scene.ocean.enabled and np.any(~is_sky):
         mirrored = dirs[~is_sky] * np.array([1.0, 1.0, -1.0])
-        refl = sky.sky_view.luminance(mirrored, u["u_sky_view_sun_h"], u["u_horizon_elevation"])
-        lum[~is_sky] = 0.05 * refl + 0.02 * (sky.horizontal_illuminance + e_local) / np.pi
-    return lum
+        refl = sv.luminance(mirrored, u["u_sky_view_sun_h"], u["u_horizon_elevation"])
+    out = (len(dirs), is_sky, sky_lum, refl)
+    for a in out[1:]:
+        if a is not None:
+            a.flags.writeable = False
+    if len(_view_sky_cache) > 64:
+        _view_sky_cache.clear()
+    _view_sky_cache[key] = out
+    return out
 
 
 def build_frame(ctx: moderngl.Context, scene: Scene, state: FrameState | None = None) -> FrameContext:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -31,6 +32,7 @@ class PointLight:
     cos_outer: float = 1.0
 
 
+@lru_cache(maxsize=256)  # per light's constants; a seeded generator costs more than the flicker itself
 def _partials(frequency: float, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Frequencies log-spaced around ``frequency`` (seeded jitter), weights Gaussian in ln f.
 
@@ -45,7 +47,10 @@ def _partials(frequency: float, seed: int) -> tuple[np.ndarray, np.ndarray, np.n
     phases = rng.uniform(0.0, 2 * math.pi, FLICKER_PARTIALS)
     weights = np.exp(-0.5 * (x / FLICKER_LOG_WIDTH) ** 2) * rng.uniform(0.85, 1.0, FLICKER_PARTIALS)
     weights[FLICKER_PARTIALS // 2] = 1.0  # the peak partial dominates
-    return freqs, phases, weights / np.sqrt(np.sum(weights**2))
+    out = (freqs, phases, weights / np.sqrt(np.sum(weights**2)))
+    for a in out:
+        a.flags.writeable = False  # shared by every call with these arguments
+    return out
 
 
 def flicker_gain(frequency: float, amplitude: float, seed: int, sim_time) -> np.ndarray | float:

@@ -38,6 +38,8 @@ def _parameters(turbidity: float, ozone: bool, quality: str, orders: int) -> Atm
 
 
 _clear_light_cache: dict = {}
+# sky_frame's light, horizontal illuminance, haze uniforms and haze light table per exact inputs.
+_sky_light_cache: dict = {}
 
 
 def cached_clear_light(params, tables: AtmosphereTables, altitude_m, sun_el, moon_el, moon_phase):
@@ -61,7 +63,12 @@ def scene_visibility(scene: Scene) -> float:
 
 def scene_haze(scene: Scene, params: AtmosphereParameters) -> HazeLayer:
     a = scene.atmosphere
-    return haze_layer(scene_visibility(scene), a.turbidity, a.fog_top, ground_extinction_550_per_m(params))
+    return haze_layer(scene_visibility(scene), a.turbidity, a.fog_top, _ground_extinction(params))
+
+
+@lru_cache(maxsize=64)
+def _ground_extinction(params: AtmosphereParameters) -> float:
+    return ground_extinction_550_per_m(params)  # memoised: it integrates the aerosol profile
 
 
 @dataclass
@@ -104,24 +111,35 @@ def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
         if transition is not None:
             beta = transition.apply(haze.beta, atm.visibility_transition, scene.time.sim_time)
             haze = replace(haze, beta=beta)
-        clear = cached_clear_light(params, tables, altitude_m, celestial.sun_elevation,
-                                   celestial.moon_elevation, celestial.moon_phase)
-        light, horizontal = precomputed_daylight(params, tables.irradiance_host, celestial.sun_elevation, altitude_m,
-                                                 atm.turbidity, celestial.moon_elevation, celestial.moon_phase,
-                                                 haze, altitude_m - ground_m, clear)
-        # Light arriving at the layer: the clear air's at the layer's top.
-        top = cached_clear_light(params, tables, ground_m + haze.top + 0.5 * haze.edge,
-                                 celestial.sun_elevation, celestial.moon_elevation, celestial.moon_phase)
-        uniforms.update(tables.uniforms())
-        uniforms.update(haze.uniforms(ground_m))
-        uniforms.update({
-            "u_haze_sun": _t(top.sun_normal), "u_haze_moon": _t(top.moon_normal),
-            "u_haze_sky": _t(top.sky_horizontal + NIGHT_SKY_ILLUMINANCE),
-        })
-        if haze.beta[1] > 0.0:
-            table = haze.source_table(top.sun_normal, float(celestial.sun_dir[2]), top.sky_horizontal
-                                      + NIGHT_SKY_ILLUMINANCE, top.moon_normal, float(celestial.moon_dir[2]))
-            haze_table_texture(ctx, table).use(HAZE_TABLE_UNIT)
+        # Everything below depends only on these inputs (exact values: a hit is the same result);
+        # in a stream with a fixed UTC and steady fog they repeat every frame.
+        key = (tables.key, atm.turbidity, altitude_m, ground_m, celestial.sun_elevation, celestial.moon_elevation,
+               celestial.moon_phase, _t(celestial.sun_dir), _t(celestial.moon_dir), haze.beta.tobytes(), haze.top,
+               haze.edge, haze.g, haze.omega)
+        hit = _sky_light_cache.get(key)
+        if hit is None:
+            clear = cached_clear_light(params, tables, altitude_m, celestial.sun_elevation,
+                                       celestial.moon_elevation, celestial.moon_phase)
+            light, horizontal = precomputed_daylight(params, tables.irradiance_host, celestial.sun_elevation,
+                                                     altitude_m, atm.turbidity, celestial.moon_elevation,
+                                                     celestial.moon_phase, haze, altitude_m - ground_m, clear)
+            # Light arriving at the layer: the clear air's at the layer's top.
+            top = cached_clear_light(params, tables, ground_m + haze.top + 0.5 * haze.edge,
+                                     celestial.sun_elevation, celestial.moon_elevation, celestial.moon_phase)
+            part = {**tables.uniforms(), **haze.uniforms(ground_m),
+                    "u_haze_sun": _t(top.sun_normal), "u_haze_moon": _t(top.moon_normal),
+                    "u_haze_sky": _t(top.sky_horizontal + NIGHT_SKY_ILLUMINANCE)}
+            table = None
+            if haze.beta[1] > 0.0:
+                table = haze.source_table(top.sun_normal, float(celestial.sun_dir[2]), top.sky_horizontal
+                                          + NIGHT_SKY_ILLUMINANCE, top.moon_normal, float(celestial.moon_dir[2]))
+            if len(_sky_light_cache) > 64:
+                _sky_light_cache.clear()
+            hit = _sky_light_cache[key] = (light, horizontal, part, table)
+        light, horizontal, part, table = hit
+        uniforms.update(part)
+        if table is not None:
+            haze_table_texture(ctx, table, key).use(HAZE_TABLE_UNIT)
         uniforms["u_haze_table"] = HAZE_TABLE_UNIT
         uniforms["u_sky_model"] = 1
         uniforms["u_fog_beta"] = float(haze.beta[1])
@@ -170,19 +188,23 @@ def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
 
 
 HAZE_TABLE_UNIT = 8
-_haze_tables: "weakref.WeakKeyDictionary[moderngl.Context, moderngl.Texture]" = weakref.WeakKeyDictionary()
+_haze_tables: "weakref.WeakKeyDictionary[moderngl.Context, tuple]" = weakref.WeakKeyDictionary()
 
 
-def haze_table_texture(ctx: moderngl.Context, table: np.ndarray) -> moderngl.Texture:
-    """The fog layer's per-frame light table (4 rows x 64 heights, RGBA32F), resident per context."""
-    tex = _haze_tables.get(ctx)
+def haze_table_texture(ctx: moderngl.Context, table: np.ndarray, key=None) -> moderngl.Texture:
+    """The fog layer's per-frame light table (4 rows x 64 heights, RGBA32F), resident per context;
+    written again only when ``key`` (the inputs the table was made from) changed."""
+    held = _haze_tables.get(ctx)
+    tex = held[0] if held is not None else None
     size = (table.shape[1], table.shape[0])
     if tex is None or tex.size != size:
         tex = ctx.texture(size, 4, dtype="f4")
         tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
         tex.repeat_x = tex.repeat_y = False
-        _haze_tables[ctx] = tex
-    tex.write(np.ascontiguousarray(table, dtype=np.float32).tobytes())
+        held = None
+    if held is None or key is None or held[1] != key:
+        tex.write(np.ascontiguousarray(table, dtype=np.float32).tobytes())
+    _haze_tables[ctx] = (tex, key)
     return tex
 
 
