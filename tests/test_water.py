@@ -125,18 +125,16 @@ def test_beach_refraction_shoaling_breaking_dry():
     assert f.steepness[shallow, 0] > f.steepness[deep, 0]
 
 
-def test_query_inverts_horizontal_displacement_and_is_fast():
+def test_query_inverts_horizontal_displacement():
     sea = sea_surface(Ocean(enabled=True, bathymetry=BEACH), Weather(wind_speed=12.0))
     rest = np.random.default_rng(3).uniform(-400.0, 790.0, (4000, 2))
     e = sea.evaluate(rest, 55.5)
-    start = time.perf_counter()
     q = sea.query(e["position"][:, :2], 55.5)
-    elapsed = time.perf_counter() - start
     # The query at a displaced point returns that point's height (Newton inverse, < 1 mm).
     assert np.max(np.abs(q["height"] - e["position"][:, 2])) < 1e-3
     assert np.allclose(q["normal"], e["normal"], atol=1e-4)
     assert np.all(q["normal"][:, 2] > 0)
-    assert elapsed < 2.0  # 4000 points; a few ms on a quiet core (generous: shared CI machine)
+    # Its speed is a benchmark, not a test: scripts/bench_water_query.py (README, Water: host queries).
 
 
 def test_velocity_is_time_derivative():
