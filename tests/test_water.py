@@ -4,7 +4,6 @@ host queries, long-time determinism. CPU only (float64 numpy)."""
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 import pytest
