@@ -2,8 +2,10 @@
 
 Integrated ONCE per (bathymetry, wave set), on a regular grid in a local frame (u, v):
 
-- Phase. Each wave's phase ψ solves the eikonal |∇ψ| = k(h(x)) (ray theory). We march it across
-  the grid from the up-wave edge along the grid axis (±u or ±v) closest to the wave's direction:
+- Phase. Each wave's phase ψ solves the eikonal |∇ψ| = k(h(x)) (ray theory). On a 2D grid (a height
+  map) it is the continuous first-arrival (viscosity) solution by fast sweeping (``_eikonal_field``),
+  ψ = k_ref·D·x on the inflow edges, dry land an obstacle. On a plane beach (a 1D grid) we march it
+  from the up-wave edge along the grid axis (±u) closest to the wave's direction:
   ψ_{j+1} = ψ_j + Δs·√(k² − (∂_c ψ)²), with ∂_c ψ the derivative across the march. For a plane beach
   the grid is one cell wide along the shore and ∂_c ψ = k_ref·D_c is exactly conserved: Snell's law,
   crests turn toward the shore. What the shader stores is the residual R = ψ − k_ref·D·x and the
@@ -196,6 +198,88 @@ def _march(k: np.ndarray, k_ref: np.ndarray, d_ref: np.ndarray, ds: float, dc: f
     return residual, along, across
 
 
+def _eikonal_sweep(k: np.ndarray, fixed: np.ndarray, hu: float, hv: float, psi: np.ndarray,
+                   active: np.ndarray, tol: float = 1e-9, max_iter: int = 64) -> np.ndarray:
+    """Fast sweeping (Zhao 2005) for |∇ψ| = k on a regular grid: Gauss–Seidel sweeps in the four
+    diagonal orders with the Godunov upwind update, until nothing changes. Vectorised over the waves
+    (axis 0 of k, psi) and over each anti-diagonal i' + j' = d of a sweep order: in that order a node's
+    upwind neighbours lie on the previous anti-diagonal, so updating a whole anti-diagonal at once IS
+    the sequential Gauss–Seidel sweep. ``active`` (nu, nv): nodes updated (the rest keep psi: the
+    Dirichlet boundary, obstacles at +inf); ``psi`` is updated in place and returned."""
+    n, nu, nv = k.shape
+    w = nv + 2
+    pad = np.full((nu + 2, w, n), np.inf)  # node-major: a gather fetches n contiguous values
+    pad[1:-1, 1:-1] = np.moveaxis(psi, 0, -1)
+    flat = pad.reshape(-1, n)
+    kf = np.moveaxis(k, 0, -1).reshape(-1, n)
+    ii, jj = np.nonzero(active)
+    s, cu, cv, huv = 1.0 / hu**2 + 1.0 / hv**2, 1.0 / hu**2, 1.0 / hv**2, 1.0 / (hu**2 * hv**2)
+    orders = []
+    for su in (1, -1):
+        for sv in (1, -1):
+            d = (ii if su > 0 else nu - 1 - ii) + (jj if sv > 0 else nv - 1 - jj)
+            order = np.argsort(d, kind="stable")
+            cuts = np.flatnonzero(np.diff(d[order])) + 1
+            orders.append([((ii[o] + 1) * w + jj[o] + 1, kf[ii[o] * nv + jj[o]]) for o in np.split(order, cuts)])
+    with np.errstate(invalid="ignore"):
+        for _ in range(max_iter):
+            before = flat.copy()
+            for diagonals in orders:
+                for p, f in diagonals:
+                    a = np.minimum(flat[p - w], flat[p + w])  # upwind along u
+                    b = np.minimum(flat[p - 1], flat[p + 1])  # upwind along v
+                    one = np.minimum(a + f * hu, b + f * hv)
+                    two = (a * cu + b * cv + np.sqrt(s * f * f - (a - b) ** 2 * huv)) / s
+                    new = np.where((one <= np.maximum(a, b)) | np.isnan(two), one, two)
+                    flat[p] = np.minimum(flat[p], new)
+            diff = before - flat
+            if not np.any(np.isinf(diff)) and float(np.nanmax(diff, initial=0.0)) <= tol:
+                break
+    return np.moveaxis(pad[1:-1, 1:-1], -1, 0).copy()
+
+
+def _eikonal_field(grid: Grid, k: np.ndarray, wet: np.ndarray, waves: WaveSet, hk: np.ndarray,
+                   use_u: np.ndarray, along_c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Phase over a 2D grid: the viscosity solution of |∇ψ| = k with ψ = k_ref·D·x on the inflow
+    edges (the margin is at the reference depth, so there the plane wave is exact), dry land an
+    obstacle. A ray march is multi-valued past caustics; this first-arrival solution is continuous,
+    with |ψ_i − ψ_j| ≤ max(k_i, k_j)·Δ between neighbours, so |ΔR| ≤ (max k + k_ref)·Δ.
+    Then the land (and any water no wave reaches) is filled by a second solve, the wet solution held
+    fixed, at the land's own k(DRY_DEPTH): R stays continuous where the field's amplitude is 0."""
+    n = waves.n
+    x = grid.nodes() - grid.origin  # (nu, nv, 2)
+    plane = waves.k[:, None, None] * np.einsum("nc,uvc->nuv", waves.direction, x)
+    du_c, dv_c = waves.direction @ grid.u, waves.direction @ grid.v
+    fixed = np.zeros(k.shape, dtype=bool)
+    fixed[du_c > 0.0, 0, :] = True
+    fixed[du_c < 0.0, -1, :] = True
+    fixed[dv_c > 0.0, :, 0] = True
+    fixed[dv_c < 0.0, :, -1] = True
+    psi = np.where(fixed, plane, np.inf)
+    kk = np.where(wet[None], k, np.inf)
+    # Waves sharing a set of inflow edges share the sweep's active set.
+    keys = np.sign(du_c) * 3 + np.sign(dv_c)
+    for key in np.unique(keys):
+        idx = np.nonzero(keys == key)[0]
+        active = ~fixed[idx[0]] & wet
+        psi[idx] = _eikonal_sweep(kk[idx], fixed[idx], grid.du, grid.dv, psi[idx], active)
+        rest = ~fixed[idx[0]] & ~np.all(np.isfinite(psi[idx]), axis=0)
+        if rest.any():
+            psi[idx] = _eikonal_sweep(k[idx], fixed[idx], grid.du, grid.dv, psi[idx], rest)
+    residual = psi - plane
+    gu, gv = np.gradient(psi, grid.du, grid.dv, axis=(1, 2))
+    kvec = gu[..., None] * grid.u + gv[..., None] * grid.v
+    norm = np.hypot(kvec[..., 0], kvec[..., 1])
+    unit = np.where(norm[..., None] > 0.0, kvec / np.maximum(norm, 1e-300)[..., None],
+                    waves.direction[:, None, None, :])
+    kvec = unit * k[..., None]  # |K| = k: the local wavenumber along ∇ψ (central differences)
+    # Refraction factor as before: cos θ from the grid axis closest to the reference direction.
+    axis = np.where(use_u[:, None], grid.u, grid.v) * np.sign(along_c)[:, None]
+    cos = np.einsum("nuvc,nc->nuv", unit, axis)
+    cos_ratio = np.abs(along_c)[:, None, None] / np.maximum(cos, MIN_COS)
+    return residual, kvec, cos_ratio
+
+
 def wave_field(bathy: Bathymetry, waves: WaveSet, q: float, omega_p: float) -> WaveField | None:
     """The per-wave field over a non-uniform bathymetry (``waves``: the reference set, over h_ref)."""
     longest = 2.0 * math.pi / float(np.min(waves.k)) if waves.n else 100.0
@@ -215,7 +299,9 @@ def wave_field(bathy: Bathymetry, waves: WaveSet, q: float, omega_p: float) -> W
     use_u = (grid.nv == 1) | (np.abs(du_comp) >= np.abs(dv_comp))
     along_c, across_c = np.where(use_u, du_comp, dv_comp), np.where(use_u, dv_comp, du_comp)
     sign = np.where(along_c >= 0.0, 1.0, -1.0)
-    for axis_u in (True, False):
+    if grid.nv > 1:
+        residual, kvec, cos_ratio = _eikonal_field(grid, k, h > 0.0, waves, hk, use_u, along_c)
+    for axis_u in ((True,) if grid.nv == 1 else ()):
         for sgn in (1.0, -1.0):
             idx = np.nonzero((use_u == axis_u) & (sign == sgn))[0]
             if idx.size == 0:
