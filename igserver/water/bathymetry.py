@@ -147,8 +147,9 @@ def bathymetry_grid(bathy: Bathymetry, longest_wavelength: float) -> Grid | None
     width, height = w + 2 * margin, h + 2 * margin
     cell = max(width, height) / (MAP_MAX_CELLS - 1)
     nu, nv = int(math.ceil(width / cell)) + 1, int(math.ceil(height / cell)) + 1
+    width, height = (nu - 1) * cell, (nv - 1) * cell  # square cells (the eikonal sweep's stencil)
     origin = np.asarray(bathy.map_center) - right * width / 2 - up * height / 2
-    return Grid(origin, right, up, width / (nu - 1), height / (nv - 1), nu, nv)
+    return Grid(origin, right, up, cell, cell, nu, nv)
 
 
 @dataclass(frozen=True)
@@ -198,29 +199,29 @@ def _march(k: np.ndarray, k_ref: np.ndarray, d_ref: np.ndarray, ds: float, dc: f
     return residual, along, across
 
 
-def _eikonal_sweep(k: np.ndarray, fixed: np.ndarray, hu: float, hv: float, psi: np.ndarray,
-                   active: np.ndarray, tol: float = 1e-9, max_iter: int = 64) -> np.ndarray:
-    """Fast sweeping (Zhao 2005) for |∇ψ| = k on a regular grid: Gauss–Seidel sweeps in the four
-    diagonal orders with the Godunov upwind update, until nothing changes. Vectorised over the waves
-    (axis 0 of k, psi) and over each anti-diagonal i' + j' = d of a sweep order: in that order a node's
-    upwind neighbours lie on the previous anti-diagonal, so updating a whole anti-diagonal at once IS
-    the sequential Gauss–Seidel sweep. ``active`` (nu, nv): nodes updated (the rest keep psi: the
-    Dirichlet boundary, obstacles at +inf); ``psi`` is updated in place and returned."""
+def _eikonal_sweep(k: np.ndarray, h: float, psi: np.ndarray, active: np.ndarray, tol: float = 1e-9,
+                   max_iter: int = 64) -> np.ndarray:
+    """Fast sweeping (Zhao 2005) for |∇ψ| = k on a square grid of spacing h: Gauss–Seidel sweeps in the
+    four diagonal orders with the Godunov upwind update, until a round changes no ψ by more than
+    ``tol``. Vectorised over the waves (axis 0 of k, psi) and over each anti-diagonal i' + j' = d of a
+    sweep order: in that order a node's upwind neighbours lie on the previous anti-diagonal, so
+    updating a whole anti-diagonal at once IS the sequential Gauss–Seidel sweep. ``active`` (nu, nv):
+    the nodes visited; a node whose k is +inf keeps its ψ (a Dirichlet value, or +inf: an obstacle).
+    Returns the new ψ."""
     n, nu, nv = k.shape
     w = nv + 2
     pad = np.full((nu + 2, w, n), np.inf)  # node-major: a gather fetches n contiguous values
     pad[1:-1, 1:-1] = np.moveaxis(psi, 0, -1)
     flat = pad.reshape(-1, n)
-    kf = np.moveaxis(k, 0, -1).reshape(-1, n)
+    kh = np.moveaxis(k, 0, -1).reshape(-1, n) * h
     ii, jj = np.nonzero(active)
-    s, cu, cv, huv = 1.0 / hu**2 + 1.0 / hv**2, 1.0 / hu**2, 1.0 / hv**2, 1.0 / (hu**2 * hv**2)
     orders = []
     for su in (1, -1):
         for sv in (1, -1):
             d = (ii if su > 0 else nu - 1 - ii) + (jj if sv > 0 else nv - 1 - jj)
             order = np.argsort(d, kind="stable")
             cuts = np.flatnonzero(np.diff(d[order])) + 1
-            orders.append([((ii[o] + 1) * w + jj[o] + 1, kf[ii[o] * nv + jj[o]]) for o in np.split(order, cuts)])
+            orders.append([((ii[o] + 1) * w + jj[o] + 1, kh[ii[o] * nv + jj[o]]) for o in np.split(order, cuts)])
     with np.errstate(invalid="ignore"):
         for _ in range(max_iter):
             before = flat.copy()
@@ -228,10 +229,18 @@ def _eikonal_sweep(k: np.ndarray, fixed: np.ndarray, hu: float, hv: float, psi: 
                 for p, f in diagonals:
                     a = np.minimum(flat[p - w], flat[p + w])  # upwind along u
                     b = np.minimum(flat[p - 1], flat[p + 1])  # upwind along v
-                    one = np.minimum(a + f * hu, b + f * hv)
-                    two = (a * cu + b * cv + np.sqrt(s * f * f - (a - b) ** 2 * huv)) / s
-                    new = np.where((one <= np.maximum(a, b)) | np.isnan(two), one, two)
-                    flat[p] = np.minimum(flat[p], new)
+                    d2 = a - b
+                    d2 *= d2
+                    # (ψ−a)² + (ψ−b)² = (k h)² where both neighbours are upwind (|a − b| < k h),
+                    # else the one-sided ψ = min(a, b) + k h. NaN (∞ − ∞: nothing upwind) drops out in fmin.
+                    two = np.sqrt(np.maximum(2.0 * f * f - d2, 0.0))
+                    two += a
+                    two += b
+                    two *= 0.5
+                    one = np.minimum(a, b)
+                    one += f
+                    np.fmin(flat[p], np.where(d2 >= f * f, one, two), out=two)
+                    flat[p] = two
             diff = before - flat
             if not np.any(np.isinf(diff)) and float(np.nanmax(diff, initial=0.0)) <= tol:
                 break
@@ -256,16 +265,12 @@ def _eikonal_field(grid: Grid, k: np.ndarray, wet: np.ndarray, waves: WaveSet, h
     fixed[dv_c > 0.0, :, 0] = True
     fixed[dv_c < 0.0, :, -1] = True
     psi = np.where(fixed, plane, np.inf)
-    kk = np.where(wet[None], k, np.inf)
-    # Waves sharing a set of inflow edges share the sweep's active set.
-    keys = np.sign(du_c) * 3 + np.sign(dv_c)
-    for key in np.unique(keys):
-        idx = np.nonzero(keys == key)[0]
-        active = ~fixed[idx[0]] & wet
-        psi[idx] = _eikonal_sweep(kk[idx], fixed[idx], grid.du, grid.dv, psi[idx], active)
-        rest = ~fixed[idx[0]] & ~np.all(np.isfinite(psi[idx]), axis=0)
-        if rest.any():
-            psi[idx] = _eikonal_sweep(k[idx], fixed[idx], grid.du, grid.dv, psi[idx], rest)
+    # A node's own k at +inf holds it (min(ψ, +inf) = ψ): the Dirichlet edges, per wave, and the land.
+    # One sweep over all waves at once; then the land and unreached water, the wet solution held.
+    psi = _eikonal_sweep(np.where(fixed | ~wet[None], np.inf, k), grid.du, psi, ~np.all(fixed, axis=0) & wet)
+    rest = ~np.isfinite(psi)
+    if rest.any():
+        psi = _eikonal_sweep(np.where(rest, k, np.inf), grid.du, psi, np.any(rest, axis=0))
     residual = psi - plane
     gu, gv = np.gradient(psi, grid.du, grid.dv, axis=(1, 2))
     kvec = gu[..., None] * grid.u + gv[..., None] * grid.v
