@@ -172,27 +172,22 @@ def reference_waves(waves: WaveSet, depth: float) -> WaveSet:
     return WaveSet(waves.omega, k, waves.direction, waves.amplitude * ks, waves.phase)
 
 
-def _march(k: np.ndarray, k_ref: np.ndarray, d_ref: np.ndarray, ds: float, dc: float) -> tuple[np.ndarray, ...]:
+def _march(k: np.ndarray, k_ref: np.ndarray, d_ref: np.ndarray, ds: float) -> tuple[np.ndarray, ...]:
     """March ψ along axis 1 of k (n, ns, nc) for waves whose reference wave vector has components
-    (along, across) = k_ref·d_ref (n, 2), along ≥ 0. Returns (ψ - k_ref·x, along, across components)."""
+    (along, across) = k_ref·d_ref (n, 2), along ≥ 0, over a bottom that varies along axis 1 only (a
+    plane beach): the across component is conserved. Returns (ψ - k_ref·x, along, across components)."""
     n, ns, nc = k.shape
     along = np.empty_like(k)
     across = np.empty_like(k)
     residual = np.empty_like(k)
     ka_ref, kc_ref = (k_ref[:, None] * d_ref[:, 0][:, None]), (k_ref[:, None] * d_ref[:, 1][:, None])
     r = np.zeros((n, nc))  # residual phase of the current row
+    kc0 = np.broadcast_to(kc_ref, (n, nc))  # conserved across a plane beach (Snell)
     for j in range(ns):
-        if nc > 1:
-            gc = np.gradient(r, dc, axis=1)
-            gc = np.concatenate([gc[:, :1], 0.25 * gc[:, :-2] + 0.5 * gc[:, 1:-1] + 0.25 * gc[:, 2:], gc[:, -1:]],
-                                axis=1) if nc > 2 else gc
-            kc = kc_ref + gc
-        else:
-            kc = np.broadcast_to(kc_ref, (n, nc))
         kj = k[:, j, :]
-        ka = np.sqrt(np.maximum(kj**2 - kc**2, (MIN_COS * kj) ** 2))
-        norm = np.hypot(ka, kc)  # = k unless the caustic guard acted
-        ka, kc = ka * kj / norm, kc * kj / norm
+        ka = np.sqrt(np.maximum(kj**2 - kc0**2, (MIN_COS * kj) ** 2))
+        norm = np.hypot(ka, kc0)  # = k unless the caustic guard acted
+        ka, kc = ka * kj / norm, kc0 * kj / norm
         if j > 0:
             r = r + ds * (0.5 * (ka + along[:, j - 1, :]) - ka_ref)
         residual[:, j, :], along[:, j, :], across[:, j, :] = r, ka, kc
@@ -255,7 +250,6 @@ def _eikonal_field(grid: Grid, k: np.ndarray, wet: np.ndarray, waves: WaveSet, h
     with |ψ_i − ψ_j| ≤ max(k_i, k_j)·Δ between neighbours, so |ΔR| ≤ (max k + k_ref)·Δ.
     Then the land (and any water no wave reaches) is filled by a second solve, the wet solution held
     fixed, at the land's own k(DRY_DEPTH): R stays continuous where the field's amplitude is 0."""
-    n = waves.n
     x = grid.nodes() - grid.origin  # (nu, nv, 2)
     plane = waves.k[:, None, None] * np.einsum("nc,uvc->nuv", waves.direction, x)
     du_c, dv_c = waves.direction @ grid.u, waves.direction @ grid.v
@@ -293,39 +287,31 @@ def wave_field(bathy: Bathymetry, waves: WaveSet, q: float, omega_p: float) -> W
         return None
     h = depth_at(bathy, grid.nodes())  # (nu, nv)
     hk = np.maximum(h, DRY_DEPTH)
-    n = waves.n
     k = wavenumber(waves.omega[:, None, None], hk[None])  # (n, nu, nv)
-    residual = np.zeros_like(k)
-    kvec = np.zeros(k.shape + (2,))
-    cos_ratio = np.ones_like(k)
     du_comp, dv_comp = waves.direction @ grid.u, waves.direction @ grid.v
-    # March axis per wave: ±u, or ±v on a 2D grid, whichever is closest to the wave's direction;
-    # waves sharing an axis and sense march together.
-    use_u = (grid.nv == 1) | (np.abs(du_comp) >= np.abs(dv_comp))
-    along_c, across_c = np.where(use_u, du_comp, dv_comp), np.where(use_u, dv_comp, du_comp)
-    sign = np.where(along_c >= 0.0, 1.0, -1.0)
     if grid.nv > 1:
+        # A map: the grid axis (±u or ±v) closest to each wave's direction is the refraction
+        # factor's reference axis.
+        use_u = np.abs(du_comp) >= np.abs(dv_comp)
+        along_c = np.where(use_u, du_comp, dv_comp)
         residual, kvec, cos_ratio = _eikonal_field(grid, k, h > 0.0, waves, hk, use_u, along_c)
-    for axis_u in ((True,) if grid.nv == 1 else ()):
+    else:
+        # A plane beach: march along ±u (waves of each sense together); ψ − k_ref·(along distance)
+        # is accumulated, the across part of k_ref·x is the reference's.
+        residual, kvec, cos_ratio = np.zeros_like(k), np.zeros(k.shape + (2,)), np.ones_like(k)
         for sgn in (1.0, -1.0):
-            idx = np.nonzero((use_u == axis_u) & (sign == sgn))[0]
+            idx = np.nonzero(np.where(du_comp >= 0.0, 1.0, -1.0) == sgn)[0]
             if idx.size == 0:
                 continue
-            kg = k[idx] if axis_u else np.swapaxes(k[idx], 1, 2)  # (g, ns, nc)
-            kg = kg[:, ::-1] if sgn < 0 else kg
-            ds, dc = (grid.du, grid.dv) if axis_u else (grid.dv, grid.du)
-            d_ref = np.stack([np.abs(along_c[idx]), across_c[idx]], axis=1)
-            r, ka, kc = _march(kg, waves.k[idx], d_ref, ds, dc)
+            kg = k[idx][:, ::-1] if sgn < 0 else k[idx]  # (g, ns, 1)
+            d_ref = np.stack([np.abs(du_comp[idx]), dv_comp[idx]], axis=1)
+            r, ka, kc = _march(kg, waves.k[idx], d_ref, grid.du)
             if sgn < 0:
                 r, ka, kc = r[:, ::-1], ka[:, ::-1], kc[:, ::-1]
-            if not axis_u:
-                r, ka, kc = (np.swapaxes(x, 1, 2) for x in (r, ka, kc))
             residual[idx] = r
-            axis_along, axis_across = (grid.u, grid.v) if axis_u else (grid.v, grid.u)
-            kvec[idx] = (sgn * ka)[..., None] * axis_along + kc[..., None] * axis_across
-            cos_ref = np.abs(along_c[idx])[:, None, None]
-            cos_ratio[idx] = cos_ref / np.maximum(ka / np.maximum(k[idx], 1e-300), MIN_COS)
-    # The march accumulated ψ − k_ref·(along distance); the across part of k_ref·x is the reference.
+            kvec[idx] = (sgn * ka)[..., None] * grid.u + kc[..., None] * grid.v
+            cos_ratio[idx] = np.abs(du_comp[idx])[:, None, None] / np.maximum(ka / np.maximum(k[idx], 1e-300),
+                                                                             MIN_COS)
     cg_ref = group_velocity(waves.omega, waves.k, bathy.depth)
     cg = group_velocity(waves.omega[:, None, None], k, hk[None])
     factor = np.sqrt(cg_ref[:, None, None] / cg) * np.sqrt(cos_ratio)
