@@ -217,24 +217,27 @@ def _eikonal_sweep(k: np.ndarray, h: float, psi: np.ndarray, active: np.ndarray,
             order = np.argsort(d, kind="stable")
             cuts = np.flatnonzero(np.diff(d[order])) + 1
             orders.append([((ii[o] + 1) * w + jj[o] + 1, kh[ii[o] * nv + jj[o]]) for o in np.split(order, cuts)])
+            orders[-1] = [(p, f, f * f, 2.0 * f * f) for p, f in orders[-1]]
     with np.errstate(invalid="ignore"):
         for _ in range(max_iter):
             before = flat.copy()
             for diagonals in orders:
-                for p, f in diagonals:
+                for p, f, f2, f22 in diagonals:
                     a = np.minimum(flat[p - w], flat[p + w])  # upwind along u
                     b = np.minimum(flat[p - 1], flat[p + 1])  # upwind along v
                     d2 = a - b
                     d2 *= d2
                     # (ψ−a)² + (ψ−b)² = (k h)² where both neighbours are upwind (|a − b| < k h),
                     # else the one-sided ψ = min(a, b) + k h. NaN (∞ − ∞: nothing upwind) drops out in fmin.
-                    two = np.sqrt(np.maximum(2.0 * f * f - d2, 0.0))
+                    two = np.subtract(f22, d2)
+                    np.maximum(two, 0.0, out=two)
+                    np.sqrt(two, out=two)
                     two += a
                     two += b
                     two *= 0.5
                     one = np.minimum(a, b)
                     one += f
-                    np.fmin(flat[p], np.where(d2 >= f * f, one, two), out=two)
+                    np.fmin(flat[p], np.where(d2 >= f2, one, two), out=two)
                     flat[p] = two
             diff = before - flat
             if not np.any(np.isinf(diff)) and float(np.nanmax(diff, initial=0.0)) <= tol:
@@ -266,16 +269,17 @@ def _eikonal_field(grid: Grid, k: np.ndarray, wet: np.ndarray, waves: WaveSet, h
     if rest.any():
         psi = _eikonal_sweep(np.where(rest, k, np.inf), grid.du, psi, np.any(rest, axis=0))
     residual = psi - plane
-    gu, gv = np.gradient(psi, grid.du, grid.dv, axis=(1, 2))
-    kvec = gu[..., None] * grid.u + gv[..., None] * grid.v
-    norm = np.hypot(kvec[..., 0], kvec[..., 1])
-    unit = np.where(norm[..., None] > 0.0, kvec / np.maximum(norm, 1e-300)[..., None],
-                    waves.direction[:, None, None, :])
-    kvec = unit * k[..., None]  # |K| = k: the local wavenumber along ∇ψ (central differences)
-    # Refraction factor as before: cos θ from the grid axis closest to the reference direction.
-    axis = np.where(use_u[:, None], grid.u, grid.v) * np.sign(along_c)[:, None]
-    cos = np.einsum("nuvc,nc->nuv", unit, axis)
-    cos_ratio = np.abs(along_c)[:, None, None] / np.maximum(cos, MIN_COS)
+    gu, gv = np.gradient(psi, grid.du, grid.dv, axis=(1, 2))  # ∇ψ in grid components
+    norm = np.hypot(gu, gv)
+    flat = norm <= 0.0
+    safe = np.where(flat, 1.0, norm)
+    cu = np.where(flat, du_c[:, None, None], gu / safe)  # unit ∇ψ (the reference direction if ∇ψ = 0)
+    cv = np.where(flat, dv_c[:, None, None], gv / safe)
+    kvec = (k * cu)[..., None] * grid.u + (k * cv)[..., None] * grid.v  # |K| = k along ∇ψ
+    # Refraction factor as on the beach: cos θ from the grid axis closest to the reference direction.
+    au = np.where(use_u, np.sign(along_c), 0.0)[:, None, None]
+    av = np.where(use_u, 0.0, np.sign(along_c))[:, None, None]
+    cos_ratio = np.abs(along_c)[:, None, None] / np.maximum(cu * au + cv * av, MIN_COS)
     return residual, kvec, cos_ratio
 
 
