@@ -483,15 +483,10 @@ ISLAND = Bathymetry(type="map", map="island", map_center=[500.0, 0.0], map_size=
                     map_elevation=[-50.0, 10.0], depth=60.0)
 
 
-# Over a height map the 2D phase march leaves the residual phase R jumping between neighbouring nodes
-# (|∂R/∂v| up to 324 rad/m against k ≤ 0.32; 27 % of node pairs above 2k, found by this test): the
-# displaced surface is not the smooth map Newton assumes and ~2/3 of the points end with residuals up to
-# 4-5 m, before this session's query work as after it. Strict: it fails loudly once the march is fixed.
-ISLAND_XFAIL = pytest.mark.xfail(strict=True, reason="2D bathymetry phase march unstable: R jumps between nodes")
 
 
 @pytest.mark.parametrize("bathymetry,wind", [(b, w) for b in (None, BEACH) for w in (3.0, 12.0, 30.0)]
-                         + [pytest.param(ISLAND, 12.0, marks=ISLAND_XFAIL)])
+                         + [(ISLAND, 12.0)])
 def test_query_equals_a_float64_reference(bathymetry, wind):
     """The fast query (float32 sines and cosines of float64-reduced phases, angle addition across the
     Chebyshev iterations, reused buffers, chunks) against the plain float64 reference above, over the

@@ -2,8 +2,10 @@
 
 Integrated ONCE per (bathymetry, wave set), on a regular grid in a local frame (u, v):
 
-- Phase. Each wave's phase ψ solves the eikonal |∇ψ| = k(h(x)) (ray theory). We march it across
-  the grid from the up-wave edge along the grid axis (±u or ±v) closest to the wave's direction:
+- Phase. Each wave's phase ψ solves the eikonal |∇ψ| = k(h(x)) (ray theory). On a 2D grid (a height
+  map) it is the continuous first-arrival (viscosity) solution by fast sweeping (``_eikonal_field``),
+  ψ = k_ref·D·x on the inflow edges, dry land an obstacle. On a plane beach (a 1D grid) we march it
+  from the up-wave edge along the grid axis (±u) closest to the wave's direction:
   ψ_{j+1} = ψ_j + Δs·√(k² − (∂_c ψ)²), with ∂_c ψ the derivative across the march. For a plane beach
   the grid is one cell wide along the shore and ∂_c ψ = k_ref·D_c is exactly conserved: Snell's law,
   crests turn toward the shore. What the shader stores is the residual R = ψ − k_ref·D·x and the
@@ -145,8 +147,9 @@ def bathymetry_grid(bathy: Bathymetry, longest_wavelength: float) -> Grid | None
     width, height = w + 2 * margin, h + 2 * margin
     cell = max(width, height) / (MAP_MAX_CELLS - 1)
     nu, nv = int(math.ceil(width / cell)) + 1, int(math.ceil(height / cell)) + 1
+    width, height = (nu - 1) * cell, (nv - 1) * cell  # square cells (the eikonal sweep's stencil)
     origin = np.asarray(bathy.map_center) - right * width / 2 - up * height / 2
-    return Grid(origin, right, up, width / (nu - 1), height / (nv - 1), nu, nv)
+    return Grid(origin, right, up, cell, cell, nu, nv)
 
 
 @dataclass(frozen=True)
@@ -169,31 +172,115 @@ def reference_waves(waves: WaveSet, depth: float) -> WaveSet:
     return WaveSet(waves.omega, k, waves.direction, waves.amplitude * ks, waves.phase)
 
 
-def _march(k: np.ndarray, k_ref: np.ndarray, d_ref: np.ndarray, ds: float, dc: float) -> tuple[np.ndarray, ...]:
+def _march(k: np.ndarray, k_ref: np.ndarray, d_ref: np.ndarray, ds: float) -> tuple[np.ndarray, ...]:
     """March ψ along axis 1 of k (n, ns, nc) for waves whose reference wave vector has components
-    (along, across) = k_ref·d_ref (n, 2), along ≥ 0. Returns (ψ - k_ref·x, along, across components)."""
+    (along, across) = k_ref·d_ref (n, 2), along ≥ 0, over a bottom that varies along axis 1 only (a
+    plane beach): the across component is conserved. Returns (ψ - k_ref·x, along, across components)."""
     n, ns, nc = k.shape
     along = np.empty_like(k)
     across = np.empty_like(k)
     residual = np.empty_like(k)
     ka_ref, kc_ref = (k_ref[:, None] * d_ref[:, 0][:, None]), (k_ref[:, None] * d_ref[:, 1][:, None])
     r = np.zeros((n, nc))  # residual phase of the current row
+    kc0 = np.broadcast_to(kc_ref, (n, nc))  # conserved across a plane beach (Snell)
     for j in range(ns):
-        if nc > 1:
-            gc = np.gradient(r, dc, axis=1)
-            gc = np.concatenate([gc[:, :1], 0.25 * gc[:, :-2] + 0.5 * gc[:, 1:-1] + 0.25 * gc[:, 2:], gc[:, -1:]],
-                                axis=1) if nc > 2 else gc
-            kc = kc_ref + gc
-        else:
-            kc = np.broadcast_to(kc_ref, (n, nc))
         kj = k[:, j, :]
-        ka = np.sqrt(np.maximum(kj**2 - kc**2, (MIN_COS * kj) ** 2))
-        norm = np.hypot(ka, kc)  # = k unless the caustic guard acted
-        ka, kc = ka * kj / norm, kc * kj / norm
+        ka = np.sqrt(np.maximum(kj**2 - kc0**2, (MIN_COS * kj) ** 2))
+        norm = np.hypot(ka, kc0)  # = k unless the caustic guard acted
+        ka, kc = ka * kj / norm, kc0 * kj / norm
         if j > 0:
             r = r + ds * (0.5 * (ka + along[:, j - 1, :]) - ka_ref)
         residual[:, j, :], along[:, j, :], across[:, j, :] = r, ka, kc
     return residual, along, across
+
+
+def _eikonal_sweep(k: np.ndarray, h: float, psi: np.ndarray, active: np.ndarray, tol: float = 1e-9,
+                   max_iter: int = 64) -> np.ndarray:
+    """Fast sweeping (Zhao 2005) for |∇ψ| = k on a square grid of spacing h: Gauss–Seidel sweeps in the
+    four diagonal orders with the Godunov upwind update, until a round changes no ψ by more than
+    ``tol``. Vectorised over the waves (axis 0 of k, psi) and over each anti-diagonal i' + j' = d of a
+    sweep order: in that order a node's upwind neighbours lie on the previous anti-diagonal, so
+    updating a whole anti-diagonal at once IS the sequential Gauss–Seidel sweep. ``active`` (nu, nv):
+    the nodes visited; a node whose k is +inf keeps its ψ (a Dirichlet value, or +inf: an obstacle).
+    Returns the new ψ."""
+    n, nu, nv = k.shape
+    w = nv + 2
+    pad = np.full((nu + 2, w, n), np.inf)  # node-major: a gather fetches n contiguous values
+    pad[1:-1, 1:-1] = np.moveaxis(psi, 0, -1)
+    flat = pad.reshape(-1, n)
+    kh = np.moveaxis(k, 0, -1).reshape(-1, n) * h
+    ii, jj = np.nonzero(active)
+    orders = []
+    for su in (1, -1):
+        for sv in (1, -1):
+            d = (ii if su > 0 else nu - 1 - ii) + (jj if sv > 0 else nv - 1 - jj)
+            order = np.argsort(d, kind="stable")
+            cuts = np.flatnonzero(np.diff(d[order])) + 1
+            orders.append([((ii[o] + 1) * w + jj[o] + 1, kh[ii[o] * nv + jj[o]]) for o in np.split(order, cuts)])
+            orders[-1] = [(p, f, f * f, 2.0 * f * f) for p, f in orders[-1]]
+    with np.errstate(invalid="ignore"):
+        for _ in range(max_iter):
+            before = flat.copy()
+            for diagonals in orders:
+                for p, f, f2, f22 in diagonals:
+                    a = np.minimum(flat[p - w], flat[p + w])  # upwind along u
+                    b = np.minimum(flat[p - 1], flat[p + 1])  # upwind along v
+                    d2 = a - b
+                    d2 *= d2
+                    # (ψ−a)² + (ψ−b)² = (k h)² where both neighbours are upwind (|a − b| < k h),
+                    # else the one-sided ψ = min(a, b) + k h. NaN (∞ − ∞: nothing upwind) drops out in fmin.
+                    two = np.subtract(f22, d2)
+                    np.maximum(two, 0.0, out=two)
+                    np.sqrt(two, out=two)
+                    two += a
+                    two += b
+                    two *= 0.5
+                    one = np.minimum(a, b)
+                    one += f
+                    np.fmin(flat[p], np.where(d2 >= f2, one, two), out=two)
+                    flat[p] = two
+            diff = before - flat
+            if not np.any(np.isinf(diff)) and float(np.nanmax(diff, initial=0.0)) <= tol:
+                break
+    return np.moveaxis(pad[1:-1, 1:-1], -1, 0).copy()
+
+
+def _eikonal_field(grid: Grid, k: np.ndarray, wet: np.ndarray, waves: WaveSet, hk: np.ndarray,
+                   use_u: np.ndarray, along_c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Phase over a 2D grid: the viscosity solution of |∇ψ| = k with ψ = k_ref·D·x on the inflow
+    edges (the margin is at the reference depth, so there the plane wave is exact), dry land an
+    obstacle. A ray march is multi-valued past caustics; this first-arrival solution is continuous,
+    with |ψ_i − ψ_j| ≤ max(k_i, k_j)·Δ between neighbours, so |ΔR| ≤ (max k + k_ref)·Δ.
+    Then the land (and any water no wave reaches) is filled by a second solve, the wet solution held
+    fixed, at the land's own k(DRY_DEPTH): R stays continuous where the field's amplitude is 0."""
+    x = grid.nodes() - grid.origin  # (nu, nv, 2)
+    plane = waves.k[:, None, None] * np.einsum("nc,uvc->nuv", waves.direction, x)
+    du_c, dv_c = waves.direction @ grid.u, waves.direction @ grid.v
+    fixed = np.zeros(k.shape, dtype=bool)
+    fixed[du_c > 0.0, 0, :] = True
+    fixed[du_c < 0.0, -1, :] = True
+    fixed[dv_c > 0.0, :, 0] = True
+    fixed[dv_c < 0.0, :, -1] = True
+    psi = np.where(fixed, plane, np.inf)
+    # A node's own k at +inf holds it (min(ψ, +inf) = ψ): the Dirichlet edges, per wave, and the land.
+    # One sweep over all waves at once; then the land and unreached water, the wet solution held.
+    psi = _eikonal_sweep(np.where(fixed | ~wet[None], np.inf, k), grid.du, psi, ~np.all(fixed, axis=0) & wet)
+    rest = ~np.isfinite(psi)
+    if rest.any():
+        psi = _eikonal_sweep(np.where(rest, k, np.inf), grid.du, psi, np.any(rest, axis=0))
+    residual = psi - plane
+    gu, gv = np.gradient(psi, grid.du, grid.dv, axis=(1, 2))  # ∇ψ in grid components
+    norm = np.hypot(gu, gv)
+    flat = norm <= 0.0
+    safe = np.where(flat, 1.0, norm)
+    cu = np.where(flat, du_c[:, None, None], gu / safe)  # unit ∇ψ (the reference direction if ∇ψ = 0)
+    cv = np.where(flat, dv_c[:, None, None], gv / safe)
+    kvec = (k * cu)[..., None] * grid.u + (k * cv)[..., None] * grid.v  # |K| = k along ∇ψ
+    # Refraction factor as on the beach: cos θ from the grid axis closest to the reference direction.
+    au = np.where(use_u, np.sign(along_c), 0.0)[:, None, None]
+    av = np.where(use_u, 0.0, np.sign(along_c))[:, None, None]
+    cos_ratio = np.abs(along_c)[:, None, None] / np.maximum(cu * au + cv * av, MIN_COS)
+    return residual, kvec, cos_ratio
 
 
 def wave_field(bathy: Bathymetry, waves: WaveSet, q: float, omega_p: float) -> WaveField | None:
@@ -204,37 +291,31 @@ def wave_field(bathy: Bathymetry, waves: WaveSet, q: float, omega_p: float) -> W
         return None
     h = depth_at(bathy, grid.nodes())  # (nu, nv)
     hk = np.maximum(h, DRY_DEPTH)
-    n = waves.n
     k = wavenumber(waves.omega[:, None, None], hk[None])  # (n, nu, nv)
-    residual = np.zeros_like(k)
-    kvec = np.zeros(k.shape + (2,))
-    cos_ratio = np.ones_like(k)
     du_comp, dv_comp = waves.direction @ grid.u, waves.direction @ grid.v
-    # March axis per wave: ±u, or ±v on a 2D grid, whichever is closest to the wave's direction;
-    # waves sharing an axis and sense march together.
-    use_u = (grid.nv == 1) | (np.abs(du_comp) >= np.abs(dv_comp))
-    along_c, across_c = np.where(use_u, du_comp, dv_comp), np.where(use_u, dv_comp, du_comp)
-    sign = np.where(along_c >= 0.0, 1.0, -1.0)
-    for axis_u in (True, False):
+    if grid.nv > 1:
+        # A map: the grid axis (±u or ±v) closest to each wave's direction is the refraction
+        # factor's reference axis.
+        use_u = np.abs(du_comp) >= np.abs(dv_comp)
+        along_c = np.where(use_u, du_comp, dv_comp)
+        residual, kvec, cos_ratio = _eikonal_field(grid, k, h > 0.0, waves, hk, use_u, along_c)
+    else:
+        # A plane beach: march along ±u (waves of each sense together); ψ − k_ref·(along distance)
+        # is accumulated, the across part of k_ref·x is the reference's.
+        residual, kvec, cos_ratio = np.zeros_like(k), np.zeros(k.shape + (2,)), np.ones_like(k)
         for sgn in (1.0, -1.0):
-            idx = np.nonzero((use_u == axis_u) & (sign == sgn))[0]
+            idx = np.nonzero(np.where(du_comp >= 0.0, 1.0, -1.0) == sgn)[0]
             if idx.size == 0:
                 continue
-            kg = k[idx] if axis_u else np.swapaxes(k[idx], 1, 2)  # (g, ns, nc)
-            kg = kg[:, ::-1] if sgn < 0 else kg
-            ds, dc = (grid.du, grid.dv) if axis_u else (grid.dv, grid.du)
-            d_ref = np.stack([np.abs(along_c[idx]), across_c[idx]], axis=1)
-            r, ka, kc = _march(kg, waves.k[idx], d_ref, ds, dc)
+            kg = k[idx][:, ::-1] if sgn < 0 else k[idx]  # (g, ns, 1)
+            d_ref = np.stack([np.abs(du_comp[idx]), dv_comp[idx]], axis=1)
+            r, ka, kc = _march(kg, waves.k[idx], d_ref, grid.du)
             if sgn < 0:
                 r, ka, kc = r[:, ::-1], ka[:, ::-1], kc[:, ::-1]
-            if not axis_u:
-                r, ka, kc = (np.swapaxes(x, 1, 2) for x in (r, ka, kc))
             residual[idx] = r
-            axis_along, axis_across = (grid.u, grid.v) if axis_u else (grid.v, grid.u)
-            kvec[idx] = (sgn * ka)[..., None] * axis_along + kc[..., None] * axis_across
-            cos_ref = np.abs(along_c[idx])[:, None, None]
-            cos_ratio[idx] = cos_ref / np.maximum(ka / np.maximum(k[idx], 1e-300), MIN_COS)
-    # The march accumulated ψ − k_ref·(along distance); the across part of k_ref·x is the reference.
+            kvec[idx] = (sgn * ka)[..., None] * grid.u + kc[..., None] * grid.v
+            cos_ratio[idx] = np.abs(du_comp[idx])[:, None, None] / np.maximum(ka / np.maximum(k[idx], 1e-300),
+                                                                             MIN_COS)
     cg_ref = group_velocity(waves.omega, waves.k, bathy.depth)
     cg = group_velocity(waves.omega[:, None, None], k, hk[None])
     factor = np.sqrt(cg_ref[:, None, None] / cg) * np.sqrt(cos_ratio)
