@@ -243,3 +243,19 @@ def test_pier_piles_and_the_boat_keep_the_sea_out():
     boxes = hull_boxes(scene, make_view(scene.camera))
     expected = sum(len(model_hulls(e.model)) for e in scene.entities if e.visible)  # piles, hull, buoy, ...
     assert expected > len(piles) and len(boxes) == expected  # nothing dropped for the piles
+
+
+def test_only_blocks_near_a_hull_pay_for_the_hull_test():
+    # A 10 m x 4 m x 6 m hull box centred 50 m ahead: the fragment hull test (and its discard) is
+    # needed only on blocks whose footprint comes within the margin of the box's footprint.
+    from igserver.render.water.water import blocks_near_hulls
+    box = np.diag([5.0, 2.0, 3.0, 1.0])
+    box[:3, 3] = (50.0, 0.0, -1.0)
+    nodes = np.array([[40.0, -8.0, 16.0, 0],     # contains the box
+                      [56.0, -8.0, 16.0, 0],     # its edge at x = 56 is 1 m past the box's (55): within 2 m
+                      [58.0, -8.0, 16.0, 0],     # 3 m from it: outside a 2 m margin
+                      [-500.0, -500.0, 64.0, 2]],  # far away
+                     dtype=np.float32)
+    near = blocks_near_hulls(nodes, [np.linalg.inv(box)], margin=2.0)
+    assert near.tolist() == [True, True, False, False]
+    assert not blocks_near_hulls(nodes, [], margin=2.0).any()

@@ -5,10 +5,12 @@ state: integrated once per bathymetry + wave set); phases are reduced in float64
 as good as 100 s); the LOD selection picks the blocks (lod.py); the detail normal maps are rendered
 for the frame's time (three tiles, summed in the water shader).
 
-Hulls keep the sea out: every entity's hull box (the glTF nodes named ``*hull*``, or the whole built-in
-box) is passed as an inverse box matrix and the water fragment shader discards fragments inside it —
-cheap (a few multiply-adds per fragment, 16 hulls at most) and no extra pass or buffer; a box is
-conservative for a tapered bow (a little sea is cut beside it, none is drawn inside).
+Hulls keep the sea out: every entity's hull boxes (one per connected piece of the glTF nodes named
+``*hull*``, ``*pile*`` or ``*float*``, or the whole built-in box) are passed as inverse box matrices and the
+water fragment shader discards fragments inside them — a few multiply-adds per hull and fragment, 32 hulls
+at most, no extra pass or buffer; only the blocks near a hull are drawn with that test (the others with
+the program without it: a discard also turns off early depth tests). A box is conservative for a
+tapered bow (a little sea is cut beside it, none is drawn inside).
 """
 
 from __future__ import annotations
@@ -140,6 +142,21 @@ def hull_boxes(scene: Scene, view: CameraView) -> list[np.ndarray]:
             boxes.append((float(np.linalg.norm(m[:3, 3])), np.linalg.inv(m)))
     # The nearest first: beyond MAX_HULLS the farthest go (they cover the fewest pixels).
     return [inv for _, inv in sorted(boxes, key=lambda b: b[0])[:MAX_HULLS]]
+
+
+def blocks_near_hulls(nodes: np.ndarray, hulls: list[np.ndarray], margin: float) -> np.ndarray:
+    """Which LOD blocks (rows of camera-relative x0, y0, side, level) come within ``margin`` (m) of a
+    hull box's horizontal footprint: only those need the fragment hull test."""
+    near = np.zeros(len(nodes), dtype=bool)
+    if not hulls or not len(nodes):
+        return near
+    corners = np.array([[x, y, z, 1.0] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+    x0, y0, side = nodes[:, 0], nodes[:, 1], nodes[:, 2]
+    for inv in hulls:
+        pts = corners @ np.linalg.inv(inv).T  # box corners, camera-relative
+        lo, hi = pts[:, :2].min(axis=0) - margin, pts[:, :2].max(axis=0) + margin
+        near |= (x0 <= hi[0]) & (x0 + side >= lo[0]) & (y0 <= hi[1]) & (y0 + side >= lo[1])
+    return near
 
 
 def detail_tiles(sea: SeaSurface, t: float) -> list[tuple[float, np.ndarray]]:
@@ -422,12 +439,50 @@ class WaterPass(RenderPass):
         level_z = float(scene.ocean.level - view.position[2])
         table_uniforms = self._tables.fill(self, frame, level_z, 1.5 * float(selection.reach) + abs(level_z))
         used_maps = sum(1 for _, waves in tiles if len(waves))
-        program = self._program(sea.field is not None, bool(hulls), used_maps)
+        if sea.field is not None:
+            self._upload_field(sea)
+        # Blocks whose footprint (grown by the waves' reach) touches no hull are drawn by the program
+        # without the per-fragment hull test (and its discard, which also turns off early depth tests).
+        near_hull = blocks_near_hulls(selection.nodes, hulls, 2.0 * selection.error_sphere + 1.0)
+        groups = [(False, selection.nodes[~near_hull]), (True, selection.nodes[near_hull])]
+        programs = {}
+        for with_hulls, nodes in groups:
+            if len(nodes):
+                programs[with_hulls] = self._configured_program(frame, sea, tiles, used_maps, selection, hulls,
+                                                                table_uniforms, with_hulls)
+        self.stats = {"blocks": int(len(selection.nodes)), "triangles": selection.triangles,
+                      "lod_error_px": selection.error_bound_px, "error_sphere_m": selection.error_sphere,
+                      "finest_spacing_m": selection.finest_spacing, "waves": sea.n,
+                      "detail_resolution": resolution, "hull_blocks": int(np.count_nonzero(near_hull))}
+        if len(selection.nodes) == 0:
+            return
+        targets.scene_fbo.use()
+        self.ctx.enable(moderngl.DEPTH_TEST)
+        self.ctx.disable(moderngl.BLEND)
+        under = self._sees_under_mesh(frame, sea, selection)
+        if under:
+            self.ctx.disable(moderngl.CULL_FACE)
+        else:
+            # Seen from above, the first surface a ray meets faces the camera (the sea is a height
+            # field): back faces (the far slopes of waves) are always hidden, so they are not drawn.
+            self.ctx.enable(moderngl.CULL_FACE)
+            self.ctx.front_face = "ccw"  # the patch's triangles wind counter-clockwise seen from above
+        for slot, (with_hulls, nodes) in enumerate(groups):
+            if len(nodes):
+                self._vao(programs[with_hulls], nodes, slot).render(moderngl.TRIANGLES, instances=len(nodes))
+        self.ctx.disable(moderngl.CULL_FACE)
+        self.stats["culled_back_faces"] = not under
+        if under:
+            self._fill_under_crests(frame, selection, table_uniforms)
+
+    def _configured_program(self, frame, sea, tiles, used_maps, selection, hulls, table_uniforms,
+                            with_hulls: bool) -> moderngl.Program:
+        """The water program (with or without the hull test) with this frame's uniforms set."""
+        scene, view = frame.scene, frame.view
+        program = self._program(sea.field is not None, with_hulls and bool(hulls), used_maps)
         set_uniforms(program, frame.uniforms)
         set_uniforms(program, table_uniforms)
         set_uniforms(program, glint_light(frame.uniforms))
-        if sea.field is not None:
-            self._upload_field(sea)
         self._bind_waves(program, sea, scene, view)
         morph = np.zeros((24, 2), dtype=np.float32)
         morph[:] = np.minimum(selection.morph, 1e30)
@@ -446,29 +501,7 @@ class WaterPass(RenderPass):
                 mats = np.zeros((MAX_HULLS, 4, 4), dtype=np.float32)
                 mats[: len(hulls)] = np.transpose(np.asarray(hulls), (0, 2, 1))
                 program["u_hull_inv"].write(mats.tobytes())
-        self.stats = {"blocks": int(len(selection.nodes)), "triangles": selection.triangles,
-                      "lod_error_px": selection.error_bound_px, "error_sphere_m": selection.error_sphere,
-                      "finest_spacing_m": selection.finest_spacing, "waves": sea.n,
-                      "detail_resolution": resolution}
-        if len(selection.nodes) == 0:
-            return
-        vao = self._vao(program, selection.nodes)
-        targets.scene_fbo.use()
-        self.ctx.enable(moderngl.DEPTH_TEST)
-        self.ctx.disable(moderngl.BLEND)
-        under = self._sees_under_mesh(frame, sea, selection)
-        if under:
-            self.ctx.disable(moderngl.CULL_FACE)
-        else:
-            # Seen from above, the first surface a ray meets faces the camera (the sea is a height
-            # field): back faces (the far slopes of waves) are always hidden, so they are not drawn.
-            self.ctx.enable(moderngl.CULL_FACE)
-            self.ctx.front_face = "ccw"  # the patch's triangles wind counter-clockwise seen from above
-        vao.render(moderngl.TRIANGLES, instances=len(selection.nodes))
-        self.ctx.disable(moderngl.CULL_FACE)
-        self.stats["culled_back_faces"] = not under
-        if under:
-            self._fill_under_crests(frame, selection, table_uniforms)
+        return program
 
     @staticmethod
     def _sees_under_mesh(frame, sea: SeaSurface, selection: lod.LodSelection) -> bool:
@@ -528,19 +561,23 @@ class WaterPass(RenderPass):
             obj.release()
         return selection, positions
 
-    def _vao(self, program, nodes: np.ndarray) -> moderngl.VertexArray:
+    def _vao(self, program, nodes: np.ndarray, slot: int = 0) -> moderngl.VertexArray:
+        """The patch drawn once per block of ``nodes``; each slot (block group drawn in one frame)
+        has its own instance buffer."""
         verts, index = self._patch_buffer()
         data = np.ascontiguousarray(nodes, dtype=np.float32).tobytes()
-        if self._instances is None or self._instances.size < len(data):
-            if self._instances is not None:
-                self._instances.release()
-            self._instances = self.ctx.buffer(reserve=max(len(data), 4096), dynamic=True)
-            self._vaos_water = {}
-        self._instances.write(data)
-        key = id(program)
+        buffers = self._instances if self._instances is not None else {}
+        self._instances = buffers
+        if slot not in buffers or buffers[slot].size < len(data):
+            if slot in buffers:
+                buffers[slot].release()
+            buffers[slot] = self.ctx.buffer(reserve=max(len(data), 4096), dynamic=True)
+            self._vaos_water = {k: v for k, v in getattr(self, "_vaos_water", {}).items() if k[1] != slot}
+        buffers[slot].write(data)
+        key = (id(program), slot)
         vaos = getattr(self, "_vaos_water", {})
         if key not in vaos:
-            vaos[key] = self.ctx.vertex_array(program, [(verts, "2f", "in_grid"), (self._instances, "4f/i", "in_node")],
+            vaos[key] = self.ctx.vertex_array(program, [(verts, "2f", "in_grid"), (buffers[slot], "4f/i", "in_node")],
                                               index_buffer=index)
             self._vaos_water = vaos
         return vaos[key]
