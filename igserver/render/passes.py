@@ -42,6 +42,23 @@ class RenderPass:
             self._vaos[id(program)] = vao
         vao.render(moderngl.TRIANGLES, vertices=3)
 
+    def held_target(self, key: str, size: tuple[int, int], dtype: str = "f2") -> tuple[moderngl.Texture, moderngl.Framebuffer]:
+        """A linear-filtered, edge-clamped RGBA colour target of ``size`` that the pass keeps under
+        ``key`` between frames (reduced-resolution layers: fog halos, the cirrus table), made anew
+        only when the size changes."""
+        held = getattr(self, "_held_targets", {})
+        self._held_targets = held
+        target = held.get(key)
+        if target is None or target[0].size != tuple(size) or target[0].dtype != dtype:
+            if target is not None:
+                target[1].release()
+                target[0].release()
+            tex = self.ctx.texture(tuple(size), 4, dtype=dtype)
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            tex.repeat_x = tex.repeat_y = False
+            target = held[key] = (tex, self.ctx.framebuffer([tex]))
+        return target
+
 
 class DepthCopyPass(RenderPass):
     """Copy the view distance so that volume passes can read it while drawing into the colour."""

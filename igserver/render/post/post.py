@@ -90,15 +90,7 @@ class PostPass(RenderPass):
         """The halos at 1 / HALO_SCALE resolution (post/halos.frag.glsl), pre-exposed."""
         w, h = targets.size
         size = (-(-w // HALO_SCALE), -(-h // HALO_SCALE))
-        held = getattr(self, "_halo_target", None)
-        if held is None or held[0].size != size:
-            if held is not None:
-                held[1].release()
-                held[0].release()
-            tex = self.ctx.texture(size, 4, dtype="f2")
-            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
-            tex.repeat_x = tex.repeat_y = False
-            self._halo_target = (tex, self.ctx.framebuffer([tex]))
+        self._halo_target = self.held_target("halos", size, "f2")
         if getattr(self, "_halo_table", None) is None:
             self._halo_table = HaloTable(self.ctx)
         program = self.programs.program("common/fullscreen.vert.glsl", "post/halos.frag.glsl")

@@ -112,15 +112,7 @@ class SkyPass(RenderPass):
         """Draw the cirrus layer at 1/cirrus_scale resolution into a float texture on unit 7."""
         w, h = targets.size
         size = (max(w // self.cirrus_scale, 1), max(h // self.cirrus_scale, 1))
-        table = getattr(self, "_cirrus", None)
-        if table is None or table[0].size != size:
-            if table is not None:
-                table[1].release()
-                table[0].release()
-            tex = self.ctx.texture(size, 4, dtype="f4")
-            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
-            tex.repeat_x = tex.repeat_y = False
-            table = self._cirrus = (tex, self.ctx.framebuffer([tex]))
+        table = self.held_target("cirrus", size, "f4")
         program = self.programs.program("common/fullscreen.vert.glsl", "sky/cirrus_table.glsl",
                                         {"SKY_" + model.upper(): 1})
         set_uniforms(program, frame.uniforms)
