@@ -10,8 +10,8 @@
 // pattern: the stripes seen from inside a plume. Near the camera the step is therefore one voxel;
 // further out it grows with the footprint (where neighbouring pixels see different voxels
 // anyway) up to the knob's step.
-// At a capped modelling rate the texture is the frame's mix of two keyframes of the turbulence
-// (sim times k/rate and (k+1)/rate; volumes.py, blend.comp.glsl): one 3D lookup per sample.
+// With BLEND the texture is a blend of two models of the turbulence (re-modelled at a capped
+// rate, keyframes at sim times k/rate and (k+1)/rate; volumes.py), weight u_blend of the second.
 // Front-to-back, energy conserving per segment of optical depth s = sigma * dt:
 //   L += T * S * (1 - exp(-s)),   T *= exp(-s)
 // with S the segment's source radiance: fire = emitted colour * luminance (optically thick fire
@@ -23,6 +23,10 @@
 #include "common/atmosphere.glsl"
 
 uniform sampler3D u_volume;
+#ifdef BLEND
+uniform sampler3D u_volume_next;
+uniform float u_blend;
+#endif
 uniform sampler2D u_scene_distance;  // m along the view ray, 1e30 = sky
 uniform vec3 u_box_min;              // m, camera-relative AABB of the (bent) container
 uniform vec3 u_box_max;
@@ -110,6 +114,9 @@ void main() {
         vec3 uvw = to_volume(dir * tc);
         if (any(lessThan(uvw, vec3(0.0))) || any(greaterThan(uvw, vec3(1.0)))) continue;
         vec4 voxel = textureLod(u_volume, uvw, 0.0);
+#ifdef BLEND
+        voxel = mix(voxel, textureLod(u_volume_next, uvw, 0.0), u_blend);
+#endif
         float s = voxel.a * u_sigma * (sb - sa);
         if (s <= 1e-6) continue;
         float absorbed = 1.0 - exp(-s);

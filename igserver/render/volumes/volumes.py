@@ -11,8 +11,8 @@ scroll tau (sim_time). It is re-modelled only when that state changed since the 
 repeated frames of one state (several channels, a paused simulation, the quality study) cost only
 the march. While time runs, the turbulence moves: with ``model_hz`` = 0 every frame re-models at
 its exact tau; with a capped rate (``model_hz`` > 0) the textures are keyframes at sim times
-k / rate, two are kept (k and k + 1) and mixed once per frame by the fraction of the period
-elapsed into the texture the march reads (blend.comp.glsl), so a 30 Hz host pays one modelling every 30 / rate frames and the motion stays
+k / rate, two are kept (k and k + 1) and the march blends them by the fraction of the period
+elapsed, so a 30 Hz host pays one modelling every 30 / rate frames and the motion stays
 continuous (a parameter change, e.g. a fade, is picked up at the next keyframe and blends in).
 Its resolution is the smaller of the quality knob and the container's size on screen (about one
 voxel per 1.5 pixels), so far-away fires cost a few thousand voxels.
@@ -137,22 +137,16 @@ class _Model:
 
 
 class _Slot:
-    """An effect's modelled textures: one (every frame) or two keyframes (capped rate), and the
-    keyframes' mix the march reads (capped rate)."""
+    """An effect's modelled textures: one (every frame) or two keyframes (capped rate)."""
 
     def __init__(self):
         self.models: list[_Model] = []
         self.last_frame = 0
-        self.mixed: moderngl.Texture | None = None
-        self.mixed_state: tuple | None = None  # (keyframe ids, blend) it holds
 
     def release(self) -> None:
         for m in self.models:
             m.release()
         self.models = []
-        if self.mixed is not None:
-            self.mixed.release()
-            self.mixed, self.mixed_state = None, None
 
 
 def _unit_cube_corners() -> np.ndarray:
@@ -220,8 +214,8 @@ class VolumesPass(RenderPass):
                 vol.effect.intensity, vol.effect.active)
         return hard, (vol.radius, vol.height, vol.opacity, vol.level, sun)
 
-    def _models_for(self, vol: Volume, frame, settings: VolumeSettings) -> moderngl.Texture:
-        """The texture the march reads this frame, modelling (and mixing keyframes) as needed."""
+    def _models_for(self, vol: Volume, frame, settings: VolumeSettings) -> tuple[moderngl.Texture, moderngl.Texture, float]:
+        """(texture, next texture, blend weight of the next) for this frame, modelling what is missing."""
         slot = self._slots.setdefault(vol.key, _Slot())
         slot.last_frame = self._frame
         size = texture_size(vol, frame.view, settings)
@@ -234,7 +228,7 @@ class VolumesPass(RenderPass):
                 model = self._model_into(slot, model, vol, frame, settings, size, sim_time)
                 model.state, model.key = state, None
                 slot.models = [model]
-            return model.texture
+            return model.texture, model.texture, 0.0
         # Capped rate: keyframes k and k + 1 around sim_time (float64), blended by the fraction.
         period = 1.0 / settings.model_hz
         x = sim_time * settings.model_hz
@@ -254,31 +248,7 @@ class VolumesPass(RenderPass):
             model.state, model.key = static, key
             slot.models.append(model)
         slot.models.sort(key=lambda m: m.key)
-        return self._mix(slot, blend)
-
-    def _mix(self, slot: _Slot, blend: float) -> moderngl.Texture:
-        """The two keyframes mixed by ``blend`` into the slot's one texture (volumes/blend.comp.glsl),
-        redone only when a keyframe or the weight changed."""
-        first, second = slot.models[0], slot.models[1]
-        state = (id(first), id(second), first.state, second.state, blend)
-        size = second.size
-        if slot.mixed is None or slot.mixed.size != size:
-            if slot.mixed is not None:
-                slot.mixed.release()
-            slot.mixed = self.ctx.texture3d(size, 4, dtype="f2")
-            slot.mixed.filter = (moderngl.LINEAR, moderngl.LINEAR)
-            slot.mixed.repeat_x = slot.mixed.repeat_y = slot.mixed.repeat_z = False
-            slot.mixed_state = None
-        if slot.mixed_state != state:
-            program = self.programs.compute("volumes/blend.comp.glsl")
-            set_uniforms(program, {"u_volume": 0, "u_volume_next": 2, "u_blend": float(blend)})
-            first.texture.use(0)
-            second.texture.use(2)
-            slot.mixed.bind_to_image(0, read=False, write=True)
-            program.run(*(math.ceil(n / 4) for n in size))
-            self.ctx.memory_barrier()
-            slot.mixed_state = state
-        return slot.mixed
+        return slot.models[0].texture, slot.models[1].texture, blend
 
     def _model_into(self, slot: _Slot, model: "_Model | None", vol: Volume, frame, settings: VolumeSettings,
                     size, sim_time: float) -> _Model:
@@ -434,9 +404,11 @@ class VolumesPass(RenderPass):
         jitter_offset = (scene.host_frame * 0.6180339887) % 1.0  # golden-ratio sequence per frame
         _, _, bottom, top = view.tangents
         pixel_angle = (math.atan(top) - math.atan(bottom)) / max(march_height, 1)  # rad per march pixel
-        for vol, tex in zip(volumes, textures):
+        for vol, (tex, tex_next, blend) in zip(volumes, textures):
             smoke = vol.kind == "smoke"
             defines = {"SMOKE": 1} if smoke else {}
+            if settings.model_hz > 0.0:
+                defines["BLEND"] = 1
             program = self.programs.program("volumes/march.vert.glsl", "volumes/march.frag.glsl", defines or None)
             set_uniforms(program, frame.uniforms)
             lo, hi = vol.box
@@ -446,7 +418,7 @@ class VolumesPass(RenderPass):
             step = float(np.linalg.norm(hi - lo)) / settings.steps
             voxel = min(2.0 * vol.radius / size[0], 2.0 * vol.radius / size[1], vol.height / size[2])
             uniforms = {
-                "u_volume": 0, "u_scene_distance": 1,
+                "u_volume": 0, "u_volume_next": 2, "u_blend": blend, "u_scene_distance": 1,
                 "u_box_min": tuple(float(x) for x in view.relative(lo)),
                 "u_box_max": tuple(float(x) for x in view.relative(hi)),
                 "u_base": tuple(float(x) for x in view.relative(vol.base)),
@@ -472,6 +444,7 @@ class VolumesPass(RenderPass):
                 uniforms["u_emission"] = (lum, lum, lum)
             set_uniforms(program, uniforms)
             tex.use(0)
+            tex_next.use(2)
             self._vao(program).render(moderngl.TRIANGLES)
             self.stats["drawn"] += 1
         self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
