@@ -9,7 +9,8 @@ sets ``ocean.sea_state`` the target is the midpoint of that WMO sea-state code's
 Shape. A JONSWAP spectrum (γ = 3.3). Its peak follows from (Hs, U) through the fetch-limited
 JONSWAP laws g·Hs/U² = 1.6e-3·χ^½ and U·f_p/g = 3.5·χ^−0.33 (χ = g·X/U², X the fetch): the table's
 Hs at wind U implies an effective fetch, and the fetch the peak; never below the fully developed
-PM peak ω_p = 0.855·g/U. Directional spreading D(θ) ∝ cos^{2s}(θ/2), s = 10, about the direction
+PM peak ω_p = 0.855·g/U (U the wind that raises the table's Hs fully developed where
+that Hs is more than the local wind can raise: light winds, see peak_omega). Directional spreading D(θ) ∝ cos^{2s}(θ/2), s = 10, about the direction
 the wind blows TO. The spectrum is cut into equal-energy bins: every wave of a band carries the
 same energy, at the bin's median frequency (so any wave count keeps Hs), with a direction drawn by
 inverse CDF at a golden-ratio quasi-random quantile and a phase from a fixed-seed generator.
@@ -76,8 +77,16 @@ SHAPE_MIN_WIND = 1.0  # m/s: the spectrum's shape (for the ripples of a glassy s
 
 
 def peak_omega(hs: float, wind: float) -> float:
-    """JONSWAP fetch-limited peak (rad/s) implied by (Hs, U), not below the fully developed PM peak."""
+    """JONSWAP fetch-limited peak (rad/s) implied by (Hs, U), not below the fully developed PM peak.
+
+    Below about 5.5 m/s the WMO probable height exceeds what the wind itself can raise (PM fully
+    developed Hs = 0.0248 U²: 0.025 m at 1 m/s against the table's 0.1 m): such a sea is older than the
+    local wind, and a peak at the wind's own PM frequency would carry that height on 0.8 m waves (mean
+    square slope 0.12 at 1 m/s, 15× Cox–Munk's 0.008). Its peak is then the PM peak of the wind that
+    does raise that height fully developed."""
     wind = max(wind, SHAPE_MIN_WIND)
+    if hs > pm_fully_developed_hs(wind):
+        wind = math.sqrt(hs * G / 0.21) / 1.075  # inverse of pm_fully_developed_hs
     pm = 0.855 * G / wind
     if hs <= 0.0:
         return pm
