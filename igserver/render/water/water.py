@@ -407,8 +407,8 @@ class WaterPass(RenderPass):
                       "u_field": FIELD_UNIT, "u_field_scalar": FIELD_SCALAR_UNIT})
         return {"uniforms": u, "table": table.tobytes(), "phases": phases.tobytes()}
 
-    def _bind_waves(self, program, sea, scene, view) -> None:
-        wu = self.wave_uniforms(sea, scene, view)
+    def _bind_waves(self, program, sea, wu: dict) -> None:
+        """The frame's wave set (``wave_uniforms``) and, over a bathymetry, its field textures."""
         set_uniforms(program, wu["uniforms"])
         program["u_wave"].write(wu["table"])
         program["u_wave_phase"].write(wu["phases"])
@@ -439,8 +439,7 @@ class WaterPass(RenderPass):
         level_z = float(scene.ocean.level - view.position[2])
         table_uniforms = self._tables.fill(self, frame, level_z, 1.5 * float(selection.reach) + abs(level_z))
         used_maps = sum(1 for _, waves in tiles if len(waves))
-        if sea.field is not None:
-            self._upload_field(sea)
+        waves = self.wave_uniforms(sea, scene, view)  # once per frame, for each program drawn
         # Blocks whose footprint (grown by the waves' reach) touches no hull are drawn by the program
         # without the per-fragment hull test (and its discard, which also turns off early depth tests).
         near_hull = blocks_near_hulls(selection.nodes, hulls, 2.0 * selection.error_sphere + 1.0)
@@ -448,8 +447,8 @@ class WaterPass(RenderPass):
         programs = {}
         for with_hulls, nodes in groups:
             if len(nodes):
-                programs[with_hulls] = self._configured_program(frame, sea, tiles, used_maps, selection, hulls,
-                                                                table_uniforms, with_hulls)
+                programs[with_hulls] = self._configured_program(frame, sea, waves, tiles, used_maps, selection,
+                                                                hulls, table_uniforms, with_hulls)
         self.stats = {"blocks": int(len(selection.nodes)), "triangles": selection.triangles,
                       "lod_error_px": selection.error_bound_px, "error_sphere_m": selection.error_sphere,
                       "finest_spacing_m": selection.finest_spacing, "waves": sea.n,
@@ -475,7 +474,7 @@ class WaterPass(RenderPass):
         if under:
             self._fill_under_crests(frame, selection, table_uniforms)
 
-    def _configured_program(self, frame, sea, tiles, used_maps, selection, hulls, table_uniforms,
+    def _configured_program(self, frame, sea, waves: dict, tiles, used_maps, selection, hulls, table_uniforms,
                             with_hulls: bool) -> moderngl.Program:
         """The water program (with or without the hull test) with this frame's uniforms set."""
         scene, view = frame.scene, frame.view
@@ -483,7 +482,7 @@ class WaterPass(RenderPass):
         set_uniforms(program, frame.uniforms)
         set_uniforms(program, table_uniforms)
         set_uniforms(program, glint_light(frame.uniforms))
-        self._bind_waves(program, sea, scene, view)
+        self._bind_waves(program, sea, waves)
         morph = np.zeros((24, 2), dtype=np.float32)
         morph[:] = np.minimum(selection.morph, 1e30)
         program["u_morph"].write(morph.tobytes())
@@ -543,7 +542,7 @@ class WaterPass(RenderPass):
         sea = sea_surface(scene.ocean, scene.weather)
         selection = self.select(sea, scene, view, mesh=mesh)
         program = self.capture_program(sea.field is not None)
-        self._bind_waves(program, sea, scene, view)
+        self._bind_waves(program, sea, self.wave_uniforms(sea, scene, view))
         morph = np.minimum(selection.morph, 1e30).astype(np.float32)
         program["u_morph"].write(morph.tobytes())
         verts, _ = self._patch_buffer()
