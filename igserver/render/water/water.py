@@ -306,18 +306,16 @@ class WaterPass(RenderPass):
                                           varyings=["v_rel"])
         return cache[key]
 
-    def _patch_buffer(self) -> moderngl.Buffer:
+    def _patch_buffer(self, fan: bool = False) -> tuple[moderngl.Buffer, moderngl.Buffer]:
+        """The patch's (G+1)² grid vertices and its index buffer: the full G×G patch, or the fan of a
+        flat block (lod.fan_indices: the same border vertices)."""
         if self._patch is None:
             g = lod.PATCH_QUADS
             i, j = np.meshgrid(np.arange(g + 1), np.arange(g + 1), indexing="ij")
             verts = np.column_stack([i.ravel(), j.ravel()]).astype(np.float32)
-            idx = []
-            for a in range(g):
-                for b in range(g):
-                    v00, v10, v01, v11 = a * (g + 1) + b, (a + 1) * (g + 1) + b, a * (g + 1) + b + 1, (a + 1) * (g + 1) + b + 1
-                    idx += [v00, v10, v11, v00, v11, v01]
-            self._patch = (self.ctx.buffer(verts.tobytes()), self.ctx.buffer(np.asarray(idx, dtype=np.int32).tobytes()))
-        return self._patch
+            self._patch = (self.ctx.buffer(verts.tobytes()), self.ctx.buffer(lod.patch_indices().tobytes()),
+                           self.ctx.buffer(lod.fan_indices().tobytes()))
+        return self._patch[0], self._patch[2 if fan else 1]
 
     def _upload_field(self, sea: SeaSurface) -> None:
         if self._field_key is sea:
@@ -423,7 +421,8 @@ class WaterPass(RenderPass):
         fov = cam.fov_y if cam.frustum is None else cam.frustum.top - cam.frustum.bottom
         return lod.select(view, float(view.position[2] - scene.ocean.level), sea.waves.k, sea.waves.amplitude
                           * (np.max(sea.field.factor, axis=(1, 2)) if sea.field is not None else 1.0),
-                          fov, min(scene.ocean.lod_error * lod_error_scale, 16.0), view.far, mesh)
+                          fov, min(scene.ocean.lod_error * lod_error_scale, 16.0), view.far, mesh,
+                          fans=sea.field is None)  # a field's depth and surf vary per vertex even where flat
 
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
@@ -443,16 +442,19 @@ class WaterPass(RenderPass):
         # Blocks whose footprint (grown by the waves' reach) touches no hull are drawn by the program
         # without the per-fragment hull test (and its discard, which also turns off early depth tests).
         near_hull = blocks_near_hulls(selection.nodes, hulls, 2.0 * selection.error_sphere + 1.0)
-        groups = [(False, selection.nodes[~near_hull]), (True, selection.nodes[near_hull])]
+        flat = selection.flat  # blocks carrying no wave: drawn as fans (lod.fan_indices)
+        groups = [(with_hulls, fan, selection.nodes[(near_hull == with_hulls) & (flat == fan)])
+                  for with_hulls in (False, True) for fan in (False, True)]
         programs = {}
-        for with_hulls, nodes in groups:
-            if len(nodes):
+        for with_hulls, _, nodes in groups:
+            if len(nodes) and with_hulls not in programs:
                 programs[with_hulls] = self._configured_program(frame, sea, waves, tiles, used_maps, selection,
                                                                 hulls, table_uniforms, with_hulls)
         self.stats = {"blocks": int(len(selection.nodes)), "triangles": selection.triangles,
                       "lod_error_px": selection.error_bound_px, "error_sphere_m": selection.error_sphere,
                       "finest_spacing_m": selection.finest_spacing, "waves": sea.n,
-                      "detail_resolution": resolution, "hull_blocks": int(np.count_nonzero(near_hull))}
+                      "detail_resolution": resolution, "hull_blocks": int(np.count_nonzero(near_hull)),
+                      "fan_blocks": int(np.count_nonzero(flat))}
         if len(selection.nodes) == 0:
             return
         targets.scene_fbo.use()
@@ -466,9 +468,9 @@ class WaterPass(RenderPass):
             # field): back faces (the far slopes of waves) are always hidden, so they are not drawn.
             self.ctx.enable(moderngl.CULL_FACE)
             self.ctx.front_face = "ccw"  # the patch's triangles wind counter-clockwise seen from above
-        for slot, (with_hulls, nodes) in enumerate(groups):
+        for slot, (with_hulls, fan, nodes) in enumerate(groups):
             if len(nodes):
-                self._vao(programs[with_hulls], nodes, slot).render(moderngl.TRIANGLES, instances=len(nodes))
+                self._vao(programs[with_hulls], nodes, slot, fan).render(moderngl.TRIANGLES, instances=len(nodes))
         self.ctx.disable(moderngl.CULL_FACE)
         self.stats["culled_back_faces"] = not under
         if under:
@@ -560,10 +562,10 @@ class WaterPass(RenderPass):
             obj.release()
         return selection, positions
 
-    def _vao(self, program, nodes: np.ndarray, slot: int = 0) -> moderngl.VertexArray:
-        """The patch drawn once per block of ``nodes``; each slot (block group drawn in one frame)
-        has its own instance buffer."""
-        verts, index = self._patch_buffer()
+    def _vao(self, program, nodes: np.ndarray, slot: int = 0, fan: bool = False) -> moderngl.VertexArray:
+        """The patch (or the fan of flat blocks) drawn once per block of ``nodes``; each slot (block
+        group drawn in one frame) has its own instance buffer."""
+        verts, index = self._patch_buffer(fan)
         data = np.ascontiguousarray(nodes, dtype=np.float32).tobytes()
         buffers = self._instances if self._instances is not None else {}
         self._instances = buffers
