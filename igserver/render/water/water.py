@@ -181,6 +181,85 @@ def detail_tiles(sea: SeaSurface, t: float) -> list[tuple[float, np.ndarray]]:
     return tiles
 
 
+def detail_means(tiles: list[tuple[float, np.ndarray]]) -> np.ndarray:
+    """Per detail map, its average over the tile (sx, sy, sx², sy²): what the map's 1×1 mip level holds
+    (float64 here; the GPU's is the box-filtered float16 map, within its rounding). Over the texel
+    grid a lattice wave averages to zero, and a product of two averages to half the cosine of their
+    phase difference when they share a lattice point (or of the phase sum for opposite points)."""
+    means = np.zeros((DETAIL_MAPS, 4))
+    for c, (_, waves) in enumerate(tiles):
+        if not len(waves):
+            continue
+        mn = waves[:, 0:2]
+        g = waves[:, 2:3] * mn / np.linalg.norm(mn, axis=1, keepdims=True)  # slope amplitude vectors
+        phi = waves[:, 3]
+        same = np.all(mn[:, None] == mn[None], axis=2)
+        opposite = np.all(mn[:, None] == -mn[None], axis=2)
+        w = 0.5 * (same * np.cos(phi[:, None] - phi[None]) + opposite * np.cos(phi[:, None] + phi[None]))
+        means[c, 2] = g[:, 0] @ w @ g[:, 0]
+        means[c, 3] = g[:, 1] @ w @ g[:, 1]
+    return means
+
+
+def min_pixel_angle(view: CameraView) -> float:
+    """The smallest angle (rad) between the rays of two neighbouring pixels anywhere on the screen
+    (at the frame's corners, where a pixel subtends the least)."""
+    left, right, bottom, top = view.tangents
+    w, h = view.width, view.height
+
+    def ray(x: float, y: float) -> np.ndarray:
+        r = np.array([left + (x + 0.5) / w * (right - left), bottom + (y + 0.5) / h * (top - bottom), 1.0])
+        return r / np.linalg.norm(r)
+
+    angles = []
+    for x, dx in ((0, 1), (w - 1, -1)):
+        for y, dy in ((0, 1), (h - 1, -1)):
+            a = ray(x, y)
+            for b in (ray(x + dx, y), ray(x, y + dy)):
+                angles.append(math.atan2(float(np.linalg.norm(np.cross(a, b))), float(a @ b)))
+    return min(angles)
+
+
+def minified_maps_from(selection: lod.LodSelection, sea: SeaSurface, tiles, view: CameraView,
+                       cam_height: float) -> np.ndarray:
+    """Per block, how many detail maps (a prefix: the finer tiles come later) the shader must read;
+    every later map is fully minified there — the sampler returns its 1×1 mip level, the tile's
+    average (``detail_means``) — so it is replaced by that constant (picture unchanged: two texture
+    reads a pixel fewer where it holds).
+
+    Fully minified: the texel footprint ρ (texels per pixel, the larger of the two screen axes) is at
+    least 2N, a level past the 1×1 one. For a point of the block at distance ≥ d, two neighbouring
+    pixels' rays (angle ≥ δ, ``min_pixel_angle``) meet the surface ≥ d·sin δ apart; a mesh of slope
+    ≤ s moves that apart ≥ 1/√(1+s²) of it horizontally, the rest point (the maps' coordinate) moves
+    ≥ 1/(1+s) of that (the Gerstner horizontal displacement's gradient is ≤ Σ b k ≤ s), and
+    llvmpipe's ρ (largest derivative component) is ≥ 1/√2 of the length: ρ ≥ N/L · d sin δ /
+    (√2 √(1+s²) (1+s)); d from the block's square, less the error sphere ΣA horizontally and
+    vertically. s per block: the slope of the waves its level's spacing keeps (fades, gerstner.glsl)
+    plus the earth's tilt at the reach. Only in uniform depth (over a field k, A and Q vary per
+    point; every map is read there)."""
+    n_blocks = len(selection.nodes)
+    used = sum(1 for _, waves in tiles if len(waves))
+    if sea.field is not None or n_blocks == 0:
+        return np.full(n_blocks, used, dtype=int)
+    nodes = selection.nodes.astype(np.float64)
+    w = sea.waves
+    level = nodes[:, 3].astype(int)
+    spacing = selection.finest_spacing * 2.0 ** np.arange(int(level.max()) + 1)
+    x = w.k[None] * spacing[:, None]
+    fade = 1.0 - np.clip((x - 0.5 * math.pi) / (0.5 * math.pi), 0.0, 1.0) ** 2 * (
+        3.0 - 2.0 * np.clip((x - 0.5 * math.pi) / (0.5 * math.pi), 0.0, 1.0))  # 1 − smoothstep(π/2, π, kΔ)
+    slope = (np.sum(w.amplitude * w.k * fade, axis=1) + selection.reach / lod.EARTH_RADIUS)[level]
+    sphere = selection.error_sphere
+    gap = np.maximum(np.maximum(nodes[:, :2], -(nodes[:, :2] + nodes[:, 2:3])), 0.0)  # camera at (0, 0)
+    d = np.hypot(np.maximum(np.hypot(gap[:, 0], gap[:, 1]) - sphere, 0.0), max(abs(cam_height) - sphere, 0.0))
+    footprint = d * math.sin(min_pixel_angle(view)) / (math.sqrt(2.0) * np.sqrt(1.0 + slope**2) * (1.0 + slope))
+    count = np.zeros(n_blocks, dtype=int)
+    for c, (size, waves) in enumerate(tiles):
+        if len(waves):
+            count = np.where(footprint / size < 2.0, c + 1, count)  # ρ/N = footprint / L < 2: still resolved
+    return count
+
+
 def glint_light(uniforms: dict) -> dict:
     """The sun or the moon, whichever gives more light: the one glitter the water shader draws."""
     sun, moon = np.asarray(uniforms["u_sun_illuminance"]), np.asarray(uniforms["u_moon_illuminance"])
@@ -278,6 +357,7 @@ class WaterPass(RenderPass):
         self._instances = None
         self._tables: SeaTables | None = None
         self.exact_atmosphere = False  # the atmosphere per pixel/vertex instead of the tables (quality study)
+        self.skip_minified_maps = True  # False: every block reads every detail map (tests' reference)
         self.stats: dict = {}
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
@@ -443,18 +523,23 @@ class WaterPass(RenderPass):
         # without the per-fragment hull test (and its discard, which also turns off early depth tests).
         near_hull = blocks_near_hulls(selection.nodes, hulls, 2.0 * selection.error_sphere + 1.0)
         flat = selection.flat  # blocks carrying no wave: drawn as fans (lod.fan_indices)
-        groups = [(with_hulls, fan, selection.nodes[(near_hull == with_hulls) & (flat == fan)])
-                  for with_hulls in (False, True) for fan in (False, True)]
+        # Detail maps read per block: the later (finer) ones are fully minified far enough away.
+        maps = (minified_maps_from(selection, sea, tiles, view, -level_z) if self.skip_minified_maps
+                else np.full(len(selection.nodes), used_maps, dtype=int))
+        means = detail_means(tiles)
+        groups = [(with_hulls, fan, m, selection.nodes[(near_hull == with_hulls) & (flat == fan) & (maps == m)])
+                  for with_hulls in (False, True) for fan in (False, True) for m in range(used_maps + 1)]
         programs = {}
-        for with_hulls, _, nodes in groups:
-            if len(nodes) and with_hulls not in programs:
-                programs[with_hulls] = self._configured_program(frame, sea, waves, tiles, used_maps, selection,
-                                                                hulls, table_uniforms, with_hulls)
+        for with_hulls, _, m, nodes in groups:
+            if len(nodes) and (with_hulls, m) not in programs:
+                programs[(with_hulls, m)] = self._configured_program(frame, sea, waves, tiles, m, means, selection,
+                                                                     hulls, table_uniforms, with_hulls)
         self.stats = {"blocks": int(len(selection.nodes)), "triangles": selection.triangles,
                       "lod_error_px": selection.error_bound_px, "error_sphere_m": selection.error_sphere,
                       "finest_spacing_m": selection.finest_spacing, "waves": sea.n,
                       "detail_resolution": resolution, "hull_blocks": int(np.count_nonzero(near_hull)),
-                      "fan_blocks": int(np.count_nonzero(flat))}
+                      "fan_blocks": int(np.count_nonzero(flat)),
+                      "blocks_by_detail_maps": np.bincount(maps, minlength=used_maps + 1).tolist()}
         if len(selection.nodes) == 0:
             return
         targets.scene_fbo.use()
@@ -468,19 +553,20 @@ class WaterPass(RenderPass):
             # field): back faces (the far slopes of waves) are always hidden, so they are not drawn.
             self.ctx.enable(moderngl.CULL_FACE)
             self.ctx.front_face = "ccw"  # the patch's triangles wind counter-clockwise seen from above
-        for slot, (with_hulls, fan, nodes) in enumerate(groups):
+        for slot, (with_hulls, fan, m, nodes) in enumerate(groups):
             if len(nodes):
-                self._vao(programs[with_hulls], nodes, slot, fan).render(moderngl.TRIANGLES, instances=len(nodes))
+                self._vao(programs[(with_hulls, m)], nodes, slot, fan).render(moderngl.TRIANGLES, instances=len(nodes))
         self.ctx.disable(moderngl.CULL_FACE)
         self.stats["culled_back_faces"] = not under
         if under:
             self._fill_under_crests(frame, selection, table_uniforms)
 
-    def _configured_program(self, frame, sea, waves: dict, tiles, used_maps, selection, hulls, table_uniforms,
-                            with_hulls: bool) -> moderngl.Program:
-        """The water program (with or without the hull test) with this frame's uniforms set."""
+    def _configured_program(self, frame, sea, waves: dict, tiles, read_maps: int, means: np.ndarray, selection,
+                            hulls, table_uniforms, with_hulls: bool) -> moderngl.Program:
+        """The water program (with or without the hull test, reading the first ``read_maps`` detail
+        maps and the tile means of the others) with this frame's uniforms set."""
         scene, view = frame.scene, frame.view
-        program = self._program(sea.field is not None, with_hulls and bool(hulls), used_maps)
+        program = self._program(sea.field is not None, with_hulls and bool(hulls), read_maps)
         set_uniforms(program, frame.uniforms)
         set_uniforms(program, table_uniforms)
         set_uniforms(program, glint_light(frame.uniforms))
@@ -493,7 +579,10 @@ class WaterPass(RenderPass):
             detail_map[c] = (1.0 / size, *(np.mod(view.position[:2], size) / size))
             self._detail[c].use(DETAIL_UNIT0 + c)
             set_uniforms(program, {f"u_detail{c}": DETAIL_UNIT0 + c})
-        set_uniforms(program, {"u_detail_map": detail_map[: max(used_maps, 1)].tobytes(), "u_min_slope_var": 2e-4})
+        set_uniforms(program, {"u_detail_map": detail_map[: max(read_maps, 1)].tobytes(), "u_min_slope_var": 2e-4})
+        if "u_detail_mean" in program:
+            mean = program["u_detail_mean"]
+            mean.write(means[read_maps:read_maps + mean.array_length].astype(np.float32).tobytes())
         set_uniforms(program, {"u_foam_jacobian": _foam_threshold(sea, scene.weather.wind_speed
                                                                   if scene.ocean.sea_state is None else sea.spectrum.wind)})
         if "u_hull_count" in program:
