@@ -353,7 +353,7 @@ class WaterPass(RenderPass):
         self._field_tex = None
         self._detail = None
         self._detail_fbos = None
-        self._detail_key = None
+        self._detail_key = [None] * DETAIL_MAPS
         self._instances = None
         self._tables: SeaTables | None = None
         self.exact_atmosphere = False  # the atmosphere per pixel/vertex instead of the tables (quality study)
@@ -420,46 +420,44 @@ class WaterPass(RenderPass):
             tex.repeat_x = tex.repeat_y = False
         self._field_tex = (field, scalar_tex)
 
-    def _render_detail(self, sea: SeaSurface, t: float, resolution: int) -> list[tuple[float, np.ndarray]]:
+    def _render_detail(self, sea: SeaSurface, t: float, resolution: int, tiles, read: int) -> None:
+        """Render the first ``read`` detail maps of ``tiles`` (those some block reads; the others are
+        empty or fully minified everywhere this frame) for time ``t``."""
         if self._detail is None or self._detail[0].size[0] != resolution:
             if self._detail is not None:
                 for tex, fbo in zip(self._detail, self._detail_fbos):
                     fbo.release()
                     tex.release()
-            self._detail_key = None
+            self._detail_key = [None] * DETAIL_MAPS
             self._detail = [self.ctx.texture((resolution, resolution), 4, dtype="f2") for _ in range(DETAIL_MAPS)]
             self._detail_fbos = [self.ctx.framebuffer(color_attachments=[t_]) for t_ in self._detail]
             for tex in self._detail:
                 tex.repeat_x = tex.repeat_y = True
                 tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
-        program = self.programs.program("common/fullscreen.vert.glsl", "water/detail.frag.glsl",
-                                        {"MAX_DETAIL": MAX_DETAIL})
-        tiles = detail_tiles(sea, t)
-        # The maps depend on the sea state and the time only: a frame at the same time (another
-        # view, a re-render of a paused scene) reuses them instead of redrawing 3 tiles of waves.
-        # (The sea is cached per state by igserver.water, so identity is the state; a resolution
-        # change above clears the key.)
-        if self._detail_key is not None and self._detail_key[0] is sea and self._detail_key[1] == float(t):
-            return tiles
-        self._detail_key = (sea, float(t))
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-        for (size, waves), tex, fbo in zip(tiles, self._detail, self._detail_fbos):
-            if len(waves) == 0:  # not read by the water shader (WATER_DETAIL_MAPS)
+        for c, ((size, waves), tex, fbo) in enumerate(zip(tiles[:read], self._detail, self._detail_fbos)):
+            # A map depends on the sea state and the time only: a frame at the same time (another
+            # view, a re-render of a paused scene) reuses it. (The sea is cached per state by
+            # igserver.water, so identity is the state; a resolution change above clears the keys.)
+            if len(waves) == 0 or (self._detail_key[c] is not None and self._detail_key[c][0] is sea
+                                   and self._detail_key[c][1] == float(t)):
                 continue
+            self._detail_key[c] = (sea, float(t))
+            n = len(waves)
+            # The wave count compiled in: llvmpipe then unrolls the loop (a uniform count costs ~1/3 more).
+            program = self.programs.program("common/fullscreen.vert.glsl", "water/detail.frag.glsl",
+                                            {"DETAIL_COUNT": n})
             fbo.use()
             # Per wave: 2 pi (m, n) (rad per tile), phase; slope amplitude A k along the unit (m, n).
-            table = np.zeros((MAX_DETAIL, 4), dtype=np.float32)
-            slope = np.zeros((MAX_DETAIL, 4), dtype=np.float32)
-            n = len(waves)
-            table[:n, 0:2] = 2.0 * math.pi * waves[:, 0:2]
-            table[:n, 2] = waves[:, 3]
-            slope[:n, 0:2] = waves[:, 2:3] * waves[:, 0:2] / np.linalg.norm(waves[:, 0:2], axis=1, keepdims=True)
-            program["u_detail_count"].value = n
+            table = np.zeros((n, 4), dtype=np.float32)
+            slope = np.zeros((n, 4), dtype=np.float32)
+            table[:, 0:2] = 2.0 * math.pi * waves[:, 0:2]
+            table[:, 2] = waves[:, 3]
+            slope[:, 0:2] = waves[:, 2:3] * waves[:, 0:2] / np.linalg.norm(waves[:, 0:2], axis=1, keepdims=True)
             program["u_detail_wave"].write(table.tobytes())
             program["u_detail_slope"].write(slope.tobytes())
             self.fullscreen(program)
             tex.build_mipmaps()
-        return tiles
 
     # ---- per frame ------------------------------------------------------------------------------
     def wave_uniforms(self, sea: SeaSurface, scene: Scene, view: CameraView) -> dict:
@@ -510,7 +508,7 @@ class WaterPass(RenderPass):
         t = scene.time.sim_time
         knobs = self.knobs(frame)
         resolution = int(min(max(round(scene.ocean.detail_resolution * knobs.detail_scale), 32), 512))
-        tiles = self._render_detail(sea, t, resolution)
+        tiles = detail_tiles(sea, t)
         selection = self.select(sea, scene, view, knobs.lod_error_scale, knobs.mesh)
         hulls = hull_boxes(scene, view)
         if self._tables is None:
@@ -527,6 +525,7 @@ class WaterPass(RenderPass):
         maps = (minified_maps_from(selection, sea, tiles, view, -level_z) if self.skip_minified_maps
                 else np.full(len(selection.nodes), used_maps, dtype=int))
         means = detail_means(tiles)
+        self._render_detail(sea, t, resolution, tiles, int(maps.max()) if len(maps) else 0)
         groups = [(with_hulls, fan, m, selection.nodes[(near_hull == with_hulls) & (flat == fan) & (maps == m)])
                   for with_hulls in (False, True) for fan in (False, True) for m in range(used_maps + 1)]
         programs = {}
