@@ -15,6 +15,7 @@ tapered bow (a little sea is cut beside it, none is drawn inside).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -201,23 +202,31 @@ def detail_means(tiles: list[tuple[float, np.ndarray]]) -> np.ndarray:
     return means
 
 
-def min_pixel_angle(view: CameraView) -> float:
-    """The smallest angle (rad) between the rays of two neighbouring pixels anywhere on the screen
-    (at the frame's corners, where a pixel subtends the least)."""
-    left, right, bottom, top = view.tangents
-    w, h = view.width, view.height
+@functools.lru_cache(maxsize=16)
+def _min_pixel_angle(tangents: tuple[float, float, float, float], w: int, h: int) -> float:
+    left, right, bottom, top = tangents
 
-    def ray(x: float, y: float) -> np.ndarray:
-        r = np.array([left + (x + 0.5) / w * (right - left), bottom + (y + 0.5) / h * (top - bottom), 1.0])
-        return r / np.linalg.norm(r)
+    def ray(x: float, y: float) -> tuple[float, float, float]:
+        r = (left + (x + 0.5) / w * (right - left), bottom + (y + 0.5) / h * (top - bottom), 1.0)
+        n = math.sqrt(r[0] * r[0] + r[1] * r[1] + 1.0)
+        return r[0] / n, r[1] / n, 1.0 / n
+
+    def angle(a, b) -> float:
+        c = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+        return math.atan2(math.sqrt(c[0] ** 2 + c[1] ** 2 + c[2] ** 2), a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
 
     angles = []
     for x, dx in ((0, 1), (w - 1, -1)):
         for y, dy in ((0, 1), (h - 1, -1)):
             a = ray(x, y)
-            for b in (ray(x + dx, y), ray(x, y + dy)):
-                angles.append(math.atan2(float(np.linalg.norm(np.cross(a, b))), float(a @ b)))
+            angles += [angle(a, ray(x + dx, y)), angle(a, ray(x, y + dy))]
     return min(angles)
+
+
+def min_pixel_angle(view: CameraView) -> float:
+    """The smallest angle (rad) between the rays of two neighbouring pixels anywhere on the screen
+    (at the frame's corners, where a pixel subtends the least)."""
+    return _min_pixel_angle(tuple(float(t) for t in view.tangents), int(view.width), int(view.height))
 
 
 def minified_maps_from(selection: lod.LodSelection, sea: SeaSurface, tiles, view: CameraView,
