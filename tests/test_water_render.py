@@ -259,3 +259,81 @@ def test_only_blocks_near_a_hull_pay_for_the_hull_test():
     near = blocks_near_hulls(nodes, [np.linalg.inv(box)], margin=2.0)
     assert near.tolist() == [True, True, False, False]
     assert not blocks_near_hulls(nodes, [], margin=2.0).any()
+
+
+def test_fan_patch_shares_the_full_patch_border():
+    # A flat block's fan must meet its neighbours exactly where the full patch would: the same border
+    # vertices and segments, the square covered once, every triangle counter-clockwise from above.
+    g = lod.PATCH_QUADS
+    grid = np.array([(a, b) for a in range(g + 1) for b in range(g + 1)], dtype=np.float64)
+
+    def border_edges(indices):
+        tris = indices.reshape(-1, 3)
+        edges = {}
+        for t in tris:
+            for k in range(3):
+                e = tuple(sorted((int(t[k]), int(t[(k + 1) % 3]))))
+                edges[e] = edges.get(e, 0) + 1
+        return {e for e, n in edges.items() if n == 1}  # used by one triangle only: the outline
+
+    def signed_areas(indices):
+        p = grid[indices.reshape(-1, 3)]
+        a, b = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+        return 0.5 * (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+
+    fan, full = lod.fan_indices(), lod.patch_indices()
+    assert border_edges(fan) == border_edges(full) and len(border_edges(fan)) == 4 * g
+    assert np.all(signed_areas(fan) > 0) and np.all(signed_areas(full) > 0)
+    assert signed_areas(fan).sum() == pytest.approx(g * g) == signed_areas(full).sum()
+    assert len(fan) // 3 == lod.FAN_TRIANGLES
+
+
+def test_fan_blocks_carry_no_wave(renderer):
+    # From 1 km most blocks are fans; their level's spacing has faded every wave out, so the displaced
+    # mesh there is exactly the mean sea sphere (a fan's interior loses nothing), while the level just
+    # finer still carries waves (the first flat level is not later than it must be).
+    scene = sea_scene(camera={"position": [0.0, 0.0, 1000.0], "pitch": -20.0}, weather={"wind_speed": 10.0})
+    selection, pos = renderer.graph.passes["water"].capture(scene)
+    level = selection.nodes[:, 3].astype(int)
+    flat = selection.flat
+    assert flat.sum() > len(flat) // 2 and (level == selection.flat_level - 1).any()
+    p = pos.reshape(len(pos), -1, 3).astype(np.float64)
+    r2 = np.sum(p[..., :2] ** 2, axis=-1)
+    height = p[..., 2] + r2 / (EARTH_RADIUS + np.sqrt(EARTH_RADIUS**2 - r2)) - (scene.ocean.level - 1000.0)
+    # The shader's float32: z is metres to kilometres (the drop at 160 km is 2 km), a few ulps of it.
+    tol = 8.0 * float(np.spacing(np.float32(np.abs(p[flat][..., 2]).max())))
+    assert np.max(np.abs(height[flat])) < tol
+    # One level finer the longest wave is faded to ~1e-3 of its 0.1-0.2 m but not to 0: centimetres.
+    assert np.max(np.abs(height[level == selection.flat_level - 1])) > 10.0 * tol
+
+
+def test_minified_detail_maps_leave_the_picture(renderer):
+    # Far blocks read the tile average of the detail maps that are fully minified there instead of
+    # sampling them (the sampler would return the 1x1 mip level): the picture must not move.
+    from igserver.render.water.water import detail_means, detail_tiles
+
+    scene = sea_scene(camera={"position": [0.0, 0.0, 30.0], "pitch": -15.0, "width": 160, "height": 90})
+    water = renderer.graph.passes["water"]
+    fast = renderer.render(scene).rgba
+    by_maps = water.stats["blocks_by_detail_maps"]
+    water.skip_minified_maps = False
+    try:
+        full = renderer.render(scene).rgba
+    finally:
+        water.skip_minified_maps = True
+    assert sum(by_maps[:-1]) > len(by_maps) and by_maps[-1] < sum(by_maps)  # maps were skipped
+    # The average in float64 against the GPU's box-filtered float16 map: a level at most.
+    assert np.abs(fast.astype(int) - full.astype(int)).max() <= 1
+    # The tile averages are what the maps' top mip level holds (float16 texels averaged in float16).
+    sea = sea_surface(scene.ocean, scene.weather)
+    tiles = detail_tiles(sea, scene.time.sim_time)
+    means = detail_means(tiles)
+    for c, (_, waves) in enumerate(tiles):
+        if len(waves):
+            tex = water._detail[c]
+            top = int(np.log2(tex.size[0]))
+            texel = np.frombuffer(tex.read(level=top), dtype=np.float16).astype(np.float64)
+            # float16 keeps 11 bits: each texel and each mip level rounds by <= 2^-11 relative of the
+            # variance (~0.05 %); the slope means are 0 in exact arithmetic, rounding leaves ~1e-4 of it.
+            assert texel[2:] == pytest.approx(means[c, 2:], rel=5e-3)
+            assert np.abs(texel[:2]).max() < 1e-3 * np.sqrt(means[c, 2:].max())

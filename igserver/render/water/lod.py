@@ -20,6 +20,13 @@ draw call and no stitching index buffers.
   ranges[l] + start·(ranges[l+1] − ranges[l]) ≥ ranges[l] + 2√2·S_l, i.e. with ranges doubling,
   start·margin ≥ 2√2. Two such pairs (``MESHES``): the default (morph over the outer half, rings of
   6 block sides) and a coarse one (outer quarter, 4 sides: 2.25× fewer vertices, shorter morphs).
+- Flat blocks as fans: from the level whose vertex spacing has faded out every wave (k·Δ ≥ π for the
+  longest, gerstner.glsl's fade; the morph only widens the spacing) the displaced mesh IS the mean
+  sea sphere, so the G×G interior only interpolates smooth attributes. Such a block is drawn as a fan
+  from its centre to its 4·G border vertices (``fan_indices``): the border is the full patch's (same
+  vertices, same morph), so joins stay crack-free, and 4·G triangles replace 2·G² (128 → 32). From
+  high cameras most blocks are flat (their rings lie near the horizon, where the G² grid made
+  sub-pixel slivers: llvmpipe sets up and shades every one).
 """
 
 from __future__ import annotations
@@ -49,10 +56,53 @@ class LodSelection:
     error_bound_px: float  # the screen-space error each block satisfies (px)
     error_sphere: float  # m, Σ A_i
     reach: float  # m, horizontal distance the sea is drawn to (the horizon and the crests beyond it)
+    flat_level: int = MAX_LEVELS  # blocks of this level and coarser carry no wave (drawn as fans)
+
+    @property
+    def flat(self) -> np.ndarray:
+        """Per block: whether it carries no wave (its spacing faded them all out)."""
+        return self.nodes[:, 3] >= self.flat_level - 0.5
 
     @property
     def triangles(self) -> int:
-        return int(len(self.nodes)) * PATCH_QUADS * PATCH_QUADS * 2
+        n_flat = int(np.count_nonzero(self.flat))
+        return (int(len(self.nodes)) - n_flat) * PATCH_QUADS * PATCH_QUADS * 2 + n_flat * FAN_TRIANGLES
+
+
+FAN_TRIANGLES = 4 * PATCH_QUADS
+
+
+def patch_indices() -> np.ndarray:
+    """Triangles of the full G×G patch over the (G+1)² grid vertices (vertex a·(G+1) + b is grid
+    (i, j) = (a, b)), counter-clockwise seen from above."""
+    g = PATCH_QUADS
+    a, b = np.meshgrid(np.arange(g), np.arange(g), indexing="ij")
+    v00 = (a * (g + 1) + b).ravel()
+    v10, v01, v11 = v00 + g + 1, v00 + 1, v00 + g + 2
+    return np.column_stack([v00, v10, v11, v00, v11, v01]).astype(np.int32).ravel()
+
+
+def fan_indices() -> np.ndarray:
+    """Triangles of the fan patch of a flat block: the centre vertex (G/2, G/2) to each of the 4·G
+    border segments of the full patch, counter-clockwise seen from above."""
+    g = PATCH_QUADS
+    t = np.arange(g)
+    ring = np.concatenate([np.column_stack([t, np.zeros(g, int)]),          # bottom, i rising
+                           np.column_stack([np.full(g, g), t]),            # right, j rising
+                           np.column_stack([g - t, np.full(g, g)]),        # top, i falling
+                           np.column_stack([np.zeros(g, int), g - t])])    # left, j falling
+    v = ring[:, 0] * (g + 1) + ring[:, 1]
+    centre = (g // 2) * (g + 1) + g // 2
+    return np.column_stack([np.full(len(v), centre), v, np.roll(v, -1)]).astype(np.int32).ravel()
+
+
+def first_flat_level(k: np.ndarray, spacing: float) -> int:
+    """The first level whose vertex spacing (``spacing``·2^l at level l) fades out every wave:
+    k·Δ ≥ π for the smallest k (gerstner.glsl: fade = 1 − smoothstep(π/2, π, kΔ), and the morph only
+    widens Δ). Over a bathymetry the local k is never smaller than the deep-water k (tanh ≤ 1)."""
+    if not len(k):
+        return 0
+    return max(0, int(math.ceil(math.log2(math.pi / (float(np.min(k)) * spacing)) - 1e-12)))
 
 
 def level_error(k: np.ndarray, amplitude: np.ndarray, spacing: float) -> float:
@@ -71,9 +121,10 @@ def horizon_distance(height: float) -> float:
 
 
 def select(view: CameraView, cam_height: float, k: np.ndarray, amplitude: np.ndarray, fov_y_deg: float,
-           lod_error_px: float, max_distance: float, mesh: str = "default") -> LodSelection:
+           lod_error_px: float, max_distance: float, mesh: str = "default", fans: bool = True) -> LodSelection:
     """Blocks to draw this frame. ``cam_height``: camera height above the mean sea level (m);
-    ``mesh``: the ring rule (``MESHES``)."""
+    ``mesh``: the ring rule (``MESHES``); ``fans``: flat blocks drawn as fans (``flat_level``; off
+    where per-vertex attributes vary without waves, e.g. depth over a bathymetry field)."""
     morph_start, morph_margin = MESHES[mesh]
     sphere = float(np.sum(amplitude))
     h_abs = abs(cam_height)
@@ -144,7 +195,9 @@ def select(view: CameraView, cam_height: float, k: np.ndarray, amplitude: np.nda
     # Near blocks first: the depth test then rejects hidden far fragments before they are shaded.
     centre = arr[:, :2] + arr[:, 2:3] / 2.0
     arr = arr[np.argsort(np.hypot(centre[:, 0], centre[:, 1]) - arr[:, 2] * 0.7072, kind="stable")]
-    return LodSelection(arr.astype(np.float32), morph, np.asarray(ranges), spacing, lod_error_px, sphere, reach)
+    flat_level = first_flat_level(k, spacing) if fans else MAX_LEVELS
+    return LodSelection(arr.astype(np.float32), morph, np.asarray(ranges), spacing, lod_error_px, sphere, reach,
+                        flat_level)
 
 
 def _frustum_planes(view: CameraView) -> list[tuple[float, ...]]:

@@ -17,6 +17,9 @@ uniform sampler2D u_detail0;
 uniform sampler2D u_detail1;
 uniform sampler2D u_detail2;
 uniform vec3 u_detail_map[3];         // per map: 1 / L (1/m), offset (cam xy mod L) / L
+#if WATER_DETAIL_MAPS < 3
+uniform vec4 u_detail_mean[3 - WATER_DETAIL_MAPS];  // the maps not read: their tile average (water.py)
+#endif
 uniform vec3 u_glint_dir;             // unit, toward the sun or the moon, whichever is brighter
 uniform vec3 u_glint_illuminance;     // lux per channel of that light
 uniform float u_min_slope_var;        // floor of the unresolved slope variance (glassy sea)
@@ -62,17 +65,23 @@ void main() {
     }
 #endif
     // Mesh slope + detail slopes (3 summed maps), and what none of them resolves as roughness.
-    // Only the maps that hold waves are read (WATER_DETAIL_MAPS, a prefix: the finest tiles are empty
-    // when the spectrum's detail band ends above them); an empty map is zero slope and variance.
-    vec4 d0 = vec4(0.0), d1 = vec4(0.0), d2 = vec4(0.0);
+    // Only the first WATER_DETAIL_MAPS maps are read (a prefix, coarse tiles first); each other one is
+    // either empty (the spectrum's detail band ends above it: mean 0) or fully minified on this block
+    // (the sampler would return its 1x1 mip level): its tile average, u_detail_mean.
 #if WATER_DETAIL_MAPS > 0
-    d0 = detail(u_detail0, u_detail_map[0]);
+    vec4 d0 = detail(u_detail0, u_detail_map[0]);
+#else
+    vec4 d0 = u_detail_mean[0];
 #endif
 #if WATER_DETAIL_MAPS > 1
-    d1 = detail(u_detail1, u_detail_map[1]);
+    vec4 d1 = detail(u_detail1, u_detail_map[1]);
+#else
+    vec4 d1 = u_detail_mean[1 - WATER_DETAIL_MAPS];
 #endif
 #if WATER_DETAIL_MAPS > 2
-    d2 = detail(u_detail2, u_detail_map[2]);
+    vec4 d2 = detail(u_detail2, u_detail_map[2]);
+#else
+    vec4 d2 = u_detail_mean[2 - WATER_DETAIL_MAPS];
 #endif
     vec2 slope = -v_normal.xy / max(v_normal.z, 0.05) + d0.xy + d1.xy + d2.xy;
     vec2 var2 = (d0.zw - d0.xy * d0.xy) + (d1.zw - d1.xy * d1.xy) + (d2.zw - d2.xy * d2.xy);

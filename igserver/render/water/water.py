@@ -15,6 +15,7 @@ tapered bow (a little sea is cut beside it, none is drawn inside).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -181,6 +182,93 @@ def detail_tiles(sea: SeaSurface, t: float) -> list[tuple[float, np.ndarray]]:
     return tiles
 
 
+def detail_means(tiles: list[tuple[float, np.ndarray]]) -> np.ndarray:
+    """Per detail map, its average over the tile (sx, sy, sx², sy²): what the map's 1×1 mip level holds
+    (float64 here; the GPU's is the box-filtered float16 map, within its rounding). Over the texel
+    grid a lattice wave averages to zero, and a product of two averages to half the cosine of their
+    phase difference when they share a lattice point (or of the phase sum for opposite points)."""
+    means = np.zeros((DETAIL_MAPS, 4))
+    for c, (_, waves) in enumerate(tiles):
+        if not len(waves):
+            continue
+        mn = waves[:, 0:2]
+        g = waves[:, 2:3] * mn / np.linalg.norm(mn, axis=1, keepdims=True)  # slope amplitude vectors
+        phi = waves[:, 3]
+        same = np.all(mn[:, None] == mn[None], axis=2)
+        opposite = np.all(mn[:, None] == -mn[None], axis=2)
+        w = 0.5 * (same * np.cos(phi[:, None] - phi[None]) + opposite * np.cos(phi[:, None] + phi[None]))
+        means[c, 2] = g[:, 0] @ w @ g[:, 0]
+        means[c, 3] = g[:, 1] @ w @ g[:, 1]
+    return means
+
+
+@functools.lru_cache(maxsize=16)
+def _min_pixel_angle(tangents: tuple[float, float, float, float], w: int, h: int) -> float:
+    left, right, bottom, top = tangents
+
+    def ray(x: float, y: float) -> tuple[float, float, float]:
+        r = (left + (x + 0.5) / w * (right - left), bottom + (y + 0.5) / h * (top - bottom), 1.0)
+        n = math.sqrt(r[0] * r[0] + r[1] * r[1] + 1.0)
+        return r[0] / n, r[1] / n, 1.0 / n
+
+    def angle(a, b) -> float:
+        c = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+        return math.atan2(math.sqrt(c[0] ** 2 + c[1] ** 2 + c[2] ** 2), a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
+
+    angles = []
+    for x, dx in ((0, 1), (w - 1, -1)):
+        for y, dy in ((0, 1), (h - 1, -1)):
+            a = ray(x, y)
+            angles += [angle(a, ray(x + dx, y)), angle(a, ray(x, y + dy))]
+    return min(angles)
+
+
+def min_pixel_angle(view: CameraView) -> float:
+    """The smallest angle (rad) between the rays of two neighbouring pixels anywhere on the screen
+    (at the frame's corners, where a pixel subtends the least)."""
+    return _min_pixel_angle(tuple(float(t) for t in view.tangents), int(view.width), int(view.height))
+
+
+def minified_maps_from(selection: lod.LodSelection, sea: SeaSurface, tiles, view: CameraView,
+                       cam_height: float) -> np.ndarray:
+    """Per block, how many detail maps (a prefix: the finer tiles come later) the shader must read;
+    every later map is fully minified there — the sampler returns its 1×1 mip level, the tile's
+    average (``detail_means``) — so it is replaced by that constant (picture unchanged: two texture
+    reads a pixel fewer where it holds).
+
+    Fully minified: the texel footprint ρ (texels per pixel, the larger of the two screen axes) is at
+    least 2N, a level past the 1×1 one. For a point of the block at distance ≥ d, two neighbouring
+    pixels' rays (angle ≥ δ, ``min_pixel_angle``) meet the surface ≥ d·sin δ apart; a mesh of slope
+    ≤ s moves that apart ≥ 1/√(1+s²) of it horizontally, the rest point (the maps' coordinate) moves
+    ≥ 1/(1+s) of that (the Gerstner horizontal displacement's gradient is ≤ Σ b k ≤ s), and
+    llvmpipe's ρ (largest derivative component) is ≥ 1/√2 of the length: ρ ≥ N/L · d sin δ /
+    (√2 √(1+s²) (1+s)); d from the block's square, less the error sphere ΣA horizontally and
+    vertically. s per block: the slope of the waves its level's spacing keeps (fades, gerstner.glsl)
+    plus the earth's tilt at the reach. Only in uniform depth (over a field k, A and Q vary per
+    point; every map is read there)."""
+    n_blocks = len(selection.nodes)
+    used = sum(1 for _, waves in tiles if len(waves))
+    if sea.field is not None or n_blocks == 0:
+        return np.full(n_blocks, used, dtype=int)
+    nodes = selection.nodes.astype(np.float64)
+    w = sea.waves
+    level = nodes[:, 3].astype(int)
+    spacing = selection.finest_spacing * 2.0 ** np.arange(int(level.max()) + 1)
+    x = w.k[None] * spacing[:, None]
+    fade = 1.0 - np.clip((x - 0.5 * math.pi) / (0.5 * math.pi), 0.0, 1.0) ** 2 * (
+        3.0 - 2.0 * np.clip((x - 0.5 * math.pi) / (0.5 * math.pi), 0.0, 1.0))  # 1 − smoothstep(π/2, π, kΔ)
+    slope = (np.sum(w.amplitude * w.k * fade, axis=1) + selection.reach / lod.EARTH_RADIUS)[level]
+    sphere = selection.error_sphere
+    gap = np.maximum(np.maximum(nodes[:, :2], -(nodes[:, :2] + nodes[:, 2:3])), 0.0)  # camera at (0, 0)
+    d = np.hypot(np.maximum(np.hypot(gap[:, 0], gap[:, 1]) - sphere, 0.0), max(abs(cam_height) - sphere, 0.0))
+    footprint = d * math.sin(min_pixel_angle(view)) / (math.sqrt(2.0) * np.sqrt(1.0 + slope**2) * (1.0 + slope))
+    count = np.zeros(n_blocks, dtype=int)
+    for c, (size, waves) in enumerate(tiles):
+        if len(waves):
+            count = np.where(footprint / size < 2.0, c + 1, count)  # ρ/N = footprint / L < 2: still resolved
+    return count
+
+
 def glint_light(uniforms: dict) -> dict:
     """The sun or the moon, whichever gives more light: the one glitter the water shader draws."""
     sun, moon = np.asarray(uniforms["u_sun_illuminance"]), np.asarray(uniforms["u_moon_illuminance"])
@@ -274,10 +362,11 @@ class WaterPass(RenderPass):
         self._field_tex = None
         self._detail = None
         self._detail_fbos = None
-        self._detail_key = None
+        self._detail_key = [None] * DETAIL_MAPS
         self._instances = None
         self._tables: SeaTables | None = None
         self.exact_atmosphere = False  # the atmosphere per pixel/vertex instead of the tables (quality study)
+        self.skip_minified_maps = True  # False: every block reads every detail map (tests' reference)
         self.stats: dict = {}
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
@@ -306,18 +395,16 @@ class WaterPass(RenderPass):
                                           varyings=["v_rel"])
         return cache[key]
 
-    def _patch_buffer(self) -> moderngl.Buffer:
+    def _patch_buffer(self, fan: bool = False) -> tuple[moderngl.Buffer, moderngl.Buffer]:
+        """The patch's (G+1)² grid vertices and its index buffer: the full G×G patch, or the fan of a
+        flat block (lod.fan_indices: the same border vertices)."""
         if self._patch is None:
             g = lod.PATCH_QUADS
             i, j = np.meshgrid(np.arange(g + 1), np.arange(g + 1), indexing="ij")
             verts = np.column_stack([i.ravel(), j.ravel()]).astype(np.float32)
-            idx = []
-            for a in range(g):
-                for b in range(g):
-                    v00, v10, v01, v11 = a * (g + 1) + b, (a + 1) * (g + 1) + b, a * (g + 1) + b + 1, (a + 1) * (g + 1) + b + 1
-                    idx += [v00, v10, v11, v00, v11, v01]
-            self._patch = (self.ctx.buffer(verts.tobytes()), self.ctx.buffer(np.asarray(idx, dtype=np.int32).tobytes()))
-        return self._patch
+            self._patch = (self.ctx.buffer(verts.tobytes()), self.ctx.buffer(lod.patch_indices().tobytes()),
+                           self.ctx.buffer(lod.fan_indices().tobytes()))
+        return self._patch[0], self._patch[2 if fan else 1]
 
     def _upload_field(self, sea: SeaSurface) -> None:
         if self._field_key is sea:
@@ -342,46 +429,44 @@ class WaterPass(RenderPass):
             tex.repeat_x = tex.repeat_y = False
         self._field_tex = (field, scalar_tex)
 
-    def _render_detail(self, sea: SeaSurface, t: float, resolution: int) -> list[tuple[float, np.ndarray]]:
+    def _render_detail(self, sea: SeaSurface, t: float, resolution: int, tiles, read: int) -> None:
+        """Render the first ``read`` detail maps of ``tiles`` (those some block reads; the others are
+        empty or fully minified everywhere this frame) for time ``t``."""
         if self._detail is None or self._detail[0].size[0] != resolution:
             if self._detail is not None:
                 for tex, fbo in zip(self._detail, self._detail_fbos):
                     fbo.release()
                     tex.release()
-            self._detail_key = None
+            self._detail_key = [None] * DETAIL_MAPS
             self._detail = [self.ctx.texture((resolution, resolution), 4, dtype="f2") for _ in range(DETAIL_MAPS)]
             self._detail_fbos = [self.ctx.framebuffer(color_attachments=[t_]) for t_ in self._detail]
             for tex in self._detail:
                 tex.repeat_x = tex.repeat_y = True
                 tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
-        program = self.programs.program("common/fullscreen.vert.glsl", "water/detail.frag.glsl",
-                                        {"MAX_DETAIL": MAX_DETAIL})
-        tiles = detail_tiles(sea, t)
-        # The maps depend on the sea state and the time only: a frame at the same time (another
-        # view, a re-render of a paused scene) reuses them instead of redrawing 3 tiles of waves.
-        # (The sea is cached per state by igserver.water, so identity is the state; a resolution
-        # change above clears the key.)
-        if self._detail_key is not None and self._detail_key[0] is sea and self._detail_key[1] == float(t):
-            return tiles
-        self._detail_key = (sea, float(t))
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-        for (size, waves), tex, fbo in zip(tiles, self._detail, self._detail_fbos):
-            if len(waves) == 0:  # not read by the water shader (WATER_DETAIL_MAPS)
+        for c, ((size, waves), tex, fbo) in enumerate(zip(tiles[:read], self._detail, self._detail_fbos)):
+            # A map depends on the sea state and the time only: a frame at the same time (another
+            # view, a re-render of a paused scene) reuses it. (The sea is cached per state by
+            # igserver.water, so identity is the state; a resolution change above clears the keys.)
+            if len(waves) == 0 or (self._detail_key[c] is not None and self._detail_key[c][0] is sea
+                                   and self._detail_key[c][1] == float(t)):
                 continue
+            self._detail_key[c] = (sea, float(t))
+            n = len(waves)
+            # The wave count compiled in: llvmpipe then unrolls the loop (a uniform count costs ~1/3 more).
+            program = self.programs.program("common/fullscreen.vert.glsl", "water/detail.frag.glsl",
+                                            {"DETAIL_COUNT": n})
             fbo.use()
             # Per wave: 2 pi (m, n) (rad per tile), phase; slope amplitude A k along the unit (m, n).
-            table = np.zeros((MAX_DETAIL, 4), dtype=np.float32)
-            slope = np.zeros((MAX_DETAIL, 4), dtype=np.float32)
-            n = len(waves)
-            table[:n, 0:2] = 2.0 * math.pi * waves[:, 0:2]
-            table[:n, 2] = waves[:, 3]
-            slope[:n, 0:2] = waves[:, 2:3] * waves[:, 0:2] / np.linalg.norm(waves[:, 0:2], axis=1, keepdims=True)
-            program["u_detail_count"].value = n
+            table = np.zeros((n, 4), dtype=np.float32)
+            slope = np.zeros((n, 4), dtype=np.float32)
+            table[:, 0:2] = 2.0 * math.pi * waves[:, 0:2]
+            table[:, 2] = waves[:, 3]
+            slope[:, 0:2] = waves[:, 2:3] * waves[:, 0:2] / np.linalg.norm(waves[:, 0:2], axis=1, keepdims=True)
             program["u_detail_wave"].write(table.tobytes())
             program["u_detail_slope"].write(slope.tobytes())
             self.fullscreen(program)
             tex.build_mipmaps()
-        return tiles
 
     # ---- per frame ------------------------------------------------------------------------------
     def wave_uniforms(self, sea: SeaSurface, scene: Scene, view: CameraView) -> dict:
@@ -423,7 +508,8 @@ class WaterPass(RenderPass):
         fov = cam.fov_y if cam.frustum is None else cam.frustum.top - cam.frustum.bottom
         return lod.select(view, float(view.position[2] - scene.ocean.level), sea.waves.k, sea.waves.amplitude
                           * (np.max(sea.field.factor, axis=(1, 2)) if sea.field is not None else 1.0),
-                          fov, min(scene.ocean.lod_error * lod_error_scale, 16.0), view.far, mesh)
+                          fov, min(scene.ocean.lod_error * lod_error_scale, 16.0), view.far, mesh,
+                          fans=sea.field is None)  # a field's depth and surf vary per vertex even where flat
 
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
@@ -431,7 +517,7 @@ class WaterPass(RenderPass):
         t = scene.time.sim_time
         knobs = self.knobs(frame)
         resolution = int(min(max(round(scene.ocean.detail_resolution * knobs.detail_scale), 32), 512))
-        tiles = self._render_detail(sea, t, resolution)
+        tiles = detail_tiles(sea, t)
         selection = self.select(sea, scene, view, knobs.lod_error_scale, knobs.mesh)
         hulls = hull_boxes(scene, view)
         if self._tables is None:
@@ -443,16 +529,25 @@ class WaterPass(RenderPass):
         # Blocks whose footprint (grown by the waves' reach) touches no hull are drawn by the program
         # without the per-fragment hull test (and its discard, which also turns off early depth tests).
         near_hull = blocks_near_hulls(selection.nodes, hulls, 2.0 * selection.error_sphere + 1.0)
-        groups = [(False, selection.nodes[~near_hull]), (True, selection.nodes[near_hull])]
+        flat = selection.flat  # blocks carrying no wave: drawn as fans (lod.fan_indices)
+        # Detail maps read per block: the later (finer) ones are fully minified far enough away.
+        maps = (minified_maps_from(selection, sea, tiles, view, -level_z) if self.skip_minified_maps
+                else np.full(len(selection.nodes), used_maps, dtype=int))
+        means = detail_means(tiles)
+        self._render_detail(sea, t, resolution, tiles, int(maps.max()) if len(maps) else 0)
+        groups = [(with_hulls, fan, m, selection.nodes[(near_hull == with_hulls) & (flat == fan) & (maps == m)])
+                  for with_hulls in (False, True) for fan in (False, True) for m in range(used_maps + 1)]
         programs = {}
-        for with_hulls, nodes in groups:
-            if len(nodes):
-                programs[with_hulls] = self._configured_program(frame, sea, waves, tiles, used_maps, selection,
-                                                                hulls, table_uniforms, with_hulls)
+        for with_hulls, _, m, nodes in groups:
+            if len(nodes) and (with_hulls, m) not in programs:
+                programs[(with_hulls, m)] = self._configured_program(frame, sea, waves, tiles, m, means, selection,
+                                                                     hulls, table_uniforms, with_hulls)
         self.stats = {"blocks": int(len(selection.nodes)), "triangles": selection.triangles,
                       "lod_error_px": selection.error_bound_px, "error_sphere_m": selection.error_sphere,
                       "finest_spacing_m": selection.finest_spacing, "waves": sea.n,
-                      "detail_resolution": resolution, "hull_blocks": int(np.count_nonzero(near_hull))}
+                      "detail_resolution": resolution, "hull_blocks": int(np.count_nonzero(near_hull)),
+                      "fan_blocks": int(np.count_nonzero(flat)),
+                      "blocks_by_detail_maps": np.bincount(maps, minlength=used_maps + 1).tolist()}
         if len(selection.nodes) == 0:
             return
         targets.scene_fbo.use()
@@ -466,19 +561,20 @@ class WaterPass(RenderPass):
             # field): back faces (the far slopes of waves) are always hidden, so they are not drawn.
             self.ctx.enable(moderngl.CULL_FACE)
             self.ctx.front_face = "ccw"  # the patch's triangles wind counter-clockwise seen from above
-        for slot, (with_hulls, nodes) in enumerate(groups):
+        for slot, (with_hulls, fan, m, nodes) in enumerate(groups):
             if len(nodes):
-                self._vao(programs[with_hulls], nodes, slot).render(moderngl.TRIANGLES, instances=len(nodes))
+                self._vao(programs[(with_hulls, m)], nodes, slot, fan).render(moderngl.TRIANGLES, instances=len(nodes))
         self.ctx.disable(moderngl.CULL_FACE)
         self.stats["culled_back_faces"] = not under
         if under:
             self._fill_under_crests(frame, selection, table_uniforms)
 
-    def _configured_program(self, frame, sea, waves: dict, tiles, used_maps, selection, hulls, table_uniforms,
-                            with_hulls: bool) -> moderngl.Program:
-        """The water program (with or without the hull test) with this frame's uniforms set."""
+    def _configured_program(self, frame, sea, waves: dict, tiles, read_maps: int, means: np.ndarray, selection,
+                            hulls, table_uniforms, with_hulls: bool) -> moderngl.Program:
+        """The water program (with or without the hull test, reading the first ``read_maps`` detail
+        maps and the tile means of the others) with this frame's uniforms set."""
         scene, view = frame.scene, frame.view
-        program = self._program(sea.field is not None, with_hulls and bool(hulls), used_maps)
+        program = self._program(sea.field is not None, with_hulls and bool(hulls), read_maps)
         set_uniforms(program, frame.uniforms)
         set_uniforms(program, table_uniforms)
         set_uniforms(program, glint_light(frame.uniforms))
@@ -491,7 +587,10 @@ class WaterPass(RenderPass):
             detail_map[c] = (1.0 / size, *(np.mod(view.position[:2], size) / size))
             self._detail[c].use(DETAIL_UNIT0 + c)
             set_uniforms(program, {f"u_detail{c}": DETAIL_UNIT0 + c})
-        set_uniforms(program, {"u_detail_map": detail_map[: max(used_maps, 1)].tobytes(), "u_min_slope_var": 2e-4})
+        set_uniforms(program, {"u_detail_map": detail_map[: max(read_maps, 1)].tobytes(), "u_min_slope_var": 2e-4})
+        if "u_detail_mean" in program:
+            mean = program["u_detail_mean"]
+            mean.write(means[read_maps:read_maps + mean.array_length].astype(np.float32).tobytes())
         set_uniforms(program, {"u_foam_jacobian": _foam_threshold(sea, scene.weather.wind_speed
                                                                   if scene.ocean.sea_state is None else sea.spectrum.wind)})
         if "u_hull_count" in program:
@@ -560,10 +659,10 @@ class WaterPass(RenderPass):
             obj.release()
         return selection, positions
 
-    def _vao(self, program, nodes: np.ndarray, slot: int = 0) -> moderngl.VertexArray:
-        """The patch drawn once per block of ``nodes``; each slot (block group drawn in one frame)
-        has its own instance buffer."""
-        verts, index = self._patch_buffer()
+    def _vao(self, program, nodes: np.ndarray, slot: int = 0, fan: bool = False) -> moderngl.VertexArray:
+        """The patch (or the fan of flat blocks) drawn once per block of ``nodes``; each slot (block
+        group drawn in one frame) has its own instance buffer."""
+        verts, index = self._patch_buffer(fan)
         data = np.ascontiguousarray(nodes, dtype=np.float32).tobytes()
         buffers = self._instances if self._instances is not None else {}
         self._instances = buffers
