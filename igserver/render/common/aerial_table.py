@@ -40,7 +40,7 @@ AERIAL_MAX_RANGE = 2.0e7  # m (beyond the ground's horizon from 10,000 km)
 # altitude, a ray's optical depth piles up in the last few km before the ground (scale heights
 # 1.2 and 8 km), which slices uniform in log distance from the camera do not resolve (ground plane,
 # day, pitch -20: 55.7 dB / max 2 levels at 1 km, 49.0 / 8 at 3 km, 32.2 / 49 at 10 km).
-AERIAL_MAX_HEIGHT = 1500.0  # m
+AERIAL_MAX_HEIGHT = 1000.0  # m
 EARTH_SPHERE_RADIUS = 6.371e6  # m, as common/earth.glsl
 
 
