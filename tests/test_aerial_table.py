@@ -64,9 +64,15 @@ def probe(renderer, scene):
 
 
 # 2 % of the radiance: one 8-bit sRGB step in the mid tones (the sRGB curve's slope at 50 % grey
-# makes one level 1.9 % of the linear value), so the table's error is below what the frame shows.
-# A typo in the slice map, a lost fog term or a stale table is off by 10 % to several times.
+# makes one level 1.9 % of the linear value): 99 % of the points within it, so the table's error is
+# below what most of the frame shows; 5 % (2.5 levels) anywhere: less than a visible contour. A
+# typo in the slice map, a lost fog term or a stale table is off by 10 % to several times.
 REL_TOL = 0.02
+MAX_TOL = 0.05
+
+
+def within(rel) -> bool:
+    return np.percentile(rel, 99) < REL_TOL and rel.max() < MAX_TOL
 HARD_CASES = {
     # low sun ahead (2 deg up), 1 km fog to 200 m: the fog's forward lobe toward the sun
     "low_sun_fog": ["time.sun_override={\"elevation\": 2.0, \"azimuth\": 0.0}", "atmosphere.visibility=1000",
@@ -80,17 +86,32 @@ HARD_CASES = {
 }
 
 
+def off_horizon(frame, pts, table) -> np.ndarray:
+    """Points more than one table row (in elevation) from the geometric horizon. The per-pixel
+    function changes steeply across the horizon (sky-bound and ground-bound rays share out their
+    in-scattering differently) within less than a row of the table, which interpolates across it:
+    there the table is off by up to the change across one row (README: a line of pixels, up to 5
+    levels from 30 m with a low sun behind); these tests bound the rest."""
+    l, r, b, t = table.uniforms()["u_aerial_tangents"]
+    row = np.arctan((t - b) / (table.size[1] - 1))  # rad, a row's height at the centre (the largest)
+    d = pts[:, :3] / np.linalg.norm(pts[:, :3], axis=1, keepdims=True)
+    dip = frame.uniforms["u_horizon_elevation"]
+    return np.abs(np.arcsin(np.clip(d[:, 2], -1, 1)) - dip) > row
+
+
 @pytest.mark.parametrize("case", sorted(HARD_CASES))
 def test_table_matches_the_per_pixel_function(renderer, case):
-    table, exact, _ = probe(renderer, make_scene(*HARD_CASES[case]))
+    scene = make_scene(*HARD_CASES[case])
+    table, exact, held = probe(renderer, scene)
     assert np.all(np.isfinite(table))
-    rel = np.abs(table - exact) / np.maximum(np.abs(exact), 1e-30)
-    # p99.9 rather than max: points within a few cm of a 1-pixel-wide feature may straddle it
-    # (none of these cases has one; the bound holds for the max as well today).
-    assert np.percentile(rel, 99.9) < REL_TOL, (case, float(np.percentile(rel, 99.9)), float(rel.max()))
+    frame = frame_mod.build_frame(renderer.ctx, scene)
+    keep = off_horizon(frame, points(frame), held)
+    assert keep.mean() > 0.8  # the exclusion is a thin band, not most of the frame
+    rel = (np.abs(table - exact) / np.maximum(np.abs(exact), 1e-30))[keep]
+    assert within(rel), (case, float(np.percentile(rel, 99)), float(rel.max()))
 
 
-def test_table_refills_when_the_fog_changes_and_only_then(renderer):
+def test_table_refills_when_the_fog_or_the_view_changes_and_only_then(renderer):
     scene = make_scene(*HARD_CASES["low_sun_fog"])
     _, _, table = probe(renderer, scene)
     fills = table.fills
@@ -100,12 +121,23 @@ def test_table_refills_when_the_fog_changes_and_only_then(renderer):
     t, e, table = probe(renderer, thicker)
     assert table.fills == fills + 1
     rel = np.abs(t - e) / np.maximum(np.abs(e), 1e-30)
-    assert np.percentile(rel, 99.9) < REL_TOL  # filled for the new fog, not the old one
-    turned = apply_patch(thicker, {"camera": {"heading": 40.0}})  # only the view turns
+    assert within(rel)  # filled for the new fog, not the old one
+    # A small turn stays inside the table's guard band: reused, and still right (its own frame).
+    nudged = apply_patch(thicker, {"camera": {"heading": 3.0, "pitch": 3.0}})
+    t, e, table = probe(renderer, nudged)
+    assert table.fills == fills + 1
+    rel = np.abs(t - e) / np.maximum(np.abs(e), 1e-30)
+    assert within(rel)
+    turned = apply_patch(thicker, {"camera": {"heading": 40.0}})  # out of it: refilled
     t, e, table = probe(renderer, turned)
     assert table.fills == fills + 2
     rel = np.abs(t - e) / np.maximum(np.abs(e), 1e-30)
-    assert np.percentile(rel, 99.9) < REL_TOL
+    assert within(rel)
+    zoomed = apply_patch(turned, {"camera": {"fov_y": 20.0}})  # zoomed in: refilled for resolution
+    t, e, table = probe(renderer, zoomed)
+    assert table.fills == fills + 3
+    rel = np.abs(t - e) / np.maximum(np.abs(e), 1e-30)
+    assert within(rel)
 
 
 def test_high_camera_keeps_the_per_pixel_function(renderer):

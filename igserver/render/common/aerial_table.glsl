@@ -1,5 +1,6 @@
 // The per-frame aerial-perspective table (render/common/aerial_table.py): a camera-frustum volume
-// ("froxels", Hillaire 2020) of screen x, y (nodes on the frame's edges, uv = i / (n - 1)) times
+// ("froxels", Hillaire 2020) of screen x, y (nodes on the edges of the table's frustum, the view's
+// widened by a guard band, uv = i / (n - 1)) times
 // distance slices d_k = d0 q^k, holding for the view ray to each node
 //   u_aerial_tau     rgb optical depth camera -> node          T = exp(-tau)
 //   u_aerial_source  rgb mean in-scattered source of the path  S = source (1 - T)
@@ -20,6 +21,12 @@
 layout(binding = 18) uniform sampler3D u_aerial_tau;
 layout(binding = 19) uniform sampler3D u_aerial_source;
 uniform vec4 u_aerial_map;  // d0 (m), log2(q), q, number of slices
+// The table's own frame (aerial_table.py: the camera's at the fill, its frustum widened by a guard
+// band, so a turning camera reuses the table): basis and frustum tangents left, right, bottom, top.
+uniform vec3 u_aerial_right;
+uniform vec3 u_aerial_up;
+uniform vec3 u_aerial_forward;
+uniform vec4 u_aerial_tangents;
 #endif
 
 vec3 aerial_perspective(vec3 radiance, vec3 rel) {
@@ -28,10 +35,10 @@ vec3 aerial_perspective(vec3 radiance, vec3 rel) {
 #else
     float d = length(rel);
     if (!(d > 1e-4)) return radiance;
-    // Screen position of the point: the camera-frame tangents, as view_ray() maps uv to them.
-    vec3 c = vec3(dot(rel, u_camera_right), dot(rel, u_camera_up), dot(rel, u_camera_forward));
+    // Position of the point in the table's frustum: its tangents, as view_ray() maps uv to them.
+    vec3 c = vec3(dot(rel, u_aerial_right), dot(rel, u_aerial_up), dot(rel, u_aerial_forward));
     vec2 t = c.xy / max(c.z, 1e-6 * d);
-    vec2 uv = clamp((t - u_frustum_tangents.xz) / (u_frustum_tangents.yw - u_frustum_tangents.xz), 0.0, 1.0);
+    vec2 uv = clamp((t - u_aerial_tangents.xz) / (u_aerial_tangents.yw - u_aerial_tangents.xz), 0.0, 1.0);
     vec2 n_xy = vec2(textureSize(u_aerial_tau, 0).xy);
     float n = u_aerial_map.w;
     float k = log2(d / u_aerial_map.x) / u_aerial_map.y;

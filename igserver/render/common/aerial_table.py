@@ -30,9 +30,13 @@ from ..shaders import ProgramCache, set_uniforms
 from ..sky.frame_sky import _haze_tables
 
 AERIAL_UNITS = {"u_aerial_tau": 18, "u_aerial_source": 19}
-# (screen x nodes, screen y nodes, distance slices): from the error-vs-time check in the README
-# ("Aerial-perspective table"); presets do not change it (the fill is cheap next to the passes).
-AERIAL_SIZE = (64, 36, 32)
+# (screen x nodes, screen y nodes, distance slices) over the view widened by AERIAL_GUARD on each
+# side: from the error-vs-time check in the README ("Aerial-perspective table"); presets do not
+# change it (the fill runs only when the view leaves the table or the light or fog change).
+AERIAL_SIZE = (80, 45, 32)
+AERIAL_GUARD = 0.1  # of the frustum's width (tangent) added on each side: a turning camera refills less often
+AERIAL_ZOOM = 0.7     # refill when the view is narrower than this fraction of the table's own view
+VIEW_UNIFORMS = ("u_camera_right", "u_camera_up", "u_camera_forward", "u_frustum_tangents", "u_resolution")
 AERIAL_D0 = 1.0         # m, the first slice; nearer, tau scales with distance (exact in a homogeneous medium)
 AERIAL_MIN_RANGE = 100.0  # m
 AERIAL_MAX_RANGE = 2.0e7  # m (beyond the ground's horizon from 10,000 km)
@@ -93,6 +97,7 @@ class AerialTable:
             tex.repeat_x = tex.repeat_y = tex.repeat_z = False
             self.textures[name] = tex
         self.map = table_map(1e4, self.size[2])
+        self._frame = None  # (right, up, forward, tangents) the table was filled for
         self._key = None
         self.fills = 0
 
@@ -107,16 +112,25 @@ class AerialTable:
         return table
 
     def update(self, uniforms: dict, d_max: float, inputs: tuple = ()) -> None:
-        """Fill the table for these frame uniforms, unless it holds exactly this already: the key
-        is every uniform the fill program reads (so a new input of the atmosphere library joins it
-        by itself), the range and ``inputs`` (versions of the textures it samples)."""
+        """Fill the table for these frame uniforms unless it already holds them. The table has its
+        own frame: the camera's basis at the fill, its frustum widened by AERIAL_GUARD on every side,
+        so a turning camera reuses it while its view stays inside that frustum and is not zoomed in
+        past AERIAL_ZOOM (resolution). Everything else the fill reads is the key: every uniform of
+        the fill program (a new input of the atmosphere library joins it by itself), the range, and
+        ``inputs`` (versions of the textures it samples)."""
         prog = self.programs.compute("common/aerial_table.comp.glsl")
-        self.map = table_map(d_max, self.size[2])
-        values = {**uniforms, "u_aerial_map": self.map}
-        key = (inputs, tuple((name, values.get(name)) for name in sorted(prog) if name in values))
-        if key == self._key:
+        values = {**uniforms, "u_aerial_map": table_map(d_max, self.size[2])}
+        key = (inputs, tuple((name, values.get(name)) for name in sorted(prog)
+                             if name in values and name not in VIEW_UNIFORMS))
+        if key == self._key and self._frame is not None and view_inside(self._frame, uniforms):
             return
-        set_uniforms(prog, values)
+        basis = [np.asarray(uniforms[name], np.float64) for name in VIEW_UNIFORMS[:3]]
+        l, r, b, t = uniforms["u_frustum_tangents"]
+        gx, gy = AERIAL_GUARD * (r - l), AERIAL_GUARD * (t - b)
+        tangents = (l - gx, r + gx, b - gy, t + gy)
+        self._frame = (*basis, tangents)
+        self.map = values["u_aerial_map"]
+        set_uniforms(prog, {**values, **self._fill_view()})
         for unit, name in enumerate(AERIAL_UNITS):
             self.textures[name].bind_to_image(unit, read=False, write=True)
         prog.run(*(-(-n // 4) for n in self.size))
@@ -124,16 +138,41 @@ class AerialTable:
         self._key = key
         self.fills += 1
 
+    def _fill_view(self) -> dict:
+        """The camera uniforms the fill's view_ray() reads, set to the table's own frame."""
+        right, up, forward, tangents = self._frame
+        return {"u_camera_right": tuple(right), "u_camera_up": tuple(up), "u_camera_forward": tuple(forward),
+                "u_frustum_tangents": tuple(tangents)}
+
     def bind(self) -> None:
         for name, unit in AERIAL_UNITS.items():
             self.textures[name].use(unit)
 
     def uniforms(self) -> dict:
-        return {**AERIAL_UNITS, "u_aerial_map": self.map}
+        right, up, forward, tangents = self._frame
+        return {**AERIAL_UNITS, "u_aerial_map": self.map, "u_aerial_right": tuple(right), "u_aerial_up": tuple(up),
+                "u_aerial_forward": tuple(forward), "u_aerial_tangents": tuple(tangents)}
 
     def release(self) -> None:
         for tex in self.textures.values():
             tex.release()
+
+
+def view_inside(table_frame, uniforms: dict) -> bool:
+    """Whether the frame's view lies inside the table's frustum (its four corner rays project
+    within the table's tangents) and is not zoomed in past AERIAL_ZOOM of the table's own view."""
+    right, up, forward, (l, r, b, t) = table_frame
+    cr, cu, cf = (np.asarray(uniforms[name], np.float64) for name in VIEW_UNIFORMS[:3])
+    vl, vr, vb, vt = uniforms["u_frustum_tangents"]
+    inner = 1.0 / (1.0 + 2.0 * AERIAL_GUARD)
+    if (vr - vl) < AERIAL_ZOOM * inner * (r - l) or (vt - vb) < AERIAL_ZOOM * inner * (t - b):
+        return False
+    corners = np.array([cf + x * cr + y * cu for x in (vl, vr) for y in (vb, vt)])
+    z = corners @ forward
+    if np.any(z <= 1e-6):
+        return False
+    tx, ty = (corners @ right) / z, (corners @ up) / z
+    return bool(np.all((tx >= l) & (tx <= r) & (ty >= b) & (ty <= t)))
 
 
 def table_serves(scene, view) -> bool:
