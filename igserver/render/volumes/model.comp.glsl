@@ -17,6 +17,7 @@ layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 layout(rgba16f, binding = 0) writeonly uniform image3D u_volume;
 uniform sampler2D u_profile;
 uniform ivec3 u_size;
+uniform int u_z_first;       // first z slice of this dispatch (a keyframe is modelled in slices, volumes.py)
 uniform vec3 u_extent;       // m: (radius, radius, height) of the container now (after fade)
 uniform float u_wavelength;  // m per noise lattice unit (lambda)
 uniform float u_tau;         // noise scroll along P.z, lattice units, in [0, period)
@@ -51,7 +52,7 @@ float shadow(vec3 n, vec3 dir_m) {
 }
 
 void main() {
-    ivec3 id = ivec3(gl_GlobalInvocationID);
+    ivec3 id = ivec3(gl_GlobalInvocationID) + ivec3(0, 0, u_z_first);
     if (any(greaterThanEqual(id, u_size))) return;
     vec3 n = (vec3(id) + 0.5) / vec3(u_size);
     n.xy = n.xy * 2.0 - 1.0;                            // normalised container coordinates
