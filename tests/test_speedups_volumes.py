@@ -218,3 +218,31 @@ def test_march_coarsens_only_where_voxels_are_large_on_screen(renderer, volumes)
     assert quarter_error < half_error + 0.5, (quarter_error, half_error)
     # And no stripes (the converged picture's own neighbour differences, as in the stripe test).
     assert adjacent_difference(quarter) < 2.0 * adjacent_difference(reference) + 0.002
+
+
+def test_smoke_shadows_modelled_once_per_change_of_their_inputs(renderer, volumes):
+    """A smoke keyframe reads its sun and sky transmittance from a texture modelled once per
+    change of its inputs (volumes.py _shadows): a stream of keyframes models it once, and after
+    the sun moves the picture is the one modelled from scratch (no stale shadows)."""
+    volumes.settings = replace(MEDIUM, model_hz=10.0)
+    day = {"utc": "2026-06-21T08:00:00Z"}
+    scene = apply_patch(close_fire(96, 54), {"time": day, "effects": [
+        {"id": "smoke", "type": "smoke", "position": [0, 0, 0], "diameter": 3.0, "seed": 5}]})
+    try:
+        shadows = 0
+        for i in range(7):
+            renderer.render(apply_patch(scene, {"time": {"sim_time": 300.0 + i / 30.0}}))
+            shadows += volumes.stats.get("shadows", 0)
+        assert shadows == 1  # three keyframes modelled, one shadow texture
+        # A jump in time (new keyframes, modelled now with the new sun; in a stream a changed sun
+        # enters at the next keyframe and blends in, by design).
+        moved = apply_patch(scene, {"time": {"utc": "2026-06-21T15:00:00Z", "sim_time": 400.0}})
+        renderer.render(moved)
+        cached = renderer.read_hdr()
+        for slot in volumes._slots.values():
+            slot.release()
+        volumes._slots.clear()
+        renderer.render(moved)
+        np.testing.assert_array_equal(cached, renderer.read_hdr())
+    finally:
+        volumes.settings = None

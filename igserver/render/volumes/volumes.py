@@ -44,6 +44,7 @@ from .effects import NOISE_PERIOD, NOISE_SCALE, Volume, visible_volumes
 from .fire_lights import fire_light
 from .profiles import FIRE_SMOKE_ALBEDO, SMOKE_ALBEDO, load_profile
 
+MAX_SHADOW_TEXTURES = 3  # per smoke effect: the keyframes in flight (k, k + 1, k + 2) may differ in a fade
 MAX_PROFILE_TEXTURES = 32  # profile textures kept resident (LRU); each is small, their number is not
 FIRE_LUMINANCE = 2.0e4  # cd/m^2 of profile colour 1 at intensity 1 (a candle is ~1e4, large flames more)
 FIRE_SIGMA_D = 1.5  # extinction of fire density 1 times the diameter: optical depth across the core
@@ -169,6 +170,8 @@ class _Model:
         self.done_z = 0  # z slices modelled so far (a keyframe ahead is modelled over several frames)
         self.uniforms: dict | None = None  # the modelling inputs, frozen when its first slice was modelled
         self.smoke = False
+        self.slot: "_Slot | None" = None
+        self.vol: Volume | None = None  # the effect as it was when the first slice was modelled
 
     @property
     def complete(self) -> bool:
@@ -185,11 +188,15 @@ class _Slot:
         self.models: list[_Model] = []
         self.last_frame = 0
         self.last_time: float | None = None  # sim_time of the last frame that used it
+        self.shadows: OrderedDict[tuple, moderngl.Texture] = OrderedDict()  # smoke: inputs -> (t_sun, t_sky)
 
     def release(self) -> None:
         for m in self.models:
             m.release()
         self.models = []
+        for tex in self.shadows.values():
+            tex.release()
+        self.shadows.clear()
 
 
 def _unit_cube_corners() -> np.ndarray:
@@ -297,7 +304,7 @@ class VolumesPass(RenderPass):
         # reaches k + 1), so that no frame pays a whole keyframe: only while time runs forward
         # by less than a period per frame (a stream), from the frame rate seen so far.
         dx = (sim_time - last_time) * settings.model_hz if last_time is not None else 0.0
-        if self.model_ahead and 0.0 < dx < 1.0:
+        if self.model_ahead and 0.0 < dx < 1.0 - 1e-6:  # (a frame per period or fewer: nothing to spread)
             ahead = next((m for m in slot.models if m.key == k + 2), None)
             if ahead is None:
                 ahead = self._new_model(vol, frame, settings, size, (k + 2) * period)
@@ -336,7 +343,8 @@ class VolumesPass(RenderPass):
         sigma = (SMOKE_SIGMA_D if smoke else FIRE_SIGMA_D) / max(vol.effect.diameter, 1e-3)
         model.done_z = 0
         model.smoke = smoke
-        model.profile = self._profile_texture(vol)
+        model.slot = self._slots[vol.key]
+        model.vol = vol
         model.uniforms = {
             "u_size": size,
             "u_extent": (vol.radius, vol.radius, vol.height),
@@ -362,8 +370,10 @@ class VolumesPass(RenderPass):
         if z1 <= z0:
             return
         program = self.programs.compute("volumes/model.comp.glsl", {"SMOKE": 1} if model.smoke else None)
-        set_uniforms(program, {**model.uniforms, "u_z_first": z0})
-        model.profile.use(0)
+        set_uniforms(program, {**model.uniforms, "u_z_first": z0, "u_shadows": 1})
+        self._profile_texture(model.vol).use(0)
+        if model.smoke:
+            self._shadows(model).use(1)
         model.texture.bind_to_image(0, read=False, write=True)
         program.run(math.ceil(model.size[0] / 4), math.ceil(model.size[1] / 4), (z1 - z0) // 4 + ((z1 - z0) % 4 > 0))
         self.ctx.memory_barrier()
@@ -371,6 +381,30 @@ class VolumesPass(RenderPass):
         if model.complete:
             self.stats["modelled"] += 1
         self.stats["voxels"] += model.size[0] * model.size[1] * (z1 - z0)
+
+    def _shadows(self, model: _Model) -> moderngl.Texture:
+        """The smoke's (t_sun, t_sky) texture for ``model``'s inputs, modelled once per change of
+        them (a few are kept per effect: keyframes in flight during a fade differ)."""
+        u = model.uniforms
+        key = (model.size, u["u_extent"], u["u_sun_local"], u["u_sigma"], u["u_opacity"], model.vol.kind, model.vol.profile)
+        shadows = model.slot.shadows
+        tex = shadows.get(key)
+        if tex is not None:
+            shadows.move_to_end(key)
+            return tex
+        tex = self.ctx.texture3d(model.size, 2, dtype="f2")
+        tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        program = self.programs.compute("volumes/model.comp.glsl", {"SMOKE": 1, "SHADOWS": 1})
+        set_uniforms(program, {**u, "u_z_first": 0})
+        self._profile_texture(model.vol).use(0)
+        tex.bind_to_image(0, read=False, write=True)
+        program.run(*(math.ceil(n / 4) for n in model.size))
+        self.ctx.memory_barrier()
+        shadows[key] = tex
+        while len(shadows) > MAX_SHADOW_TEXTURES:
+            shadows.popitem(last=False)[1].release()
+        self.stats["shadows"] = self.stats.get("shadows", 0) + 1
+        return tex
 
     # -- rendering ---------------------------------------------------------------------------
 
