@@ -35,6 +35,7 @@ def test_pass_units_avoid_the_frame_wide_units():
         "water sky reflection": water.SKY_REFLECT_UNIT, "water air T": water.AIR_T_UNIT,
         "water air S": water.AIR_S_UNIT,
         "post halo table": post.HALO_TABLE_UNIT, "sky cirrus table": sky.CIRRUS_TABLE_UNIT,
+        "sky cirrus hide": sky.CIRRUS_HIDE_UNIT,
     }
     clash = {name: unit for name, unit in pass_units.items() if unit in frame_wide_units()}
     assert not clash, clash
