@@ -129,14 +129,20 @@ def _watch(url: str, stop: threading.Event, ack_delay: float, frames: list, late
             except TimeoutError:
                 continue
             # (when, host_frame shown, newest host_frame sent by the host at that moment)
-            frames.append((time.perf_counter(), message["host_frame"], latest[0]))
+            frames.append((time.perf_counter(), message["host_frame"], latest[0], message["frame"], message["render_ms"]))
             if ack_delay:
                 time.sleep(ack_delay)  # a client on a slow link or a slow decoder
             ws.send(pack({"type": "ack", "frame": message["frame"]}))
 
 
 def _rate(frames: list, t0: float, t1: float) -> float:
-    return sum(1 for t, _, _ in frames if t0 <= t < t1) / (t1 - t0)
+    return sum(1 for t, *_ in frames if t0 <= t < t1) / (t1 - t0)
+
+
+def _rendered_rate(frames: list, t0: float, t1: float) -> float:
+    """IG frames rendered per second over [t0, t1), from the frame counter of the frames received."""
+    window = [f for f in frames if t0 <= f[0] < t1]
+    return (window[-1][3] - window[0][3]) / (window[-1][0] - window[0][0])
 
 
 def test_slow_client_does_not_slow_the_fast_one(server):
@@ -165,13 +171,22 @@ def test_slow_client_does_not_slow_the_fast_one(server):
 
     alone, beside, slow_rate = _rate(fast, t0, t1), _rate(fast, t2, t3), _rate(slow, t2, t3)
     print(f"fast alone {alone:.1f} fps, fast beside slow {beside:.1f} fps, slow {slow_rate:.1f} fps")
-    assert alone > 15  # the host sends 30 states/s; 64x36 renders take ~1 ms
-    assert beside >= 0.8 * alone
+    # Alone, the fast client gets nearly every frame the IG renders (the host's 30 states/s on a quiet
+    # machine, 64x36 renders take ~1 ms; fewer when the machine is loaded, so the bound follows the IG's
+    # own frame counter); 0.8 leaves the ack round trips.
+    rendered = _rendered_rate(fast, t0, t1)
+    assert alone >= 0.8 * rendered and rendered > 5.0, (alone, rendered)
+    # Beside the slow one it still gets nearly every frame rendered, and the IG renders about as many as
+    # before (a server that waited for the slow client's acks would render at its 4/s; 0.5 leaves the
+    # load of a shared machine changing between the two windows).
+    rendered_beside = _rendered_rate(fast, t2, t3)
+    assert beside >= 0.8 * rendered_beside and rendered_beside >= 0.5 * rendered, (beside, rendered_beside, rendered)
     assert 1.5 < slow_rate < 5.0  # bounded by its own ack delay (0.25 s), not by the server
     # the slow client gets fresh frames (a few host frames old at most), never a backlog
-    staleness = [newest - shown for _, shown, newest in slow]
+    # (stale_bound: two renders of the machine's current speed, encoding and delivery, at 30 states/s)
+    staleness = [newest - shown for _, shown, newest, _, _ in slow]
     print(f"slow client staleness (host frames): max {max(staleness)}, all {staleness}")
-    assert max(staleness) <= 4
+    assert all(s <= stale_bound(f[4]) for s, f in zip(staleness, slow)), staleness
 
 
 def test_render_process_killed_during_stream(server, ig):
@@ -346,9 +361,11 @@ def test_mjpeg_slow_reader_gets_the_newest_frame_not_a_backlog(server):
     # the render time; the drain poll's <= 20 ms is inside its 50 ms). A backlog shows as staleness growing
     # by ~6.5 host frames per read (the code without flow control reached 100 in 4 s).
     assert all(s <= b for s, b in zip(staleness, bounds)), (staleness, bounds)
-    # and the parts it reads jump to the newest: 0.25 s apart is 7.5 host frames; 4 leaves the host's jitter
-    # on a loaded machine (a queue of parts would show consecutive host frames, 1 apart)
-    assert min(np.diff(shown)) >= 4, shown
+    # and the parts it reads jump to the newest: a queue of parts would show consecutive host frames, 1 apart;
+    # reads 0.25 s apart skip what the host sent meanwhile (7.5 host frames at 30 states/s, fewer when a
+    # loaded machine slows the host; half of what it really sent per read leaves its jitter)
+    host_per_read = (latest[0] - shown[0]) / len(shown)
+    assert min(np.diff(shown)) >= 2 and np.median(np.diff(shown)) >= 0.5 * host_per_read, (shown, host_per_read)
     window = [p for p in fast_parts if t0 <= p[0] < t1]
     fast_rate = len(window) / (t1 - t0)
     # What the IG rendered meanwhile (its frame counter): the host's 30 states/s on a quiet machine, fewer
