@@ -133,7 +133,7 @@ class AerialTable:
         set_uniforms(prog, {**values, **self._fill_view()})
         for unit, name in enumerate(AERIAL_UNITS):
             self.textures[name].bind_to_image(unit, read=False, write=True)
-        prog.run(*(-(-n // 4) for n in self.size))
+        prog.run(-(-self.size[0] // 8), -(-self.size[1] // 8), 1)
         self.ctx.memory_barrier()
         self._key = key
         self.fills += 1
