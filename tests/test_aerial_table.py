@@ -18,7 +18,9 @@ LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 def make_scene(*sets):
     scene = load_scene("night_fire")
-    return apply_patch(scene, patch_from_assignments(["camera.width=160", "camera.height=90", "effects=[]", *sets]))
+    # 640x360: the smallest common frame the table serves (aerial_table.table_serves); the probe
+    # renders nothing, so the size costs nothing here.
+    return apply_patch(scene, patch_from_assignments(["camera.width=640", "camera.height=360", "effects=[]", *sets]))
 
 
 def points(frame, n=4000, seed=1):
@@ -144,3 +146,32 @@ def test_high_camera_keeps_the_per_pixel_function(renderer):
     scene = make_scene("camera.position=[0, 0, 10000]")
     frame = frame_mod.build_frame(renderer.ctx, scene)
     assert aerial_table.frame_aerial_table(frame) is None
+
+
+def test_small_frames_keep_the_per_pixel_function(renderer):
+    # Fewer pixels than the table has nodes: one refill would cost more than the whole frame's
+    # per-pixel evaluation.
+    scene = make_scene("camera.width=320", "camera.height=180")
+    frame = frame_mod.build_frame(renderer.ctx, scene)
+    assert aerial_table.frame_aerial_table(frame) is None
+
+
+def test_surfaces_pass_draws_through_the_table(renderer):
+    # The lit surfaces of a 640x360 frame read the table (it is filled for them) and the picture
+    # matches the per-pixel function's: the table's 2 % bound is at most one 8-bit level, one more
+    # where dithering or rounding sits on a level boundary.
+    scene = make_scene("atmosphere.visibility=2000", "camera.exposure_ev=6")
+    surfaces = renderer.graph.passes["surfaces"]
+    table = aerial_table.AerialTable.get(renderer.ctx)
+    surfaces.aerial_exact = True
+    try:
+        exact = renderer.render(scene).rgba[..., :3].astype(int)
+    finally:
+        surfaces.aerial_exact = False
+    fills = table.fills
+    out = renderer.render(apply_patch(scene, {"camera": {"heading": 7.0}}))  # a view the table has not held
+    renderer.render(scene)
+    assert aerial_table.AerialTable.get(renderer.ctx).fills > fills
+    diff = np.abs(renderer.render(scene).rgba[..., :3].astype(int) - exact)
+    assert out.rgba.shape[:2] == (360, 640)
+    assert diff.max() <= 2 and diff.mean() < 0.05, (int(diff.max()), float(diff.mean()))
