@@ -96,6 +96,9 @@ class AerialTable:
             tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
             tex.repeat_x = tex.repeat_y = tex.repeat_z = False
             self.textures[name] = tex
+        # The fill writes these storage buffers (llvmpipe's 3D image stores are ~15x slower), then
+        # they are copied into the textures (a pixel-unpack copy).
+        self.buffers = {name: ctx.buffer(reserve=4 * 4 * math.prod(self.size)) for name in AERIAL_UNITS}
         self.map = table_map(1e4, self.size[2])
         self._frame = None  # (right, up, forward, tangents) the table was filled for
         self._key = None
@@ -130,11 +133,13 @@ class AerialTable:
         tangents = (l - gx, r + gx, b - gy, t + gy)
         self._frame = (*basis, tangents)
         self.map = values["u_aerial_map"]
-        set_uniforms(prog, {**values, **self._fill_view()})
-        for unit, name in enumerate(AERIAL_UNITS):
-            self.textures[name].bind_to_image(unit, read=False, write=True)
+        set_uniforms(prog, {**values, **self._fill_view(), "u_aerial_size": self.size})
+        for binding, name in enumerate(AERIAL_UNITS):
+            self.buffers[name].bind_to_storage_buffer(binding)
         prog.run(-(-self.size[0] // 8), -(-self.size[1] // 8), 1)
         self.ctx.memory_barrier()
+        for name in AERIAL_UNITS:
+            self.textures[name].write(self.buffers[name])
         self._key = key
         self.fills += 1
 
@@ -156,6 +161,8 @@ class AerialTable:
     def release(self) -> None:
         for tex in self.textures.values():
             tex.release()
+        for buf in self.buffers.values():
+            buf.release()
 
 
 def view_inside(table_frame, uniforms: dict) -> bool:

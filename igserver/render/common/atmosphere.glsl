@@ -270,14 +270,16 @@ float haze_column(float h) {
     return h <= u_haze_top ? u_haze_top - h + u_haze_edge : u_haze_edge * exp(-min((h - u_haze_top) / u_haze_edge, 80.0));
 }
 // Optical depth of the straight segment from height h0 over rel (m).
+// The same over distance d with height change dz to the end point, given col0 = haze_column(h0).
+vec3 haze_segment_tau_from(float h0, float col0, float d, float dz) {
+    float mean = abs(dz) < 1e-3 * u_haze_edge ? haze_density(h0 + 0.5 * dz) : (col0 - haze_column(h0 + dz)) / dz;
+    return u_haze_beta * (d * max(mean, 0.0));
+}
 vec3 haze_segment_tau(float h0, vec3 rel) {
-    float d = length(rel);
     // Height change to the end point above the sphere: rel.z plus the earth's drop there (a sea
     // point at the horizon 357 km from 10 km up is at height 0, not 10 km below sea level).
     float dz = rel.z + dot(rel.xy, rel.xy) / (2.0 * HAZE_EARTH_RADIUS_M);
-    float mean = abs(dz) < 1e-3 * u_haze_edge ? haze_density(h0 + 0.5 * dz)
-                                               : (haze_column(h0) - haze_column(h0 + dz)) / dz;
-    return u_haze_beta * (d * max(mean, 0.0));
+    return haze_segment_tau_from(h0, haze_column(h0), length(rel), dz);
 }
 // Optical depth to infinity upward (z > 0, or grazing): flat layer with a Chapman-like grazing
 // floor, z_eff = sqrt(z^2 + 2 H / R), H the local column height (the earth's curve lets a
@@ -295,31 +297,25 @@ float hg(float g, float nu) {
 // at 64 heights; rows: diffuse down, up, sun beam, moon beam).
 layout(binding = 8) uniform sampler2D u_haze_table;
 uniform float u_haze_table_top;  // m, height of the table's last column
-vec3 haze_source(float h, vec3 dir) {
+// The direction's phase functions (sun, moon) come in as phases (haze_phases: once per ray in a march).
+vec2 haze_phases(vec3 dir) {
+    return vec2(hg(u_haze_g, dot(dir, u_sun_dir)), u_moon_dir.z > 0.0 ? hg(u_haze_g, dot(dir, u_moon_dir)) : 0.0);
+}
+vec3 haze_source_phased(float h, vec3 dir, vec2 phases) {
     float u = tex_coord(clamp(h / u_haze_table_top, 0.0, 1.0), float(textureSize(u_haze_table, 0).x));
     vec3 down_diffuse = texture(u_haze_table, vec2(u, 0.125)).rgb;
     vec3 up = texture(u_haze_table, vec2(u, 0.375)).rgb;
-    vec3 beams = texture(u_haze_table, vec2(u, 0.625)).rgb * hg(u_haze_g, dot(dir, u_sun_dir));
-    if (u_moon_dir.z > 0.0) beams += texture(u_haze_table, vec2(u, 0.875)).rgb * hg(u_haze_g, dot(dir, u_moon_dir));
+    vec3 beams = texture(u_haze_table, vec2(u, 0.625)).rgb * phases.x;
+    if (u_moon_dir.z > 0.0) beams += texture(u_haze_table, vec2(u, 0.875)).rgb * phases.y;
     float w_down = 0.5 + 0.5 * dir.z;  // looking up: light travelling down
     return u_haze_omega * (beams + (up * (1.0 - w_down) + down_diffuse * w_down) / ATMO_PI);
 }
+vec3 haze_source(float h, vec3 dir) { return haze_source_phased(h, dir, haze_phases(dir)); }
 // Height where the ray's in-scattering is gathered: half of the first optical depth's run along it
 // (inside the fog: next to the camera; above it: half way down), within [0, d].
+float haze_first_depth_run(float h0) { return 1.0 / max(u_haze_beta.g * haze_density(h0), 1e-12); }
 float haze_effective_height(float h0, vec3 dir, float d) {
-    float d1 = 1.0 / max(u_haze_beta.g * haze_density(h0), 1e-12);
-    return h0 + dir.z * 0.5 * min(d, d1);
-}
-// The layer between the camera and camera-relative rel (m): its optical depth and in-scattering.
-void haze_aerial_terms(vec3 rel, out vec3 tau, out vec3 inscatter) {
-    tau = vec3(0.0);
-    inscatter = vec3(0.0);
-    if (!haze_present()) return;
-    float h0 = haze_height();
-    tau = haze_segment_tau(h0, rel);
-    float d = length(rel);
-    vec3 dir = rel / max(d, 1e-9);
-    inscatter = haze_source(haze_effective_height(h0, dir, d), dir) * one_minus_exp(tau);
+    return h0 + dir.z * 0.5 * min(d, haze_first_depth_run(h0));
 }
 // The layer along a whole view ray: into the ground (flat, at the layer's base) or to space.
 vec3 haze_sky(vec3 radiance, vec3 dir, out vec3 transmittance) {
@@ -440,6 +436,71 @@ vec3 sun_disk(vec3 dir) {
 // The air between the camera and camera-relative point rel (m) as its optical depth tau and the
 // light it scatters toward the camera: a surface's radiance L is seen as L exp(-tau) + inscatter.
 // Clear air first (nearer the camera in the model's composition), then the fog/haze layer.
+// In two parts, so that a march along one ray (the aerial table's fill, common/aerial_table.comp.glsl)
+// pays what depends on the direction only once: aerial_ray(dir), then aerial_ray_terms at each
+// distance d, given the clear air's optical depth to it (clear_segment_optical_depth here; the fill
+// accumulates it slice by slice with clear_optical_depth_step). Precomputed atmosphere only.
+struct AerialRay {
+    vec3 dir;
+    vec3 s_clear;        // the clear air's in-scattering of the whole ray (sky-view table)
+    vec3 tau_end;        // its optical depth (to the ground or space)
+    vec3 end_scattered;  // one_minus_exp(tau_end)
+    float r_km, h0_km, curve_km;  // for clear_optical_depth_step: radius, height, (1 - mu^2) / 2r
+    float haze_h0, haze_col0, haze_run;  // the layer: camera height, column above it, first depth's run
+    vec2 haze_phases;
+};
+AerialRay aerial_ray(vec3 dir) {
+    AerialRay ray;
+    ray.dir = dir;
+    vec3 sky;
+    clear_sky_lookup(dir, sky, ray.s_clear, ray.tau_end, false);
+    if (ray.tau_end.g >= 1e4) ray.tau_end -= vec3(1e4);
+    ray.end_scattered = max(one_minus_exp(ray.tau_end), vec3(1e-12));
+    ray.r_km = camera_radius_km();
+    ray.h0_km = ray.r_km - u_bottom_radius_km;
+    ray.curve_km = (1.0 - dir.z * dir.z) / (2.0 * ray.r_km);
+    ray.haze_h0 = haze_height();
+    ray.haze_col0 = haze_column(ray.haze_h0);
+    ray.haze_run = haze_first_depth_run(ray.haze_h0);
+    ray.haze_phases = haze_phases(dir);
+    return ray;
+}
+// The clear air's optical depth from distance a to b (km) along the ray: 2-point Gauss-Legendre on
+// the extinction profile (a march's slices are short: ratio q ~ 1.4, exact to ~1e-5 of the ray's
+// optical depth where the profile varies on the slice's scale). Within 200 km, the camera inside
+// the atmosphere (as clear_segment_optical_depth's quadrature).
+vec3 clear_optical_depth_step(AerialRay ray, float a, float b) {
+    const float X = 0.5773502692;
+    float m = 0.5 * (a + b), half_len = 0.5 * (b - a);
+    float s0 = m - half_len * X, s1 = m + half_len * X;
+    float h0 = max(ray.h0_km + s0 * ray.dir.z + s0 * s0 * ray.curve_km, 0.0);
+    float h1 = max(ray.h0_km + s1 * ray.dir.z + s1 * s1 * ray.curve_km, 0.0);
+    return (extinction_km(h0) + extinction_km(h1)) * half_len;
+}
+// The point at distance d (m) on the ray, tau_clear the clear air's optical depth to it: tau and
+// inscatter as aerial_terms; scattered = one_minus_exp(tau) (from the two transmittances it has).
+void aerial_ray_terms(AerialRay ray, float d, vec3 tau_clear, out vec3 tau, out vec3 inscatter, out vec3 scattered) {
+    vec3 tau_p = min(tau_clear, ray.tau_end);
+    vec3 t_p = exp(-min(tau_p, vec3(80.0)));
+    vec3 share = clamp(mix(1.0 - t_p, tau_p * (1.0 - 0.5 * tau_p), lessThan(tau_p, vec3(1e-3))) / ray.end_scattered,
+                       0.0, 1.0);
+    vec3 tau_h = vec3(0.0);
+    vec3 t_h = vec3(1.0);
+    vec3 s_haze = vec3(0.0);
+    if (haze_present()) {
+        // As haze_aerial_terms: the height change includes the earth's drop (haze_segment_tau).
+        float dz = ray.dir.z * d + d * d * (1.0 - ray.dir.z * ray.dir.z) / (2.0 * HAZE_EARTH_RADIUS_M);
+        tau_h = haze_segment_tau_from(ray.haze_h0, ray.haze_col0, d, dz);
+        t_h = exp(-min(tau_h, vec3(80.0)));
+        float h = ray.haze_h0 + ray.dir.z * 0.5 * min(d, ray.haze_run);
+        s_haze = haze_source_phased(h, ray.dir, ray.haze_phases)
+               * mix(1.0 - t_h, tau_h * (1.0 - 0.5 * tau_h), lessThan(tau_h, vec3(1e-3)));
+    }
+    tau = tau_p + tau_h;
+    inscatter = ray.s_clear * share * t_h + s_haze;
+    scattered = mix(1.0 - t_p * t_h, tau * (1.0 - 0.5 * tau), lessThan(tau, vec3(1e-3)));
+}
+
 void aerial_terms(vec3 rel, out vec3 tau, out vec3 inscatter) {
     tau = vec3(0.0);
     inscatter = vec3(0.0);
@@ -449,16 +510,8 @@ void aerial_terms(vec3 rel, out vec3 tau, out vec3 inscatter) {
     }
     float d = length(rel);
     if (!(d > 1e-4)) return;
-    vec3 dir = rel / d;
-    vec3 sky, s_clear, tau_end;
-    clear_sky_lookup(dir, sky, s_clear, tau_end, false);
-    if (tau_end.g >= 1e4) tau_end -= vec3(1e4);
-    vec3 tau_p = min(clear_segment_optical_depth(rel), tau_end);
-    vec3 share = clamp(one_minus_exp(tau_p) / max(one_minus_exp(tau_end), vec3(1e-12)), 0.0, 1.0);
-    vec3 tau_h, s_haze;
-    haze_aerial_terms(rel, tau_h, s_haze);
-    tau = tau_p + tau_h;
-    inscatter = s_clear * share * exp(-min(tau_h, vec3(80.0))) + s_haze;
+    vec3 scattered;
+    aerial_ray_terms(aerial_ray(rel / d), d, clear_segment_optical_depth(rel), tau, inscatter, scattered);
 }
 
 // Radiance leaving a surface at camera-relative point rel (m), as seen by the camera.
