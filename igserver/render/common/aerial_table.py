@@ -27,6 +27,7 @@ import moderngl
 import numpy as np
 
 from ..shaders import ProgramCache, set_uniforms
+from ..resident import resident
 from ..sky.frame_sky import _haze_tables
 
 AERIAL_UNITS = {"u_aerial_tau": 18, "u_aerial_source": 19}
@@ -106,13 +107,7 @@ class AerialTable:
 
     @classmethod
     def get(cls, ctx: moderngl.Context, size=AERIAL_SIZE) -> "AerialTable":
-        table = cls._resident.get(ctx)
-        if table is None or table.size != tuple(size):
-            if table is not None:
-                table.release()
-            table = cls(ctx, size)
-            cls._resident[ctx] = table
-        return table
+        return resident(cls, ctx, size)
 
     def update(self, uniforms: dict, d_max: float, inputs: tuple = ()) -> None:
         """Fill the table for these frame uniforms unless it already holds them. The table has its

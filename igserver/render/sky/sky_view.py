@@ -16,6 +16,7 @@ import moderngl
 import numpy as np
 
 from ..shaders import ProgramCache, set_uniforms
+from ..resident import resident
 from .tables import AtmosphereTables
 
 SKY_VIEW_UNITS = {"u_sky_view_radiance": 9, "u_sky_view_inscatter": 10, "u_sky_view_tau": 11}
@@ -56,13 +57,7 @@ class SkyView:
 
     @classmethod
     def get(cls, ctx: moderngl.Context, size=SKY_VIEW_SIZE) -> "SkyView":
-        view = cls._resident.get(ctx)
-        if view is None or view.size != tuple(size):
-            if view is not None:
-                view.release()
-            view = cls(ctx, size)
-            cls._resident[ctx] = view
-        return view
+        return resident(cls, ctx, size)
 
     def update(self, tables: AtmosphereTables, uniforms: dict, altitude_m: float, sun_dir, moon_dir,
                moon_scale) -> None:
