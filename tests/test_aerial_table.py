@@ -175,3 +175,48 @@ def test_surfaces_pass_draws_through_the_table(renderer):
     diff = np.abs(renderer.render(scene).rgba[..., :3].astype(int) - exact)
     assert out.rgba.shape[:2] == (360, 640)
     assert diff.max() <= 2 and diff.mean() < 0.05, (int(diff.max()), float(diff.mean()))
+
+
+def test_turning_camera_fills_the_next_table_in_parts_and_it_serves_every_frame(renderer):
+    """A camera turning 1.5 deg a frame: each frame's view lies inside the table it reads, the fill
+    runs in parts (at most one part a frame while the view stays inside the old table), and a table
+    filled in parts is the same to the bit as one filled at once for the same frame."""
+    ctx = renderer.ctx
+    scene = make_scene()
+    table = aerial_table.AerialTable.get(ctx)
+    parts = []
+    runs = []
+    original = table._fill_part
+
+    def counting(prog, pending, n):
+        parts.append(n)
+        if pending["done"] == 0:
+            runs.append({**pending, "values": dict(pending["values"])})
+        original(prog, pending, n)
+
+    table._fill_part = counting
+    try:
+        fills = table.fills
+        for i in range(24):
+            turned = apply_patch(scene, {"camera": {"heading": 1.5 * i}})
+            frame = frame_mod.build_frame(ctx, turned)
+            del parts[:]
+            assert aerial_table.frame_aerial_table(frame) is not None
+            assert aerial_table.view_inside(table._frame, frame.uniforms)
+            if i > 0:
+                assert parts in ([], [1]), i  # spread: never a whole fill while the view stays inside
+    finally:
+        del table._fill_part
+    assert table.fills - fills >= 4  # 34.5 deg of turn through a ~4.7 deg guard band: several new tables
+    # The last complete spread fill, run again at once into a second table: the same textures.
+    done = [r for r in runs if r["frame"] is table._frame][-1]
+    other = aerial_table.AerialTable(ctx)
+    try:
+        for name, unit in (("sky_view", None), ("atmosphere_tables", None)):
+            frame.resources[name].bind()
+        other._fill_part(table.programs.compute("common/aerial_table.comp.glsl"), {**done, "done": 0},
+                         aerial_table.AERIAL_PARTS)
+        for name in aerial_table.AERIAL_UNITS:
+            assert other.textures[name].read() == table.textures[name].read()
+    finally:
+        other.release()

@@ -12,6 +12,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 layout(std430, binding = 0) writeonly buffer OutTau { vec4 u_out_tau[]; };
 layout(std430, binding = 1) writeonly buffer OutSource { vec4 u_out_source[]; };
 uniform ivec3 u_aerial_size;
+uniform int u_aerial_row0;  // the first row of this part of the fill (aerial_table.py: AERIAL_PARTS)
 uniform vec4 u_aerial_map;  // d0 (m), log2(q), q, number of slices
 
 void store(ivec3 node, vec3 tau, vec3 inscatter, vec3 scattered) {
@@ -26,7 +27,7 @@ void store(ivec3 node, vec3 tau, vec3 inscatter, vec3 scattered) {
 void main() {
     // One invocation per screen node, walking its slices (llvmpipe pays a fixed cost per
     // invocation: one per node cost ~6 ms of 27 at 80x45x32).
-    ivec2 column = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 column = ivec2(gl_GlobalInvocationID.xy) + ivec2(0, u_aerial_row0);
     ivec3 size = u_aerial_size;
     if (any(greaterThanEqual(column, size.xy))) return;
     vec3 dir = view_ray(vec2(column) / vec2(max(size.xy - 1, ivec2(1))));

@@ -37,6 +37,11 @@ AERIAL_UNITS = {"u_aerial_tau": 18, "u_aerial_source": 19}
 AERIAL_SIZE = (80, 45, 32)
 AERIAL_GUARD = 0.1  # of the frustum's width (tangent) added on each side: a turning camera refills less often
 AERIAL_ZOOM = 0.7     # refill when the view is narrower than this fraction of the table's own view
+# A turning camera's next table is started once its view has moved this fraction of the guard band
+# toward an edge, and filled in AERIAL_PARTS parts, one a frame (at 2 deg a frame and a 60 deg view
+# the guard band is ~4.7 deg: started after ~1.6 deg, swapped in ~2 frames later).
+AERIAL_AHEAD = 1.0 / 3.0
+AERIAL_PARTS = 3
 VIEW_UNIFORMS = ("u_camera_right", "u_camera_up", "u_camera_forward", "u_frustum_tangents", "u_resolution")
 AERIAL_D0 = 1.0         # m, the first slice; nearer, tau scales with distance (exact in a homogeneous medium)
 AERIAL_MIN_RANGE = 100.0  # m
@@ -103,6 +108,7 @@ class AerialTable:
         self.map = table_map(1e4, self.size[2])
         self._frame = None  # (right, up, forward, tangents) the table was filled for
         self._key = None
+        self._pending = None  # a fill under way in the buffers (AerialTable._start)
         self.fills = 0
 
     @classmethod
@@ -115,34 +121,64 @@ class AerialTable:
         so a turning camera reuses it while its view stays inside that frustum and is not zoomed in
         past AERIAL_ZOOM (resolution). Everything else the fill reads is the key: every uniform of
         the fill program (a new input of the atmosphere library joins it by itself), the range, and
-        ``inputs`` (versions of the textures it samples)."""
+        ``inputs`` (versions of the textures it samples).
+
+        A turning camera: once its view has moved AERIAL_AHEAD of the guard band toward an edge, the
+        next table (for the view then) is filled in AERIAL_PARTS parts over as many frames into the
+        storage buffers while the textures keep serving, and swapped in when done; a view that
+        leaves the table first finishes it at once (or, when not inside it either, fills anew)."""
         prog = self.programs.compute("common/aerial_table.comp.glsl")
         values = {**uniforms, "u_aerial_map": table_map(d_max, self.size[2])}
         key = (inputs, tuple((name, values.get(name)) for name in sorted(prog)
                              if name in values and name not in VIEW_UNIFORMS))
+        pending = self._pending if self._pending is not None and self._pending["key"] == key else None
         if key == self._key and self._frame is not None and view_inside(self._frame, uniforms):
+            if pending is None and not view_inside(self._frame, uniforms, 1.0 - AERIAL_AHEAD):
+                pending = self._start(values, key, self._frame)
+            if pending is not None:
+                self._fill_part(prog, pending, 1)
             return
-        basis = [np.asarray(uniforms[name], np.float64) for name in VIEW_UNIFORMS[:3]]
-        l, r, b, t = uniforms["u_frustum_tangents"]
+        if pending is None or not view_inside(pending["frame"], uniforms):
+            pending = self._start(values, key)
+        self._fill_part(prog, pending, AERIAL_PARTS - pending["done"])
+
+    def _start(self, values: dict, key, ahead_of=None) -> dict:
+        """A fill for the view in these uniforms, not yet run: its frame, map, uniforms and parts done.
+        ``ahead_of``: the table the view is turning out of; the new one is turned on by the rotation
+        from that table's frame to the view (the turn goes on while the parts are filled: centred
+        on the view, a table turning 1.5 deg a frame was left before it was swapped in)."""
+        basis = [np.asarray(values[name], np.float64) for name in VIEW_UNIFORMS[:3]]
+        if ahead_of is not None:
+            view, old = np.column_stack(basis), np.column_stack(ahead_of[:3])
+            lead = view @ old.T  # rotation taking the old table's axes to the view's
+            basis = list((lead @ view).T)
+        l, r, b, t = values["u_frustum_tangents"]
         gx, gy = AERIAL_GUARD * (r - l), AERIAL_GUARD * (t - b)
-        tangents = (l - gx, r + gx, b - gy, t + gy)
-        self._frame = (*basis, tangents)
-        self.map = values["u_aerial_map"]
-        set_uniforms(prog, {**values, **self._fill_view(), "u_aerial_size": self.size})
-        for binding, name in enumerate(AERIAL_UNITS):
-            self.buffers[name].bind_to_storage_buffer(binding)
-        prog.run(-(-self.size[0] // 8), -(-self.size[1] // 8), 1)
-        self.ctx.memory_barrier()
+        frame = (*basis, (l - gx, r + gx, b - gy, t + gy))
+        self._pending = {"frame": frame, "key": key, "map": values["u_aerial_map"], "done": 0,
+                         "values": {**values, **fill_view(frame), "u_aerial_size": self.size}}
+        return self._pending
+
+    def _fill_part(self, prog, pending: dict, parts: int) -> None:
+        """Run the next ``parts`` of the pending fill (of AERIAL_PARTS: bands of 8-row work groups);
+        when it is complete, copy it into the textures and make it the table."""
+        groups_y = -(-self.size[1] // 8)
+        first = groups_y * pending["done"] // AERIAL_PARTS
+        pending["done"] = min(pending["done"] + parts, AERIAL_PARTS)
+        last = groups_y * pending["done"] // AERIAL_PARTS
+        if last > first:
+            set_uniforms(prog, {**pending["values"], "u_aerial_row0": 8 * first})
+            for binding, name in enumerate(AERIAL_UNITS):
+                self.buffers[name].bind_to_storage_buffer(binding)
+            prog.run(-(-self.size[0] // 8), last - first, 1)
+            self.ctx.memory_barrier()
+        if pending["done"] < AERIAL_PARTS:
+            return
         for name in AERIAL_UNITS:
             self.textures[name].write(self.buffers[name])
-        self._key = key
+        self._frame, self.map, self._key = pending["frame"], pending["map"], pending["key"]
+        self._pending = None
         self.fills += 1
-
-    def _fill_view(self) -> dict:
-        """The camera uniforms the fill's view_ray() reads, set to the table's own frame."""
-        right, up, forward, tangents = self._frame
-        return {"u_camera_right": tuple(right), "u_camera_up": tuple(up), "u_camera_forward": tuple(forward),
-                "u_frustum_tangents": tuple(tangents)}
 
     def bind(self) -> None:
         for name, unit in AERIAL_UNITS.items():
@@ -160,15 +196,25 @@ class AerialTable:
             buf.release()
 
 
-def view_inside(table_frame, uniforms: dict) -> bool:
+def fill_view(table_frame) -> dict:
+    """The camera uniforms the fill's view_ray() reads, set to the table's own frame."""
+    right, up, forward, tangents = table_frame
+    return {"u_camera_right": tuple(right), "u_camera_up": tuple(up), "u_camera_forward": tuple(forward),
+            "u_frustum_tangents": tuple(tangents)}
+
+
+def view_inside(table_frame, uniforms: dict, margin: float = 0.0) -> bool:
     """Whether the frame's view lies inside the table's frustum (its four corner rays project
-    within the table's tangents) and is not zoomed in past AERIAL_ZOOM of the table's own view."""
+    within the table's tangents, each side moved in by ``margin`` of the guard band's width) and is not
+    zoomed in past AERIAL_ZOOM of the table's own view."""
     right, up, forward, (l, r, b, t) = table_frame
     cr, cu, cf = (np.asarray(uniforms[name], np.float64) for name in VIEW_UNIFORMS[:3])
     vl, vr, vb, vt = uniforms["u_frustum_tangents"]
     inner = 1.0 / (1.0 + 2.0 * AERIAL_GUARD)
     if (vr - vl) < AERIAL_ZOOM * inner * (r - l) or (vt - vb) < AERIAL_ZOOM * inner * (t - b):
         return False
+    inset = margin * AERIAL_GUARD * inner
+    l, r, b, t = l + inset * (r - l), r - inset * (r - l), b + inset * (t - b), t - inset * (t - b)
     corners = np.array([cf + x * cr + y * cu for x in (vl, vr) for y in (vb, vt)])
     z = corners @ forward
     if np.any(z <= 1e-6):
