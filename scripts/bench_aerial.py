@@ -51,7 +51,7 @@ def bench_fill(renderer, scene, frames: int) -> dict:
 
 def bench_turn(renderer, scene, frames: int, step: float, warmup: int = 3) -> dict:
     cam = scene.camera
-    ms, surfaces = [], []
+    ms, surfaces, cpu = [], [], []
     t0 = scene.time.sim_time
     table = None
     fills0 = 0
@@ -64,12 +64,14 @@ def bench_turn(renderer, scene, frames: int, step: float, warmup: int = 3) -> di
         if i >= warmup:
             ms.append(sum(result.pass_ms.values()))
             surfaces.append(result.pass_ms.get("surfaces", 0.0))
+            cpu.append(sum(result.pass_cpu_ms.get("surfaces", (0.0, 0.0))))  # all threads: less load-dependent
         if i == warmup - 1:
             table = aerial_table.AerialTable._resident.get(renderer.ctx)
             fills0 = table.fills if table is not None else 0
     fills = (table.fills - fills0) if table is not None else 0
     return {"frame_median": statistics.median(ms), "frame_p99": float(np.percentile(ms, 99)),
             "surfaces_median": statistics.median(surfaces), "surfaces_p99": float(np.percentile(surfaces, 99)),
+            "surfaces_cpu_median": statistics.median(cpu), "surfaces_cpu_p99": float(np.percentile(cpu, 99)),
             "fills": fills}
 
 

@@ -8,7 +8,8 @@ table plus the fog/haze layer) and read by the lit passes with one lookup
 It is refilled only when what the fill reads changed: the camera's orientation, frustum and
 altitude, the sun and moon, the fog/haze layer (visibility, precipitation fog, its light), the
 sky-view table or the atmosphere tables, or the range. A camera moving level without turning, a
-stream at a fixed time and weather reuse it.
+stream at a fixed time and weather reuse it. A turning camera's next table is filled ahead, in parts over
+frames, while the current one serves (AerialTable.update).
 
 What stays per pixel: the glow of local lights in fog (post/halos.py) — it depends on each light's
 position against the pixel's ray and surface distance, which no table over the frustum resolves at
@@ -133,10 +134,14 @@ class AerialTable:
                              if name in values and name not in VIEW_UNIFORMS))
         pending = self._pending if self._pending is not None and self._pending["key"] == key else None
         if key == self._key and self._frame is not None and view_inside(self._frame, uniforms):
+            if pending is not None and not view_inside(pending["frame"], uniforms):
+                pending = self._pending = None  # the turn reversed: the table ahead would not hold the view
             if pending is None and not view_inside(self._frame, uniforms, 1.0 - AERIAL_AHEAD):
                 pending = self._start(values, key, self._frame)
             if pending is not None:
                 self._fill_part(prog, pending, 1)
+                if self._pending is None and not view_inside(self._frame, uniforms, 1.0 - AERIAL_AHEAD):
+                    self._start(values, key, self._frame)  # swapped in already turned past: the next one's parts from the next frame
             return
         if pending is None or not view_inside(pending["frame"], uniforms):
             pending = self._start(values, key)
@@ -144,14 +149,15 @@ class AerialTable:
 
     def _start(self, values: dict, key, ahead_of=None) -> dict:
         """A fill for the view in these uniforms, not yet run: its frame, map, uniforms and parts done.
-        ``ahead_of``: the table the view is turning out of; the new one is turned on by the rotation
-        from that table's frame to the view (the turn goes on while the parts are filled: centred
-        on the view, a table turning 1.5 deg a frame was left before it was swapped in)."""
+        ``ahead_of``: the table the view is turning out of; the new one is turned on by twice the
+        rotation from that table's frame to the view (the turn goes on while the parts are filled:
+        centred on the view, or turned on once, a table was left 1-2 frames after it was swapped in
+        at 2 deg a frame, and its last parts ran at once)."""
         basis = [np.asarray(values[name], np.float64) for name in VIEW_UNIFORMS[:3]]
         if ahead_of is not None:
             view, old = np.column_stack(basis), np.column_stack(ahead_of[:3])
             lead = view @ old.T  # rotation taking the old table's axes to the view's
-            basis = list((lead @ view).T)
+            basis = list((lead @ lead @ view).T)  # twice on: the parts take two more frames
         l, r, b, t = values["u_frustum_tangents"]
         gx, gy = AERIAL_GUARD * (r - l), AERIAL_GUARD * (t - b)
         frame = (*basis, (l - gx, r + gx, b - gy, t + gy))
