@@ -337,24 +337,3 @@ def test_minified_detail_maps_leave_the_picture(renderer):
             # variance (~0.05 %); the slope means are 0 in exact arithmetic, rounding leaves ~1e-4 of it.
             assert texel[2:] == pytest.approx(means[c, 2:], rel=5e-3)
             assert np.abs(texel[:2]).max() < 1e-3 * np.sqrt(means[c, 2:].max())
-
-
-@pytest.mark.parametrize("wind", [0.5, 5.0, 9.4, 22.6, 40.0])
-def test_detail_tiles_hold_several_cycles_of_every_wave(wind):
-    # A wave of one cycle per tile snaps to (1,0), (1,1), (0,1)…: its direction quantised to 45°, and
-    # a map dominated by such waves shows a square grid repeating every tile (Beaufort 9's dotted
-    # texture). Every detail wave must have >= 2 cycles per tile (snapping to the integer lattice then
-    # turns it by at most asin(0.71 / (2 - 0.71)) = 33°, 20° on average over the band's lowest
-    # cycles) and <= DETAIL_CYCLES_MAX cycles (4 texels a cycle at 128²), and each wave lands in
-    # exactly one map.
-    from igserver.render.water.water import DETAIL_CYCLES_MAX, detail_tiles
-
-    scene = sea_scene(weather={"wind_speed": wind})
-    sea = sea_surface(scene.ocean, scene.weather)
-    waves = np.concatenate([w for _, w in detail_tiles(sea, 100.0) if len(w)])
-    assert len(waves) == sea.detail.n
-    cycles = np.linalg.norm(waves[:, :2], axis=1)
-    # The band edges put the wave nearest a tile's limits at exactly 2 or 32 cycles before rounding to
-    # the lattice, which moves a length by at most √2/2.
-    assert cycles.min() >= 2.0 - np.sqrt(0.5) and np.median(cycles) >= 4.0
-    assert cycles.max() <= DETAIL_CYCLES_MAX + np.sqrt(0.5)

@@ -36,8 +36,7 @@ MAX_WAVES = 64
 MAX_DETAIL = 48
 MAX_HULLS = 32  # a pier's piles count one each
 DETAIL_MAPS = 3
-DETAIL_CYCLES_MAX = 32.0  # cycles per tile of a map's shortest wave (4 texels each at the medium 128²)
-DETAIL_BAND_MAX = 16.0  # widest band (wavelength ratio) a map holds: its longest wave keeps >= 2 cycles per tile
+DETAIL_RATIO = 23.7  # tile sizes L, L/23.7, L/23.7² (not a power of two: no aligned repetition)
 # Texture units bound for the water draw (the frame keeps 8..15: haze table, sky-view table, 4D tables).
 DETAIL_UNIT0 = 1  # 1, 2, 3
 FIELD_UNIT = 4
@@ -162,31 +161,17 @@ def blocks_near_hulls(nodes: np.ndarray, hulls: list[np.ndarray], margin: float)
 
 
 def detail_tiles(sea: SeaSurface, t: float) -> list[tuple[float, np.ndarray]]:
-    """Per detail map: (tile side L in m, waves (m, n, A k, phase) snapped to that tile's lattice).
-
-    The detail band (wavelengths λmin..λmax, ratio R) is cut into the fewest maps M whose bands (ratio
-    r = R^(1/M), equal in log wavelength) fit DETAIL_BAND_MAX; each tile is DETAIL_CYCLES_MAX / r of its
-    band's longest wave, so its shortest wave has DETAIL_CYCLES_MAX cycles per tile (4 texels each at
-    128²) and its longest r-times fewer — at least 2, usually 4–6. (Tiles of one longest wave snapped
-    the band's long waves to the lattice points (1,0), (1,1), (0,1)…: directions quantised to 45°, the
-    map a visible square grid repeating every tile — Beaufort 9's dotted texture.)"""
+    """Per detail map: (tile side L in m, waves (m, n, A k, phase) snapped to that tile's lattice)."""
     d: WaveSet = sea.detail
-    empty = (1.0, np.zeros((0, 4)))
     if d.n == 0:
-        return [empty] * DETAIL_MAPS
+        return [(1.0, np.zeros((0, 4)))] * DETAIL_MAPS
+    longest = 2.0 * math.pi / float(np.min(d.k))
+    sizes = [longest * 1.01 / DETAIL_RATIO**c for c in range(DETAIL_MAPS)]
     wavelengths = 2.0 * math.pi / d.k
-    top = float(wavelengths.max()) * (1.0 + 1e-9)
-    ratio = top / float(wavelengths.min()) * (1.0 + 1e-9)
-    maps = min(DETAIL_MAPS, max(1, math.ceil(math.log(ratio) / math.log(DETAIL_BAND_MAX) - 1e-9)))
-    r = ratio ** (1.0 / maps)
     tiles = []
-    for c in range(DETAIL_MAPS):
-        if c >= maps:
-            tiles.append(empty)
-            continue
-        upper, lower = top / r**c, top / r ** (c + 1)
-        size = DETAIL_CYCLES_MAX * lower
-        pick = (wavelengths <= upper) & (wavelengths > lower * (1.0 - 1e-9))
+    for c, size in enumerate(sizes):
+        lower = sizes[c + 1] if c + 1 < DETAIL_MAPS else 0.0
+        pick = (wavelengths <= size) & (wavelengths > lower)
         kvec = d.k[pick, None] * d.direction[pick]
         cycles = np.rint(kvec * size / (2.0 * math.pi))
         cycles[np.all(cycles == 0, axis=1)] = (1.0, 0.0)
