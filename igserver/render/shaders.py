@@ -81,8 +81,10 @@ class ProgramCache:
 def set_uniforms(program, values: dict[str, object]) -> None:
     """Set the uniforms a program actually has; the rest are silently not needed by it."""
     for name, value in values.items():
-        if name in program:
-            member = program[name]
+        # Program.get is a dict lookup; `name in program` iterated every member (moderngl defines
+        # __iter__ but no __contains__): ~6000 iterations a frame for the water pass alone.
+        member = program.get(name, None)
+        if member is not None:
             if isinstance(value, bytes):
                 member.write(value)
             elif hasattr(member, "value"):

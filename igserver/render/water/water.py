@@ -533,7 +533,8 @@ class WaterPass(RenderPass):
         # Detail maps read per block: the later (finer) ones are fully minified far enough away.
         maps = (minified_maps_from(selection, sea, tiles, view, -level_z) if self.skip_minified_maps
                 else np.full(len(selection.nodes), used_maps, dtype=int))
-        means = detail_means(tiles)
+        # Tile averages of the maps some block does not read (empty maps average 0).
+        means = detail_means(tiles) if np.any(maps < used_maps) else np.zeros((DETAIL_MAPS, 4))
         self._render_detail(sea, t, resolution, tiles, int(maps.max()) if len(maps) else 0)
         groups = [(with_hulls, fan, m, selection.nodes[(near_hull == with_hulls) & (flat == fan) & (maps == m)])
                   for with_hulls in (False, True) for fan in (False, True) for m in range(used_maps + 1)]
