@@ -26,6 +26,7 @@ def percentile(values: list[float], q: float) -> float:
 
 def bench_scene(renderer, scene, frames: int, warmup: int = 3) -> dict:
     per_pass: dict[str, list[float]] = {}
+    per_pass_cpu: dict[str, list[tuple[float, float]]] = {}
     totals, frame_ms = [], []
     t0 = scene.time.sim_time
     for i in range(warmup + frames):
@@ -40,6 +41,8 @@ def bench_scene(renderer, scene, frames: int, warmup: int = 3) -> dict:
             continue
         for name, ms in result.pass_ms.items():
             per_pass.setdefault(name, []).append(ms)
+        for name, cpu in result.pass_cpu_ms.items():
+            per_pass_cpu.setdefault(name, []).append(cpu)
         totals.append(sum(result.pass_ms.values()))
         frame_ms.append(untimed)
     # Passes that report geometry (e.g. water: triangles drawn, LOD error bound) add it to the row.
@@ -49,6 +52,11 @@ def bench_scene(renderer, scene, frames: int, warmup: int = 3) -> dict:
         "passes": result.passes,
         "stats": stats,
         "pass_ms": {k: {"median": statistics.median(v), "p99": percentile(v, 99)} for k, v in per_pass.items()},
+        # Medians of CPU ms in the calling thread (on llvmpipe: vertex work, triangle setup, binning and
+        # Python, one core) and in all other threads (llvmpipe's rasteriser workers): a pass whose
+        # calling-thread share is large is bound by one core whatever the worker count.
+        "pass_cpu_ms": {k: {"calling_thread": statistics.median(c for c, _ in v),
+                            "workers": statistics.median(w for _, w in v)} for k, v in per_pass_cpu.items()},
         "total_ms": {"median": statistics.median(totals), "p99": percentile(totals, 99)},
         "frame_ms": {"median": statistics.median(frame_ms), "p99": percentile(frame_ms, 99)},
     }
@@ -103,9 +111,11 @@ def run(scenes: list[str], resolutions: list[tuple[int, int]], frames: int, assi
                 passes = "  ".join(f"{k} {v['median']:.2f} ({v['p99']:.2f})" for k, v in row["pass_ms"].items())
                 extra = "".join(f"  |  {k}: " + ", ".join(f"{sk} {sv:.4g}" if isinstance(sv, float) else f"{sk} {sv}"
                                                            for sk, sv in v.items()) for k, v in row["stats"].items())
+                cpu = "  ".join(f"{k} {v['calling_thread']:.1f}/{v['workers']:.1f}" for k, v in row["pass_cpu_ms"].items())
                 print(f"{name:18s} {width}x{height} {preset:6s}  frame {row['frame_ms']['median']:.2f} "
                       f"({row['frame_ms']['p99']:.2f})  sum-of-passes {row['total_ms']['median']:.2f} "
-                      f"({row['total_ms']['p99']:.2f})  |  {passes}{extra}", flush=True)
+                      f"({row['total_ms']['p99']:.2f})  |  {passes}{extra}  |  cpu ms calling thread/workers: {cpu}",
+                      flush=True)
     if json_path:
         with open(json_path, "w") as fh:
             json.dump(report, fh, indent=2)

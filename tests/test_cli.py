@@ -36,4 +36,11 @@ def test_bench_prints_per_pass_medians(tmp_path):
     import json
 
     report = json.loads((tmp_path / "b.json").read_text())
-    assert report["runs"][0]["pass_ms"]["sky"]["median"] > 0
+    run0 = report["runs"][0]
+    assert run0["pass_ms"]["sky"]["median"] > 0
+    # CPU split per pass: the calling thread's share and the other threads' (llvmpipe's workers).
+    assert set(run0["pass_cpu_ms"]) == set(run0["passes"])
+    for split in run0["pass_cpu_ms"].values():
+        assert split["calling_thread"] >= 0.0 and split["workers"] >= -0.5  # process - thread clock: ~µs noise
+    assert run0["pass_cpu_ms"]["sky"]["calling_thread"] + run0["pass_cpu_ms"]["sky"]["workers"] > 0.0
+    assert "cpu ms calling thread/workers: sky" in proc.stdout

@@ -3,6 +3,7 @@ render process killed mid-stream (the stream resumes, no accepted state is lost)
 
 from __future__ import annotations
 
+import math
 import re
 import socket
 import threading
@@ -128,14 +129,20 @@ def _watch(url: str, stop: threading.Event, ack_delay: float, frames: list, late
             except TimeoutError:
                 continue
             # (when, host_frame shown, newest host_frame sent by the host at that moment)
-            frames.append((time.perf_counter(), message["host_frame"], latest[0]))
+            frames.append((time.perf_counter(), message["host_frame"], latest[0], message["frame"], message["render_ms"]))
             if ack_delay:
                 time.sleep(ack_delay)  # a client on a slow link or a slow decoder
             ws.send(pack({"type": "ack", "frame": message["frame"]}))
 
 
 def _rate(frames: list, t0: float, t1: float) -> float:
-    return sum(1 for t, _, _ in frames if t0 <= t < t1) / (t1 - t0)
+    return sum(1 for t, *_ in frames if t0 <= t < t1) / (t1 - t0)
+
+
+def _rendered_rate(frames: list, t0: float, t1: float) -> float:
+    """IG frames rendered per second over [t0, t1), from the frame counter of the frames received."""
+    window = [f for f in frames if t0 <= f[0] < t1]
+    return (window[-1][3] - window[0][3]) / (window[-1][0] - window[0][0])
 
 
 def test_slow_client_does_not_slow_the_fast_one(server):
@@ -164,13 +171,22 @@ def test_slow_client_does_not_slow_the_fast_one(server):
 
     alone, beside, slow_rate = _rate(fast, t0, t1), _rate(fast, t2, t3), _rate(slow, t2, t3)
     print(f"fast alone {alone:.1f} fps, fast beside slow {beside:.1f} fps, slow {slow_rate:.1f} fps")
-    assert alone > 15  # the host sends 30 states/s; 64x36 renders take ~1 ms
-    assert beside >= 0.8 * alone
+    # Alone, the fast client gets nearly every frame the IG renders (the host's 30 states/s on a quiet
+    # machine, 64x36 renders take ~1 ms; fewer when the machine is loaded, so the bound follows the IG's
+    # own frame counter); 0.8 leaves the ack round trips.
+    rendered = _rendered_rate(fast, t0, t1)
+    assert alone >= 0.8 * rendered and rendered > 5.0, (alone, rendered)
+    # Beside the slow one it still gets nearly every frame rendered, and the IG renders about as many as
+    # before (a server that waited for the slow client's acks would render at its 4/s; 0.5 leaves the
+    # load of a shared machine changing between the two windows).
+    rendered_beside = _rendered_rate(fast, t2, t3)
+    assert beside >= 0.8 * rendered_beside and rendered_beside >= 0.5 * rendered, (beside, rendered_beside, rendered)
     assert 1.5 < slow_rate < 5.0  # bounded by its own ack delay (0.25 s), not by the server
     # the slow client gets fresh frames (a few host frames old at most), never a backlog
-    staleness = [newest - shown for _, shown, newest in slow]
+    # (stale_bound: two renders of the machine's current speed, encoding and delivery, at 30 states/s)
+    staleness = [newest - shown for _, shown, newest, _, _ in slow]
     print(f"slow client staleness (host frames): max {max(staleness)}, all {staleness}")
-    assert max(staleness) <= 4
+    assert all(s <= stale_bound(f[4]) for s, f in zip(staleness, slow)), staleness
 
 
 def test_render_process_killed_during_stream(server, ig):
@@ -225,7 +241,7 @@ def test_frame_route_reports_render_failure_as_problem(server, ig, monkeypatch):
 
 # --------------------------------------------------------------------------- MJPEG flow control
 
-MJPEG_PART = re.compile(rb"X-IG-Frame: (\d+)\r\nX-IG-Host-Frame: (\d+)\r\n")
+MJPEG_PART = re.compile(rb"X-IG-Frame: (\d+)\r\nX-IG-Host-Frame: (\d+)\r\nX-IG-Render-Ms: ([0-9.]+)\r\n")
 
 
 class _MjpegReader:
@@ -245,6 +261,7 @@ class _MjpegReader:
         while (match := MJPEG_PART.search(self.buffer)) is None:
             self.buffer += self.sock.recv(2048)
         self.buffer = self.buffer[match.end():]
+        self.render_ms = float(match[3])  # how long the part's frame took to render
         return int(match[1]), int(match[2])
 
     def close(self) -> None:
@@ -258,6 +275,11 @@ def _host_running(server, rate_hz: float, start_frame: int):
     return stop, thread, latest
 
 
+def stale_bound(render_ms: float) -> int:
+    """Host frames (30 states/s) a part's state may be behind the host's newest when it arrives (below)."""
+    return math.ceil(30.0 * (2.0 * render_ms / 1e3 + 0.05)) + 2
+
+
 def test_mjpeg_fps_cap_holds_and_shows_the_newest_state(server):
     fps, start = 5.0, 50_000
     stop, host, latest = _host_running(server, 30.0, start)
@@ -267,7 +289,7 @@ def test_mjpeg_fps_cap_holds_and_shows_the_newest_state(server):
         while len(parts) < 10:
             ig_frame, host_frame = reader.next_part()
             if host_frame >= start:  # earlier parts show a state from before this test's host
-                parts.append((time.perf_counter(), ig_frame, host_frame, latest[0]))
+                parts.append((time.perf_counter(), ig_frame, host_frame, latest[0], reader.render_ms))
     finally:
         reader.close()
         stop.set()
@@ -276,19 +298,22 @@ def test_mjpeg_fps_cap_holds_and_shows_the_newest_state(server):
     # The server waits 1/fps after each part; 10 % covers loopback delivery and scheduling jitter of a
     # loaded machine, and only one way: parts closer together than the cap allows are a violation.
     assert times[-1] - times[0] >= (len(times) - 1) / fps * 0.9, np.diff(times)
-    # Each part shows the newest state when it is encoded (the IG clock may re-render the same state, so a
-    # host frame can repeat, never go back): it is one render plus the part's delivery old, ~3 host frames
-    # at 30 states/s with ~100 ms renders on a loaded machine; 6 leaves the host's own jitter.
+    # Each part shows the newest frame rendered when it is taken (the IG clock may re-render the same state,
+    # so a host frame can repeat, never go back). That frame's state was the newest when its render started,
+    # at most two renders before the part is taken (it finished while the next render ran): at 30 states/s,
+    # 30 x (2 renders (X-IG-Render-Ms, which grows with the machine's load) + 50 ms for encoding and
+    # delivery) host frames, +2 for the host's own jitter. A queue of old parts grows past it.
     shown = [p[2] for p in parts]
     assert np.all(np.diff(shown) >= 0), shown
-    staleness = [newest - host_frame for _, _, host_frame, newest in parts]
-    assert max(staleness) <= 6, staleness
+    staleness = [newest - host_frame for _, _, host_frame, newest, _ in parts]
+    bounds = [stale_bound(render_ms) for *_, render_ms in parts]
+    assert all(s <= b for s, b in zip(staleness, bounds)), (staleness, bounds)
 
 
 def _read_fast(reader: _MjpegReader, stop: threading.Event, parts: list, latest: list[int]) -> None:
     while not stop.is_set():
         ig_frame, host_frame = reader.next_part()
-        parts.append((time.perf_counter(), host_frame, latest[0]))
+        parts.append((time.perf_counter(), host_frame, latest[0], ig_frame, reader.render_ms))
 
 
 def test_mjpeg_slow_reader_gets_the_newest_frame_not_a_backlog(server):
@@ -309,7 +334,7 @@ def test_mjpeg_slow_reader_gets_the_newest_frame_not_a_backlog(server):
     fast_parts: list = []
     stop_fast = threading.Event()
     fast_thread = threading.Thread(target=_read_fast, args=(fast, stop_fast, fast_parts, latest))
-    shown, staleness = [], []
+    shown, staleness, bounds = [], [], []
     try:
         fast_thread.start()
         time.sleep(0.3)
@@ -319,6 +344,7 @@ def test_mjpeg_slow_reader_gets_the_newest_frame_not_a_backlog(server):
             if host_frame >= start:  # the part taken when it connected shows a state from before this host
                 shown.append(host_frame)
                 staleness.append(latest[0] - host_frame)
+                bounds.append(8 + stale_bound(slow.render_ms))
             time.sleep(0.25)
         t1 = time.perf_counter()
     finally:
@@ -331,15 +357,22 @@ def test_mjpeg_slow_reader_gets_the_newest_frame_not_a_backlog(server):
     print(f"slow reader staleness {staleness}, shown {shown}")
     assert len(shown) >= 14, shown
     # A part is chosen at the latest when the reader makes room for it, i.e. at its previous read: 0.25 s =
-    # 7.5 host frames at 30 Hz; the frame it shows is one render plus the drain poll (<= 20 ms) older, up to
-    # 3 host frames on a loaded machine (as the fps-cap test): 11. A backlog shows as staleness growing by
-    # ~6.5 host frames per read (the code without flow control reached 100 in 4 s).
-    assert max(staleness) <= 11, staleness
-    # and the parts it reads jump to the newest: 0.25 s apart is 7.5 host frames; 4 leaves the host's jitter
-    # on a loaded machine (a queue of parts would show consecutive host frames, 1 apart)
-    assert min(np.diff(shown)) >= 4, shown
-    fast_rate = sum(1 for t, _, _ in fast_parts if t0 <= t < t1) / (t1 - t0)
-    fast_staleness = [newest - host_frame for t, host_frame, newest in fast_parts if t0 <= t < t1]
-    print(f"fast reader {fast_rate:.1f} parts/s, staleness {fast_staleness}")
-    assert fast_rate > 15  # the host sends 30 states/s; 64x36 renders take ~1 ms (as the WebSocket's fast client)
-    assert max(fast_staleness) <= 6  # one render plus delivery, with the host's jitter (as the fps-cap test)
+    # 7.5 host frames at 30 Hz, so 8; the frame it shows is as old as in the fps-cap test (stale_bound, from
+    # the render time; the drain poll's <= 20 ms is inside its 50 ms). A backlog shows as staleness growing
+    # by ~6.5 host frames per read (the code without flow control reached 100 in 4 s).
+    assert all(s <= b for s, b in zip(staleness, bounds)), (staleness, bounds)
+    # and the parts it reads jump to the newest: a queue of parts would show consecutive host frames, 1 apart;
+    # reads 0.25 s apart skip what the host sent meanwhile (7.5 host frames at 30 states/s, fewer when a
+    # loaded machine slows the host; half of what it really sent per read leaves its jitter)
+    host_per_read = (latest[0] - shown[0]) / len(shown)
+    assert min(np.diff(shown)) >= 2 and np.median(np.diff(shown)) >= 0.5 * host_per_read, (shown, host_per_read)
+    window = [p for p in fast_parts if t0 <= p[0] < t1]
+    fast_rate = len(window) / (t1 - t0)
+    # What the IG rendered meanwhile (its frame counter): the host's 30 states/s on a quiet machine, fewer
+    # when the machine is loaded. The fast reader gets nearly every one of them (the slow one does not hold
+    # it back); 0.8 leaves the frames rendered in the window's last part's flight.
+    rendered_rate = (window[-1][3] - window[0][3]) / (window[-1][0] - window[0][0])
+    fast_staleness = [newest - host_frame for _, host_frame, newest, _, _ in window]
+    print(f"fast reader {fast_rate:.1f} parts/s of {rendered_rate:.1f} rendered/s, staleness {fast_staleness}")
+    assert fast_rate >= 0.8 * rendered_rate and rendered_rate > 5.0, (fast_rate, rendered_rate)
+    assert all(s <= stale_bound(p[4]) for s, p in zip(fast_staleness, window)), fast_staleness

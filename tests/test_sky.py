@@ -277,3 +277,46 @@ def test_planets_are_drawn_where_and_as_bright_as_pyephem_says(renderer):
     y = radiance(renderer, s)[..., 1]
     row, col = np.unravel_index(int(np.argmax(y)), y.shape)
     assert abs(row + 0.5 - 18.0) <= 1.5 and abs(col + 0.5 - 32.0) <= 1.5, (row, col)
+
+
+@pytest.mark.parametrize("case", [
+    dict(pitch=1.0, roll=25.0, heading=200.0),           # tilted horizon across the frame: clipped
+    dict(pitch=-20.0, roll=-10.0, heading=170.0, fov=70.0),  # horizon near the top: a thin strip
+    dict(pitch=-60.0, heading=180.0),                    # no sky at all: nothing drawn
+    dict(pitch=10.0, heading=180.0, alt=12_000.0),       # above the layer: the whole frame
+    dict(pitch=-4.0, heading=180.0, alt=5_000.0),        # 2.3 deg of layer below the level view
+])
+def test_cirrus_table_polygon_holds_every_texel_the_layer_reaches(renderer, monkeypatch, case):
+    # The cirrus table is drawn only inside the polygon of the frame whose rays can meet the
+    # layer (sky.py cirrus_polygon), the rest cleared to no cloud. The frame must be the one drawn
+    # with the table filled over the whole frame, bit for bit (exact: the same shader runs on the
+    # texels inside; outside, the layer is zero by construction and the margin covers the bilinear
+    # footprint). 640x360 so that the table path (not the per-pixel layer) is taken.
+    from igserver.render.sky import sky
+    case = dict(case)
+    roll = case.pop("roll", 0.0)
+    s = scene(2.0, 180.0, weather={"cirrus_coverage": 0.6}, **case)
+    s = s.model_copy(update={"camera": s.camera.model_copy(update={"width": 640, "height": 360, "roll": roll})})
+    polygon = sky.cirrus_polygon
+    areas = []
+
+    def measured(frame, size):
+        tris = polygon(frame, size)
+        t = np.zeros((0, 3, 2)) if tris is None else tris.reshape(-1, 3, 2).astype(float)
+        e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+        areas.append(float(np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum() / 2))
+        return tris
+    monkeypatch.setattr(sky, "cirrus_polygon", measured)
+    clipped = radiance(renderer, s)
+    monkeypatch.setattr(sky, "cirrus_polygon",
+                        lambda frame, size: np.array([[0, 0], [1, 0], [1, 1], [0, 0], [1, 1], [0, 1]], "f4"))
+    whole = radiance(renderer, s)
+    np.testing.assert_array_equal(clipped, whole)
+    if case.get("alt", 0.0) > 9_000.0:
+        assert areas[-1] == pytest.approx(1.0)  # from above the layer every ray may meet it
+    elif case["pitch"] < -40.0:
+        assert areas[-1] == 0.0  # the frame is all sea/ground below the horizon
+    else:
+        assert 0.05 < areas[-1] < 0.8, areas  # the polygon did clip the frame
+        sky_px = clipped[..., 1] > 0
+        assert sky_px.any()

@@ -104,7 +104,9 @@ def test_capped_remodelling_models_once_per_keyframe_and_moves_smoothly(renderer
     volumes.settings = None
     n_volumes = 2  # the fire and its smoke
     assert modelled[0] == 2 * n_volumes  # first frame: keyframes k and k + 1
-    assert modelled[1:] == [0, 0, n_volumes, 0, 0, n_volumes]
+    # Then each keyframe once, completed ahead of need: k + 2 is modelled over the frames of the
+    # period before it is used (frames 1-2 finish keyframe 1002, needed from frame 3; 3-5 finish 1003).
+    assert modelled[1:] == [0, n_volumes, 0, 0, n_volumes, 0]
     # Continuity: crossing a keyframe changes the picture no more than a step within a period.
     steps = [float(np.abs(b - a).mean()) for a, b in zip(frames, frames[1:])]
     assert max(steps[2], steps[3]) < 2.0 * max(steps[0], steps[1], steps[4]) + 1e-3, steps
@@ -155,3 +157,92 @@ def test_march_resolution_change_fades_instead_of_popping(renderer, volumes):
     # After the fade: the new scale alone (same picture as a fresh render of that instant, up to the
     # turbulence's motion over dt, far below one level).
     assert np.abs(frames[-1] - render_with(renderer, volumes, at(3 + SCALE_FADE_FRAMES), full)).mean() < 0.05
+
+
+def test_keyframes_modelled_ahead_in_slices_same_picture_no_spike(renderer, volumes):
+    """The keyframe after next is modelled in slices over the frames before it is needed
+    (volumes.py model_ahead): the frames of a 30 Hz stream are bit-identical to modelling each
+    keyframe whole when it is needed (the same inputs, frozen at its first slice), and no frame
+    after the first models more than half a keyframe (on demand, every third frame models a whole
+    one: the spike in p99 frame time)."""
+    volumes.settings = replace(MEDIUM, model_hz=10.0)
+    scene = close_fire(96, 54)
+
+    def stream(ahead: bool):
+        volumes.model_ahead = ahead
+        frames, voxels = [], []
+        for i in range(10):
+            renderer.render(apply_patch(scene, {"time": {"sim_time": 200.0 + i / 30.0}}))
+            frames.append(renderer.read_hdr())
+            voxels.append(volumes.stats["voxels"])
+        return frames, voxels
+
+    try:
+        spread, spread_voxels = stream(True)
+        whole, whole_voxels = stream(False)
+    finally:
+        volumes.model_ahead = True
+        volumes.settings = None
+    for a, b in zip(spread, whole):
+        np.testing.assert_array_equal(a, b)
+    keyframe = max(whole_voxels[1:])  # one keyframe of every volume, modelled in one frame
+    assert keyframe > 0 and whole_voxels[1:].count(keyframe) == 3  # frames 3, 6, 9
+    # Half a keyframe at most (2 or 3 frames left before each keyframe is needed), plus the
+    # rounding of each volume's share up to 4 z slices of 32 x 32.
+    fire_smoke_slices_rounding = 2 * 4 * 32 * 32
+    assert max(spread_voxels[1:]) <= keyframe / 2 + fire_smoke_slices_rounding, (spread_voxels, keyframe)
+    # The same work, each keyframe once: frames 1-8 model keyframes 2002-2004 ahead, which the
+    # whole-keyframe stream models in frames 3, 6 and 9 (frame 9 of the spread stream begins 2005).
+    assert sum(spread_voxels[1:9]) == sum(whole_voxels[1:]) == 3 * keyframe
+
+
+def test_march_coarsens_only_where_voxels_are_large_on_screen(renderer, volumes):
+    """With the screen-size LOD on, the march falls to quarter resolution where every voxel spans
+    several pixels (volumes.py footprint_scale): inside the plume at 640x360, not 12 m away."""
+    lod = replace(PRESETS["medium"], model_hz=0.0)  # lod on (the preset as used)
+    scene = inside_plume(640, 360)
+    quarter = render_with(renderer, volumes, scene, lod)
+    assert volumes.stats["scale"] == 4
+    half = render_with(renderer, volumes, scene, replace(lod, lod=False))
+    assert volumes.stats["scale"] == 2
+    render_with(renderer, volumes, close_fire(640, 360), lod)
+    assert volumes.stats["scale"] == 2  # 12 m away: the preset's half resolution
+    reference = render_with(renderer, volumes, scene, replace(lod, lod=False, steps=1024, scale=1))
+    empty = render_with(renderer, volumes, scene.model_copy(update={"effects": []}), lod)
+    covered = np.abs(reference - empty).max(-1) > 2
+    assert covered.mean() > 0.5
+    _, half_error = errors(half, reference, covered)
+    _, quarter_error = errors(quarter, reference, covered)
+    # Measured 0.07 -> 0.17 levels of low-passed error; 0.5 levels is where the next closest view
+    # (4 m from the fire, 0.96 levels at quarter resolution) would already fail.
+    assert quarter_error < half_error + 0.5, (quarter_error, half_error)
+    # And no stripes (the converged picture's own neighbour differences, as in the stripe test).
+    assert adjacent_difference(quarter) < 2.0 * adjacent_difference(reference) + 0.002
+
+
+def test_smoke_shadows_modelled_once_per_change_of_their_inputs(renderer, volumes):
+    """A smoke keyframe reads its sun and sky transmittance from a texture modelled once per
+    change of its inputs (volumes.py _shadows): a stream of keyframes models it once, and after
+    the sun moves the picture is the one modelled from scratch (no stale shadows)."""
+    volumes.settings = replace(MEDIUM, model_hz=10.0)
+    day = {"utc": "2026-06-21T08:00:00Z"}
+    scene = apply_patch(close_fire(96, 54), {"time": day, "effects": [
+        {"id": "smoke", "type": "smoke", "position": [0, 0, 0], "diameter": 3.0, "seed": 5}]})
+    try:
+        shadows = 0
+        for i in range(7):
+            renderer.render(apply_patch(scene, {"time": {"sim_time": 300.0 + i / 30.0}}))
+            shadows += volumes.stats.get("shadows", 0)
+        assert shadows == 1  # three keyframes modelled, one shadow texture
+        # A jump in time (new keyframes, modelled now with the new sun; in a stream a changed sun
+        # enters at the next keyframe and blends in, by design).
+        moved = apply_patch(scene, {"time": {"utc": "2026-06-21T15:00:00Z", "sim_time": 400.0}})
+        renderer.render(moved)
+        cached = renderer.read_hdr()
+        for slot in volumes._slots.values():
+            slot.release()
+        volumes._slots.clear()
+        renderer.render(moved)
+        np.testing.assert_array_equal(cached, renderer.read_hdr())
+    finally:
+        volumes.settings = None

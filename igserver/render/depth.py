@@ -24,10 +24,11 @@ did with ``AT_INFINITY``.
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import logging
 
 import moderngl
+
+from . import gl_calls
 
 log = logging.getLogger(__name__)
 
@@ -49,55 +50,9 @@ GL_TEXTURE_INTERNAL_FORMAT = 0x1003
 _modes: dict[int, bool] = {}
 
 
-class _GL:
-    """The few GL entry points moderngl lacks, looked up through EGL for the current context."""
-
-    def __init__(self):
-        name = ctypes.util.find_library("EGL") or "libEGL.so.1"
-        egl = ctypes.CDLL(name)
-        egl.eglGetProcAddress.restype = ctypes.c_void_p
-        egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
-        egl.eglGetCurrentContext.restype = ctypes.c_void_p
-        if not egl.eglGetCurrentContext():
-            raise OSError("no current EGL context")
-
-        def fn(symbol: str, restype, *argtypes):
-            address = egl.eglGetProcAddress(symbol.encode())
-            if not address:
-                raise OSError(f"{symbol} not available")
-            return ctypes.CFUNCTYPE(restype, *argtypes)(address)
-
-        u, i = ctypes.c_uint, ctypes.c_int
-        self.clip_control = fn("glClipControl", None, u, u)
-        self.get_integerv = fn("glGetIntegerv", None, u, ctypes.POINTER(i))
-        self.active_texture = fn("glActiveTexture", None, u)
-        self.bind_texture = fn("glBindTexture", None, u, u)
-        self.tex_image_2d = fn("glTexImage2D", None, u, i, i, i, i, i, u, u, ctypes.c_void_p)
-        self.get_tex_level_parameteriv = fn("glGetTexLevelParameteriv", None, u, i, u, ctypes.POINTER(i))
-
-    def integer(self, pname: int) -> int:
-        value = ctypes.c_int(0)
-        self.get_integerv(pname, ctypes.byref(value))
-        return value.value
-
-
-_gl: _GL | None = None
-
-
-def _gl_functions() -> _GL | None:
-    global _gl
-    if _gl is None:
-        try:
-            _gl = _GL()
-        except (OSError, AttributeError) as exc:
-            log.warning("GL entry points through EGL unavailable (%s): conventional clip range", exc)
-            return None
-    return _gl
-
-
 def enable_reversed_z(ctx: moderngl.Context) -> bool:
     """Switch ``ctx`` (current) to clip depth [0, 1]; True when the driver confirms it."""
-    gl = _gl_functions()
+    gl = gl_calls.functions()
     ok = False
     if gl is not None:
         gl.clip_control(GL_LOWER_LEFT, GL_ZERO_TO_ONE)
@@ -125,7 +80,7 @@ def float_depth_texture(ctx: moderngl.Context, size: tuple[int, int]) -> tuple[m
     (its texture is mutable, allocated with glTexImage2D) before any framebuffer uses it.
     """
     tex = ctx.depth_texture(size)
-    gl = _gl_functions()
+    gl = gl_calls.functions()
     if gl is None:
         return tex, False
     ctx.error  # noqa: B018 - clear a stale error flag: only this call's errors count below

@@ -178,7 +178,8 @@ async def mjpeg_stream(
                     data, _ = await encoded.encoded_async("jpeg", quality, runtime.metrics)
                     head = (
                         f"--{MJPEG_BOUNDARY}\r\nContent-Type: image/jpeg\r\nContent-Length: {len(data)}\r\n"
-                        f"X-IG-Frame: {encoded.ig_frame}\r\nX-IG-Host-Frame: {encoded.host_frame}\r\n\r\n"
+                        f"X-IG-Frame: {encoded.ig_frame}\r\nX-IG-Host-Frame: {encoded.host_frame}\r\n"
+                        f"X-IG-Render-Ms: {encoded.frame.render_ms:.3f}\r\n\r\n"
                     ).encode()
                     t_sent = time.perf_counter()
                     yield head + data + b"\r\n"

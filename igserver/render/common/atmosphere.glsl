@@ -7,6 +7,7 @@
 //   sky_transmittance(dir)            camera -> space along dir (0 into the ground), fog included
 //   sun_disk(dir)                     the sun's limb-darkened disk after the atmosphere and the fog
 //   apply_aerial_perspective(L, rel)  radiance leaving a surface at camera-relative rel (m), as seen
+//   aerial_terms(rel, tau, S)         the same as optical depth and in-scattering: L exp(-tau) + S
 //
 // Two tiers, chosen per frame by u_sky_model (0 gradient, 1 precomputed) or at compile time by
 // SKY_GRADIENT / SKY_PRECOMPUTED (the sky pass):
@@ -84,9 +85,11 @@ float haze_optical_depth(vec3 rel) {
     return u_fog_beta * d * exp(-h0 / u_fog_scale_height) * one_minus_exp_over_x(x);
 }
 
-vec3 gradient_aerial_perspective(vec3 radiance, vec3 rel) {
-    float transmittance = exp(-min(haze_optical_depth(rel), 80.0));
-    return radiance * transmittance + u_fog_color * (1.0 - transmittance);
+// The gradient tier's aerial perspective as optical depth and in-scattering (see aerial_terms).
+void gradient_aerial_terms(vec3 rel, out vec3 tau, out vec3 inscatter) {
+    float t = haze_optical_depth(rel);
+    tau = vec3(t);
+    inscatter = u_fog_color * (1.0 - exp(-min(t, 80.0)));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -285,7 +288,9 @@ vec3 haze_tau_up(float h0, float z) {
     return u_haze_beta * (c / sqrt(z * z + 2.0 * hc / HAZE_EARTH_RADIUS_M));
 }
 float hg(float g, float nu) {
-    return (1.0 - g * g) / (4.0 * ATMO_PI * pow(max(1.0 + g * g - 2.0 * g * nu, 1e-6), 1.5));
+    // d sqrt(d), not pow(d, 1.5): llvmpipe computes pow as exp2(log2) (~9 % of the sky pass's per-pixel work)
+    float d = max(1.0 + g * g - 2.0 * g * nu, 1e-6);
+    return (1.0 - g * g) / (4.0 * ATMO_PI * d * sqrt(d));
 }
 // In-scattered radiance source S(h, dir) of the layer (cd/m^2), from the per-frame table of its
 // light against height (sky/haze.py source_table(): the two-stream model evaluated once per frame
@@ -307,15 +312,16 @@ float haze_effective_height(float h0, vec3 dir, float d) {
     float d1 = 1.0 / max(u_haze_beta.g * haze_density(h0), 1e-12);
     return h0 + dir.z * 0.5 * min(d, d1);
 }
-// The layer between the camera and camera-relative rel (m).
-vec3 haze_aerial(vec3 radiance, vec3 rel) {
-    if (!haze_present()) return radiance;
+// The layer between the camera and camera-relative rel (m): its optical depth and in-scattering.
+void haze_aerial_terms(vec3 rel, out vec3 tau, out vec3 inscatter) {
+    tau = vec3(0.0);
+    inscatter = vec3(0.0);
+    if (!haze_present()) return;
     float h0 = haze_height();
-    vec3 tau = haze_segment_tau(h0, rel);
+    tau = haze_segment_tau(h0, rel);
     float d = length(rel);
     vec3 dir = rel / max(d, 1e-9);
-    vec3 s = haze_source(haze_effective_height(h0, dir, d), dir);
-    return radiance * exp(-min(tau, vec3(80.0))) + s * one_minus_exp(tau);
+    inscatter = haze_source(haze_effective_height(h0, dir, d), dir) * one_minus_exp(tau);
 }
 // The layer along a whole view ray: into the ground (flat, at the layer's base) or to space.
 vec3 haze_sky(vec3 radiance, vec3 dir, out vec3 transmittance) {
@@ -433,17 +439,33 @@ vec3 sun_disk(vec3 dir) {
     return u_sun_disk_luminance * (1.0 - 0.6 * (1.0 - sqrt(max(1.0 - r * r, 0.0)))) / 0.8;
 }
 
-// Radiance leaving a surface at camera-relative point rel (m), as seen by the camera.
-vec3 apply_aerial_perspective(vec3 radiance, vec3 rel) {
-    if (!use_precomputed()) return gradient_aerial_perspective(radiance, rel);
+// The air between the camera and camera-relative point rel (m) as its optical depth tau and the
+// light it scatters toward the camera: a surface's radiance L is seen as L exp(-tau) + inscatter.
+// Clear air first (nearer the camera in the model's composition), then the fog/haze layer.
+void aerial_terms(vec3 rel, out vec3 tau, out vec3 inscatter) {
+    tau = vec3(0.0);
+    inscatter = vec3(0.0);
+    if (!use_precomputed()) {
+        gradient_aerial_terms(rel, tau, inscatter);
+        return;
+    }
     float d = length(rel);
-    if (!(d > 1e-4)) return radiance;
+    if (!(d > 1e-4)) return;
     vec3 dir = rel / d;
-    vec3 sky, inscatter, tau_end;
-    clear_sky_lookup(dir, sky, inscatter, tau_end, false);
+    vec3 sky, s_clear, tau_end;
+    clear_sky_lookup(dir, sky, s_clear, tau_end, false);
     if (tau_end.g >= 1e4) tau_end -= vec3(1e4);
     vec3 tau_p = min(clear_segment_optical_depth(rel), tau_end);
     vec3 share = clamp(one_minus_exp(tau_p) / max(one_minus_exp(tau_end), vec3(1e-12)), 0.0, 1.0);
-    vec3 clear = radiance * exp(-min(tau_p, vec3(80.0))) + inscatter * share;
-    return haze_aerial(clear, rel);
+    vec3 tau_h, s_haze;
+    haze_aerial_terms(rel, tau_h, s_haze);
+    tau = tau_p + tau_h;
+    inscatter = s_clear * share * exp(-min(tau_h, vec3(80.0))) + s_haze;
+}
+
+// Radiance leaving a surface at camera-relative point rel (m), as seen by the camera.
+vec3 apply_aerial_perspective(vec3 radiance, vec3 rel) {
+    vec3 tau, inscatter;
+    aerial_terms(rel, tau, inscatter);
+    return radiance * exp(-min(tau, vec3(80.0))) + inscatter;
 }

@@ -60,6 +60,13 @@ def halo_uniforms(frame) -> dict:
             "u_halo_beta": beta, "u_halo_omega": float(haze.omega), "u_halo_g": float(haze.g), "u_halo_far": 20.0 / beta, **table_uniforms()}
 
 
+def rod_fraction(adaptation_luminance: float) -> float:
+    """Mesopic vision's rod share (tonemap.glsl): 0 at 3 cd/m^2 and above, 1 at 0.003 and below,
+    log-linear between."""
+    s = (math.log(3.0) - math.log(max(adaptation_luminance, 1e-9))) / (math.log(3.0) - math.log(0.003))
+    return min(max(s, 0.0), 1.0)
+
+
 class PostPass(RenderPass):
     name = "post"
 
@@ -77,6 +84,8 @@ class PostPass(RenderPass):
         program["u_hdr"].value = 0
         if "u_exposure_correction" in program:
             program["u_exposure_correction"].value = correction
+        if "u_rod_fraction" in program:
+            program["u_rod_fraction"].value = rod_fraction(frame.uniforms["u_adaptation_luminance"])
         if "u_halos" in program:
             set_uniforms(program, {"u_halos": 2, "u_distance": 1, "u_halo_far": halos["u_halo_far"]})
             self._halo_target[0].use(2)

@@ -11,31 +11,32 @@ uniform float u_halo_far;     // m: distances are clamped to it (20 optical dept
 // Depth-aware upsampling: where the four low-resolution texels around this pixel were computed
 // for about its distance (within 23 %: a block's nearest pixel on ground seen at a grazing angle
 // is a few rows nearer), the bilinear filter; at a silhouette, the texel of the closest distance,
-// so no rim of the far side's halo lies on an object's edge (or the reverse).
+// so no rim of the far side's halo lies on an object's edge (or the reverse) — read by the same
+// bilinear lookup at that texel's centre: one texture access per pixel either way (llvmpipe runs
+// both sides of a per-pixel branch).
 const float HALO_LOG2_TOLERANCE = 0.3;
 vec3 upsampled_halo(vec2 uv) {
     float ld = log2(clamp(texelFetch(u_distance, ivec2(gl_FragCoord.xy), 0).r, 1e-3, u_halo_far));
     vec4 diff = abs(textureGather(u_halos, uv, 3) - ld);  // texels (0,1), (1,1), (1,0), (0,0)
-    if (all(lessThan(diff, vec4(HALO_LOG2_TOLERANCE)))) return texture(u_halos, uv).rgb;
-    ivec2 size = textureSize(u_halos, 0);
-    ivec2 i0 = ivec2(floor(uv * vec2(size) - 0.5));
+    vec2 size = vec2(textureSize(u_halos, 0));
+    vec2 i0 = floor(uv * size - 0.5);
     float best = min(min(diff.x, diff.y), min(diff.z, diff.w));
-    ivec2 o = best == diff.w ? ivec2(0, 0) : best == diff.z ? ivec2(1, 0) : best == diff.x ? ivec2(0, 1) : ivec2(1, 1);
-    return texelFetch(u_halos, clamp(i0 + o, ivec2(0), size - 1), 0).rgb;
+    vec2 o = best == diff.w ? vec2(0.0, 0.0) : best == diff.z ? vec2(1.0, 0.0) : best == diff.x ? vec2(0.0, 1.0) : vec2(1.0, 1.0);
+    vec2 nearest = (clamp(i0 + o, vec2(0.0), size - 1.0) + 0.5) / size;
+    return texture(u_halos, all(lessThan(diff, vec4(HALO_LOG2_TOLERANCE))) ? uv : nearest).rgb;
 }
 #endif
 uniform float u_exposure_correction;  // metered exposure / the passes' provisional one (post.py)
-uniform float u_adaptation_luminance;  // cd/m^2, what the exposure adapted to (post/exposure.py)
+uniform float u_rod_fraction;  // mesopic: the rods' share of vision at this frame's adaptation (post.py)
 
 #ifdef MESOPIC
 // Mesopic vision: below ~3 cd/m^2 rods take over from cones; at 0.003 cd/m^2 vision is scotopic
-// (no colour). Rod fraction s from the adaptation luminance (log-linear between the two), rod
-// luminance from linear sRGB with weights near the scotopic curve V'(lambda) (peak 507 nm: mostly
-// G and B), shown with a slight blue tint (the "Purkinje" night look, Jensen et al. 2000).
+// (no colour). Rod fraction from the adaptation luminance (post.py rod_fraction, once per frame),
+// rod luminance from linear sRGB with weights near the scotopic curve V'(lambda) (peak 507 nm:
+// mostly G and B), shown with a slight blue tint (the "Purkinje" night look, Jensen et al. 2000).
 vec3 mesopic(vec3 c) {
-    float s = clamp((log(3.0) - log(max(u_adaptation_luminance, 1e-9))) / (log(3.0) - log(0.003)), 0.0, 1.0);
     float rod = dot(c, vec3(0.02, 0.55, 0.43));
-    return mix(c, rod * vec3(0.80, 0.95, 1.25), s);
+    return mix(c, rod * vec3(0.80, 0.95, 1.25), u_rod_fraction);
 }
 #endif
 in vec2 v_uv;

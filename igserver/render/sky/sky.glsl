@@ -11,7 +11,12 @@ layout(location = 0) out vec4 out_color;
 layout(location = 1) out float out_distance;
 
 #if defined(CIRRUS) && !defined(CIRRUS_PER_PIXEL)
-layout(binding = 7) uniform sampler2D u_cirrus_table;  // cirrus_table.glsl, drawn this frame
+layout(binding = 7) uniform sampler2D u_cirrus_table;  // cirrus_table.glsl, drawn this frame:
+layout(binding = 6) uniform sampler2D u_cirrus_hide;   // the layer's light and its opacity, both x T
+// Composite of the table's layer over the radiance behind it: L (1 - alpha T) + rgb alpha T.
+vec3 composite_cirrus_table(vec3 radiance) {
+    return radiance * (1.0 - texture(u_cirrus_hide, v_uv).rgb) + texture(u_cirrus_table, v_uv).rgb;
+}
 #endif
 uniform float u_moon_disk_cos;       // cos of the moon's angular radius
 uniform vec3 u_moon_disk_luminance;  // cd/m^2 of the lit part, after the atmosphere
@@ -65,8 +70,7 @@ vec3 disks(vec3 dir) {
 #if defined(CIRRUS) && defined(CIRRUS_PER_PIXEL)
     radiance = composite_cirrus(radiance, dir, cirrus_layer(dir)) - composite_cirrus(vec3(0.0), dir, cirrus_layer(dir));
 #elif defined(CIRRUS)
-    vec4 c = texture(u_cirrus_table, v_uv);
-    radiance = composite_cirrus(radiance, dir, c) - composite_cirrus(vec3(0.0), dir, c);
+    radiance *= 1.0 - texture(u_cirrus_hide, v_uv).rgb;
 #endif
     return radiance;
 }
@@ -81,7 +85,7 @@ void main() {
 #if defined(CIRRUS) && defined(CIRRUS_PER_PIXEL)
     radiance = apply_cirrus(radiance, dir);  // a variant: the noise costs 2x the sky even when skipped
 #elif defined(CIRRUS)
-    radiance = composite_cirrus(radiance, dir, texture(u_cirrus_table, v_uv));
+    radiance = composite_cirrus_table(radiance);
 #endif
     out_color = vec4(pre_expose(radiance), 1.0);
     out_distance = 1e30;  // sky: infinitely far

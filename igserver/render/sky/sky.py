@@ -17,7 +17,11 @@ STAR_POINT_PX = 2.0
 # The cirrus layer is evaluated once per frame on a grid this many times coarser per axis than the
 # frame (cirrus_table.glsl), 1 = per pixel in the sky pass (the reference for the picture error).
 CIRRUS_TABLE_SCALE = 2
-CIRRUS_TABLE_UNIT = 7
+CIRRUS_TABLE_UNIT = 7   # (cloud radiance x alpha x T, alpha)
+CIRRUS_HIDE_UNIT = 6    # (alpha x T): how much of the sky behind the layer it hides, per channel
+# Texels outside the polygon hold zero, as the shader would compute there, so the sky pass's
+# bilinear lookup needs no margin; one texel covers float32 rounding in the shader's ray.
+CIRRUS_POLYGON_MARGIN_TEXELS = 1.0
 CIRRUS_TABLE_MIN_WIDTH = 320  # px, the narrowest table
 STARS_BELOW_SUN_ELEVATION = -2.0  # deg; above this the day sky hides even Sirius
 
@@ -49,6 +53,55 @@ def disk_box(frame, direction, radius_rad: float) -> tuple[int, int, int, int] |
     if x1 <= x0 or y1 <= y0:
         return None
     return (x0, y0, x1 - x0, y1 - y0)
+
+
+def cirrus_polygon(frame, table_size: tuple[int, int]) -> np.ndarray | None:
+    """The part of the frame (uv in [0, 1]^2, a convex polygon as a triangle list, float32 (n, 2))
+    whose view rays can meet the cirrus layer, grown by CIRRUS_POLYGON_MARGIN_TEXELS texels of a
+    table of ``table_size``; None when no ray can. From below the layer a ray meets it only when it
+    misses the earth: normalised dir.z >= mu_h, the cosine of the camera's geometric horizon
+    (cirrus.glsl cirrus_distance). The unnormalised ray d(u, v) = F + t_x R + t_y U is linear in
+    uv and |d| <= d_max (its largest value over the frame, at a corner), so the half-plane
+    d.z(u, v) >= mu_h d_max (mu_h <= 0) holds every such ray: outside it the layer is zero. From
+    above the layer (or on it) the whole frame is returned."""
+    uniforms = frame.uniforms
+    bottom = float(uniforms["u_bottom_radius_km"])
+    r_cam = bottom + max(float(uniforms["u_camera_altitude"]) * 1e-3, 1e-3)
+    r_layer = bottom + float(uniforms["u_cirrus_altitude_km"])
+    corners = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    rot = np.asarray(frame.view.rotation, dtype=np.float64)
+    right, forward, up = rot[:, 0], rot[:, 1], rot[:, 2]
+    left_t, right_t, bottom_t, top_t = (float(t) for t in frame.view.tangents)
+
+    def ray(uv):
+        tx = left_t + uv[..., :1] * (right_t - left_t)
+        ty = bottom_t + uv[..., 1:] * (top_t - bottom_t)
+        return forward + tx * right + ty * up
+
+    if r_cam >= r_layer:
+        poly = corners
+    else:
+        mu_h = -math.sqrt(max(1.0 - (bottom / r_cam) ** 2, 0.0))
+        d_max = float(np.linalg.norm(ray(corners), axis=1).max())
+        z0 = ray(np.zeros(2))[2]
+        dz_du = (right_t - left_t) * right[2]
+        dz_dv = (top_t - bottom_t) * up[2]
+        margin = CIRRUS_POLYGON_MARGIN_TEXELS * (abs(dz_du) / table_size[0] + abs(dz_dv) / table_size[1])
+        # Keep f(u, v) = z0 + dz_du u + dz_dv v - (mu_h d_max - margin) >= 0 (Sutherland-Hodgman).
+        c = z0 - (mu_h * d_max - margin)
+        f = c + dz_du * corners[:, 0] + dz_dv * corners[:, 1]
+        kept = []
+        for i in range(4):
+            a, b, fa, fb = corners[i], corners[(i + 1) % 4], f[i], f[(i + 1) % 4]
+            if fa >= 0.0:
+                kept.append(a)
+            if (fa >= 0.0) != (fb >= 0.0):
+                kept.append(a + (b - a) * (fa / (fa - fb)))
+        if len(kept) < 3:
+            return None
+        poly = np.array(kept)
+    tris = np.array([[poly[0], poly[i], poly[i + 1]] for i in range(1, len(poly) - 1)]).reshape(-1, 2)
+    return tris.astype("f4")
 
 
 def surface_below(scene) -> bool:
@@ -109,17 +162,39 @@ class SkyPass(RenderPass):
             self.ctx.disable(moderngl.BLEND)
 
     def _cirrus_table(self, frame, model: str, targets) -> None:
-        """Draw the cirrus layer at 1/cirrus_scale resolution into a float texture on unit 7."""
+        """Draw the cirrus layer at 1/cirrus_scale resolution into two float textures on units 7 and
+        6 (cirrus_table.glsl), only inside the polygon of the frame whose rays can meet the layer
+        (cirrus_polygon; the rest cleared to no cloud: in the demo half the frame is sea)."""
         w, h = targets.size
         size = (max(w // self.cirrus_scale, 1), max(h // self.cirrus_scale, 1))
-        table = self.held_target("cirrus", size, "f4")
-        program = self.programs.program("common/fullscreen.vert.glsl", "sky/cirrus_table.glsl",
-                                        {"SKY_" + model.upper(): 1})
-        set_uniforms(program, frame.uniforms)
-        self.ctx.disable(moderngl.DEPTH_TEST)
-        table[1].use()
-        self.fullscreen(program)
-        table[0].use(location=CIRRUS_TABLE_UNIT)
+        layer = self.held_target("cirrus", size, "f4")[0]
+        hide = self.held_target("cirrus_hide", size, "f4")[0]
+        key = (id(layer), id(hide))
+        if getattr(self, "_cirrus_fbo_key", None) != key:
+            if getattr(self, "_cirrus_fbo", None) is not None:
+                self._cirrus_fbo.release()
+            self._cirrus_fbo = self.ctx.framebuffer([layer, hide])
+            self._cirrus_fbo_key = key
+        fbo = self._cirrus_fbo
+        fbo.use()
+        fbo.clear(0.0, 0.0, 0.0, 0.0)
+        tris = cirrus_polygon(frame, size)
+        if tris is not None:
+            program = self.programs.program("sky/cirrus_table.vert.glsl", "sky/cirrus_table.glsl",
+                                            {"SKY_" + model.upper(): 1})
+            set_uniforms(program, {**frame.uniforms, "u_cirrus_table_size": (float(size[0]), float(size[1]))})
+            if getattr(self, "_cirrus_vbo", None) is None:
+                self._cirrus_vbo = self.ctx.buffer(reserve=9 * 2 * 4)  # a pentagon at most: 3 triangles of 2 floats
+                self._cirrus_vaos: dict = {}
+            self._cirrus_vbo.write(tris.tobytes())
+            vao = self._cirrus_vaos.get(id(program))
+            if vao is None:
+                vao = self._cirrus_vaos[id(program)] = self.ctx.vertex_array(
+                    program, [(self._cirrus_vbo, "2f", "in_uv")])
+            self.ctx.disable(moderngl.DEPTH_TEST)
+            vao.render(moderngl.TRIANGLES, vertices=len(tris))
+        layer.use(location=CIRRUS_TABLE_UNIT)
+        hide.use(location=CIRRUS_HIDE_UNIT)
 
     def _stars(self, frame, model: str) -> None:
         scene = frame.scene

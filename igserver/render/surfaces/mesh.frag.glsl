@@ -4,6 +4,7 @@
 #include "common/atmosphere.glsl"
 #include "common/brdf.glsl"
 #include "common/lights.glsl"
+#include "common/aerial_table.glsl"
 uniform sampler2D u_base_tex;       // sRGB texture: sampled as linear
 uniform sampler2D u_mr_tex;         // G = roughness, B = metallic (linear)
 uniform sampler2D u_normal_tex;     // tangent-space normal, RGB -> xyz in [-1,1]
@@ -71,7 +72,7 @@ void main() {
     vec3 lit = shade_surface_ao(m, v_rel, n, v, ao);
     lit += EMISSIVE_LUMINANCE * u_emissive_factor * texture(u_emissive_tex, v_uv).rgb;
     float alpha = u_alpha_mode == 2 ? base.a : 1.0;
-    out_color = vec4(pre_expose(apply_aerial_perspective(lit, v_rel)), alpha);
+    out_color = vec4(pre_expose(aerial_perspective(lit, v_rel)), alpha);
     out_distance = length(v_rel);
 #endif
 }

@@ -5,6 +5,7 @@
 #include "common/brdf.glsl"
 #include "common/lights.glsl"
 #include "common/earth.glsl"
+#include "common/aerial_table.glsl"
 
 uniform float u_plane_height;   // m, camera-relative height of the plane
 uniform vec3 u_base_color;
@@ -37,7 +38,7 @@ void main() {
     vec3 v = -dir;
     Material m = Material(u_base_color, 0.0, u_roughness);
     vec3 lit = shade_surface(m, p, n, v);
-    out_color = vec4(pre_expose(apply_aerial_perspective(lit, p)), 1.0);
+    out_color = vec4(pre_expose(aerial_perspective(lit, p)), 1.0);
     out_distance = t;
     gl_FragDepth = window_depth(p);
 }

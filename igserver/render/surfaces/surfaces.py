@@ -12,6 +12,7 @@ the same sun reuses it).
 from __future__ import annotations
 
 import hashlib
+import os
 from dataclasses import dataclass, field
 
 import moderngl
@@ -20,6 +21,7 @@ import numpy as np
 from ...scene.model import Entity, Scene
 from .. import depth
 from ..camera import CameraView, body_to_world, gl_matrix
+from ..common.aerial_table import frame_aerial_table
 from ..passes import RenderPass
 from ..shaders import set_uniforms
 from .gpu_models import INSTANCE_FLOATS, SAMPLER_UNITS, GpuModel, ModelCache
@@ -99,6 +101,10 @@ class SurfacesPass(RenderPass):
         self.shadow_taps = DEFAULT_SHADOW_TAPS  # PCF taps per lookup (quality knob: igserver quality surfaces)
         self._shadow_signatures: dict[str, tuple] = {}  # what each map holds (skip redrawing it)
         self.shadow_maps_reused = 0
+        # Aerial perspective per pixel (the reference) instead of the frame's table: for the
+        # table's error studies and tests; IGSERVER_AERIAL_EXACT=1 sets it for a whole process.
+        self.aerial_exact = os.environ.get("IGSERVER_AERIAL_EXACT") == "1"
+        self._aerial_exact_frame = False  # this frame fell back to the per-pixel function
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
         return (scene.ground.enabled and not scene.ocean.enabled) or any(e.visible for e in scene.entities)
@@ -246,6 +252,8 @@ class SurfacesPass(RenderPass):
     def _receiver_defines(self, frame) -> dict:
         """The frame's light terms, and shadow lookups only for the maps this frame drew."""
         defines = dict(frame.defines)
+        if self.aerial_exact or self._aerial_exact_frame:
+            defines["AERIAL_EXACT"] = 1
         if self.last_shadow_passes:
             defines.update({"SURFACE_SHADOWS": 1, "SHADOW_TAPS": self.shadow_taps})
             if any(p in ("sun", "moon") for p in self.last_shadow_passes):
@@ -257,7 +265,10 @@ class SurfacesPass(RenderPass):
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
         batches = self._batches(scene, view)
-        shadow_uniforms = self._shadows(frame, batches, scene)
+        receiver_uniforms = self._shadows(frame, batches, scene)
+        aerial = None if self.aerial_exact else frame_aerial_table(frame)
+        self._aerial_exact_frame = aerial is None  # a camera high over the ground: per pixel
+        receiver_uniforms.update(aerial or {})
         targets.scene_fbo.use()
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
@@ -265,7 +276,7 @@ class SurfacesPass(RenderPass):
             program = self.programs.program("common/fullscreen.vert.glsl", "surfaces/plane.glsl",
                                             self._receiver_defines(frame))
             set_uniforms(program, frame.uniforms)
-            set_uniforms(program, shadow_uniforms)
+            set_uniforms(program, receiver_uniforms)
             set_uniforms(program, {
                 "u_plane_height": scene.ground.level - float(view.position[2]),
                 "u_base_color": tuple(scene.ground.color),
@@ -276,7 +287,7 @@ class SurfacesPass(RenderPass):
             return
         program = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl", self._receiver_defines(frame))
         set_uniforms(program, frame.uniforms)
-        set_uniforms(program, shadow_uniforms)
+        set_uniforms(program, receiver_uniforms)
         self._set_samplers(program)
         self._draw_batches(program, batches, "view", blended=False)
         if any(p.material.data.alpha_mode == 2 for b in batches.values() if len(b.rows["view"])

@@ -10,13 +10,24 @@
 //
 // Output (rgba16f): fire: rgb = emitted colour (x the effect's luminance at render time), a = density.
 // smoke: r = transmittance toward the sun, g = toward the zenith (sky light), b = albedo, a = density;
-// the two shadow rays march the profile without turbulence (cheap, smooth, slightly soft).
+// the two shadow rays march the profile without turbulence (cheap, smooth, slightly soft). They do
+// not depend on the noise scroll, so SHADOWS models them alone into an rg16f texture once per
+// change of their inputs (size, extent, sun, extinction, opacity: volumes.py) and each smoke
+// keyframe reads them back (u_shadows): ~40 % of a smoke keyframe's modelling.
 #include "common/noise.glsl"
 
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
+#ifdef SHADOWS
+layout(rg16f, binding = 0) writeonly uniform image3D u_volume;
+#else
 layout(rgba16f, binding = 0) writeonly uniform image3D u_volume;
+#endif
+#ifdef SMOKE
+uniform sampler3D u_shadows;  // (t_sun, t_sky) per voxel, from the SHADOWS variant
+#endif
 uniform sampler2D u_profile;
 uniform ivec3 u_size;
+uniform int u_z_first;       // first z slice of this dispatch (a keyframe is modelled in slices, volumes.py)
 uniform vec3 u_extent;       // m: (radius, radius, height) of the container now (after fade)
 uniform float u_wavelength;  // m per noise lattice unit (lambda)
 uniform float u_tau;         // noise scroll along P.z, lattice units, in [0, period)
@@ -51,10 +62,14 @@ float shadow(vec3 n, vec3 dir_m) {
 }
 
 void main() {
-    ivec3 id = ivec3(gl_GlobalInvocationID);
+    ivec3 id = ivec3(gl_GlobalInvocationID) + ivec3(0, 0, u_z_first);
     if (any(greaterThanEqual(id, u_size))) return;
     vec3 n = (vec3(id) + 0.5) / vec3(u_size);
     n.xy = n.xy * 2.0 - 1.0;                            // normalised container coordinates
+#ifdef SHADOWS
+    imageStore(u_volume, id, vec4(shadow(n, u_sun_local), shadow(n, vec3(0.0, 0.0, 1.0)), 0.0, 0.0));
+    return;
+#endif
     vec3 q = n * u_extent;                              // metres from the base centre
     vec3 p = q / u_wavelength - vec3(0.0, 0.0, u_tau);
     float turb = turbulence3(p, vec3(0.0, 0.0, u_period), u_octaves, u_seed);
@@ -63,9 +78,8 @@ void main() {
     vec4 prof = (u < 1.0 && v < 1.0) ? textureLod(u_profile, vec2(u, clamp(v, 0.0, 1.0)), 0.0) : vec4(0.0);
     float density = prof.a * u_opacity;
 #ifdef SMOKE
-    float t_sun = shadow(n, u_sun_local);
-    float t_sky = shadow(n, vec3(0.0, 0.0, 1.0));
-    imageStore(u_volume, id, vec4(t_sun, t_sky, prof.r, density));
+    vec2 t_sun_sky = texelFetch(u_shadows, id, 0).rg;
+    imageStore(u_volume, id, vec4(t_sun_sky, prof.r, density));
 #else
     // Dying fire cools: red survives longest (a blackbody's blue and green fall first).
     vec3 cool = pow(vec3(1.0, 0.75, 0.5), vec3(3.0 * u_cooling));

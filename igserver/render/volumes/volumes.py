@@ -44,6 +44,7 @@ from .effects import NOISE_PERIOD, NOISE_SCALE, Volume, visible_volumes
 from .fire_lights import fire_light
 from .profiles import FIRE_SMOKE_ALBEDO, SMOKE_ALBEDO, load_profile
 
+MAX_SHADOW_TEXTURES = 3  # per smoke effect: the keyframes in flight (k, k + 1, k + 2) may differ in a fade
 MAX_PROFILE_TEXTURES = 32  # profile textures kept resident (LRU); each is small, their number is not
 FIRE_LUMINANCE = 2.0e4  # cd/m^2 of profile colour 1 at intensity 1 (a candle is ~1e4, large flames more)
 FIRE_SIGMA_D = 1.5  # extinction of fire density 1 times the diameter: optical depth across the core
@@ -60,8 +61,10 @@ class VolumeSettings:
     octaves: int = 3  # turbulence octaves (2-4 in the paper)
     resolution: int = 32  # voxels across the container's diameter (height: in proportion)
     min_resolution: int = 8
-    lod: bool = True  # lower the resolution for containers small on screen (off: the knob itself)
-    scale: int = 1  # march resolution divisor: 1 full, 2 half, 4 quarter (depth-aware upsampling)
+    lod: bool = True  # screen-size level of detail (off: the knobs themselves): a coarser texture for
+    #                   containers small on screen, a coarser march where the voxels are large on it
+    scale: int = 1  # march resolution divisor: 1 full, 2 half, 4 quarter (depth-aware upsampling);
+    #                 with lod, the finest: raised up to MAX_MARCH_SCALE by footprint_scale()
     model_hz: float = 0.0  # re-modelling keyframes per second of sim time; 0 = every frame
 
 
@@ -103,6 +106,39 @@ def texture_size(vol: Volume, view: CameraView, settings: VolumeSettings) -> tup
     return res_xy, res_xy, res_z
 
 
+MAX_MARCH_SCALE = 4  # the coarsest march (quarter resolution per axis)
+# A march pixel may be at most this many voxels wide at the far side of a container. Measured
+# (night_fire, medium knobs, 640x360, low-passed error in 8-bit levels against a 1024-step
+# full-resolution march of the same texture, half -> quarter resolution): camera in the plume
+# (3.4 px per far voxel) 0.07 -> 0.17; 4 m from the fire (2.8 px) 0.27 -> 0.96; 6 m (2.7 px)
+# 0.53 -> 1.78; 12 m (2.0 px) 1.41 -> 3.76. 1.25 takes quarter resolution only where it adds
+# ~0.1 level.
+MARCH_PIXEL_VOXELS = 1.25
+
+
+def footprint_scale(volumes: list[Volume], sizes: list[tuple[int, int, int]], view: CameraView) -> int:
+    """The coarsest march divisor (a power of two, at most MAX_MARCH_SCALE) whose march pixels are
+    at most MARCH_PIXEL_VOXELS voxels wide everywhere in every visible container: a finer march
+    only samples the same trilinear texture more densely. The voxel's angle is taken at the far
+    side of the container's bounding sphere and the pixel's at the frame's centre (where a pixel
+    spans the most angle), so every voxel spans at least that many pixels. With the camera in a
+    plume the march falls to quarter resolution (0.38x its cost); a fire 4 m away or more keeps
+    the preset's half resolution."""
+    _, _, bottom, top = view.tangents
+    rad_per_px = (top - bottom) / max(view.height, 1)
+    scale = MAX_MARCH_SCALE
+    for vol, size in zip(volumes, sizes):
+        voxel = min(2.0 * vol.radius / size[0], 2.0 * vol.radius / size[1], vol.height / size[2])
+        centre, radius = vol.bounding_sphere
+        far = float(np.linalg.norm(view.relative(centre))) + radius
+        pixels = voxel / max(far, 1e-6) / rad_per_px  # pixels per voxel, the fewest in the container
+        s = 1
+        while 2 * s <= MAX_MARCH_SCALE and 2 * s <= MARCH_PIXEL_VOXELS * pixels:
+            s *= 2
+        scale = min(scale, s)
+    return scale
+
+
 def screen_rect(volumes: list[Volume], view: CameraView, width: int, height: int, pad: int):
     """(x, y, w, h) in pixels (GL's lower-left origin) covering every volume's box, padded; the
     whole screen when a box reaches behind the near plane. The full-resolution passes of the
@@ -131,6 +167,15 @@ class _Model:
         self.size = size
         self.state: tuple | None = None
         self.key: int | None = None  # keyframe index (capped rate), None = exact tau
+        self.done_z = 0  # z slices modelled so far (a keyframe ahead is modelled over several frames)
+        self.uniforms: dict | None = None  # the modelling inputs, frozen when its first slice was modelled
+        self.smoke = False
+        self.slot: "_Slot | None" = None
+        self.vol: Volume | None = None  # the effect as it was when the first slice was modelled
+
+    @property
+    def complete(self) -> bool:
+        return self.done_z >= self.size[2]
 
     def release(self) -> None:
         self.texture.release()
@@ -142,11 +187,16 @@ class _Slot:
     def __init__(self):
         self.models: list[_Model] = []
         self.last_frame = 0
+        self.last_time: float | None = None  # sim_time of the last frame that used it
+        self.shadows: OrderedDict[tuple, moderngl.Texture] = OrderedDict()  # smoke: inputs -> (t_sun, t_sky)
 
     def release(self) -> None:
         for m in self.models:
             m.release()
         self.models = []
+        for tex in self.shadows.values():
+            tex.release()
+        self.shadows.clear()
 
 
 def _unit_cube_corners() -> np.ndarray:
@@ -236,35 +286,66 @@ class VolumesPass(RenderPass):
         if x - k > 1.0 - 1e-6:  # on a keyframe up to rounding (100 + 3/30 s at 10 Hz)
             k += 1
         blend = min(max(x - k, 0.0), 1.0)
-        keep = [m for m in slot.models if m.key in (k, k + 1) and m.state[0] == static[0]]
+        last_time, slot.last_time = slot.last_time, sim_time
+        keep = [m for m in slot.models if m.key in (k, k + 1, k + 2) and m.state[0] == static[0]]
         for m in slot.models:
             if m not in keep:
                 m.release()
         slot.models = keep
         for key in (k, k + 1):
-            if any(m.key == key for m in slot.models):
-                continue  # modelled already (perhaps with the previous soft state: it blends in)
-            model = self._model_into(slot, None, vol, frame, settings, size, key * period)
-            model.state, model.key = static, key
-            slot.models.append(model)
+            model = next((m for m in slot.models if m.key == key), None)
+            if model is None:  # (perhaps modelled already with the previous soft state: it blends in)
+                model = self._new_model(vol, frame, settings, size, key * period)
+                model.state, model.key = static, key
+                slot.models.append(model)
+            if not model.complete:  # a jump in time: what was modelled ahead is needed now
+                self._model_slices(model, model.size[2])
+        # The keyframe after next, spread over the frames until it is needed (when sim_time
+        # reaches k + 1), so that no frame pays a whole keyframe: only while time runs forward
+        # by less than a period per frame (a stream), from the frame rate seen so far.
+        dx = (sim_time - last_time) * settings.model_hz if last_time is not None else 0.0
+        if self.model_ahead and 0.0 < dx < 1.0 - 1e-6:  # (a frame per period or fewer: nothing to spread)
+            ahead = next((m for m in slot.models if m.key == k + 2), None)
+            if ahead is None:
+                ahead = self._new_model(vol, frame, settings, size, (k + 2) * period)
+                ahead.state, ahead.key = static, k + 2
+                slot.models.append(ahead)
+            frames_left = max(1, math.ceil((k + 1 - x) / dx - 1e-6))  # this frame and the next ones before k + 1
+            self._model_slices(ahead, ahead.done_z + -(-(ahead.size[2] - ahead.done_z) // frames_left))
         slot.models.sort(key=lambda m: m.key)
         return slot.models[0].texture, slot.models[1].texture, blend
 
+    model_ahead = True  # model the keyframe after next over the frames before it (off: when needed)
+
     def _model_into(self, slot: _Slot, model: "_Model | None", vol: Volume, frame, settings: VolumeSettings,
                     size, sim_time: float) -> _Model:
-        """Run the modelling stage for ``sim_time`` into ``model``'s texture (or a new one)."""
-        if model is None or model.size != size:
-            if model is not None:
-                model.release()
+        """Run the whole modelling stage for ``sim_time`` into ``model``'s texture (or a new one)."""
+        new = self._new_model(vol, frame, settings, size, sim_time, reuse=model)
+        self._model_slices(new, size[2])
+        return new
+
+    def _new_model(self, vol: Volume, frame, settings: VolumeSettings, size, sim_time: float,
+                   reuse: "_Model | None" = None) -> _Model:
+        """A model of ``vol`` at ``sim_time`` with nothing modelled yet: its texture (``reuse``'s if
+        the size fits) and the modelling inputs, frozen now so that slices modelled in later
+        frames belong to the same keyframe."""
+        if reuse is None or reuse.size != size:
+            if reuse is not None:
+                reuse.release()
             texture = self.ctx.texture3d(size, 4, dtype="f2")
             texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
             texture.repeat_x = texture.repeat_y = texture.repeat_z = False
             model = _Model(texture, size)
+        else:
+            model = reuse
         smoke = vol.kind == "smoke"
         sun = tuple(float(x) for x in frame.celestial.sun_dir) if smoke else None
-        program = self.programs.compute("volumes/model.comp.glsl", {"SMOKE": 1} if smoke else None)
         sigma = (SMOKE_SIGMA_D if smoke else FIRE_SIGMA_D) / max(vol.effect.diameter, 1e-3)
-        set_uniforms(program, {
+        model.done_z = 0
+        model.smoke = smoke
+        model.slot = self._slots[vol.key]
+        model.vol = vol
+        model.uniforms = {
             "u_size": size,
             "u_extent": (vol.radius, vol.radius, vol.height),
             "u_wavelength": vol.nominal_radius / NOISE_SCALE,
@@ -278,14 +359,52 @@ class VolumesPass(RenderPass):
             "u_sun_local": sun or (0.0, 0.0, 1.0),
             "u_sigma": sigma,
             "u_profile": 0,
-        })
-        self._profile_texture(vol).use(0)
-        model.texture.bind_to_image(0, read=False, write=True)
-        program.run(*(math.ceil(n / 4) for n in size))
-        self.ctx.memory_barrier()
-        self.stats["modelled"] += 1
-        self.stats["voxels"] += size[0] * size[1] * size[2]
+        }
         return model
+
+    def _model_slices(self, model: _Model, z_end: int) -> None:
+        """Model ``model``'s z slices from where it stopped up to ``z_end`` (rounded up to the
+        compute group's 4 slices; the shader drops invocations past the texture)."""
+        z0 = model.done_z
+        z1 = min(z0 + -(-(max(z_end, z0) - z0) // 4) * 4, model.size[2])
+        if z1 <= z0:
+            return
+        program = self.programs.compute("volumes/model.comp.glsl", {"SMOKE": 1} if model.smoke else None)
+        set_uniforms(program, {**model.uniforms, "u_z_first": z0, "u_shadows": 1})
+        self._profile_texture(model.vol).use(0)
+        if model.smoke:
+            self._shadows(model).use(1)
+        model.texture.bind_to_image(0, read=False, write=True)
+        program.run(math.ceil(model.size[0] / 4), math.ceil(model.size[1] / 4), (z1 - z0) // 4 + ((z1 - z0) % 4 > 0))
+        self.ctx.memory_barrier()
+        model.done_z = z1
+        if model.complete:
+            self.stats["modelled"] += 1
+        self.stats["voxels"] += model.size[0] * model.size[1] * (z1 - z0)
+
+    def _shadows(self, model: _Model) -> moderngl.Texture:
+        """The smoke's (t_sun, t_sky) texture for ``model``'s inputs, modelled once per change of
+        them (a few are kept per effect: keyframes in flight during a fade differ)."""
+        u = model.uniforms
+        key = (model.size, u["u_extent"], u["u_sun_local"], u["u_sigma"], u["u_opacity"], model.vol.kind, model.vol.profile)
+        shadows = model.slot.shadows
+        tex = shadows.get(key)
+        if tex is not None:
+            shadows.move_to_end(key)
+            return tex
+        tex = self.ctx.texture3d(model.size, 2, dtype="f2")
+        tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        program = self.programs.compute("volumes/model.comp.glsl", {"SMOKE": 1, "SHADOWS": 1})
+        set_uniforms(program, {**u, "u_z_first": 0})
+        self._profile_texture(model.vol).use(0)
+        tex.bind_to_image(0, read=False, write=True)
+        program.run(*(math.ceil(n / 4) for n in model.size))
+        self.ctx.memory_barrier()
+        shadows[key] = tex
+        while len(shadows) > MAX_SHADOW_TEXTURES:
+            shadows.popitem(last=False)[1].release()
+        self.stats["shadows"] = self.stats.get("shadows", 0) + 1
+        return tex
 
     # -- rendering ---------------------------------------------------------------------------
 
@@ -341,7 +460,11 @@ class VolumesPass(RenderPass):
         self.stats = {"modelled": 0, "drawn": 0, "voxels": 0}
         volumes = visible_volumes(scene, view)
         textures = [self._models_for(vol, frame, settings) for vol in volumes]
-        for scale, dither in self._layers(max(int(settings.scale), 1), scene.time.sim_time):
+        scale = max(int(settings.scale), 1)
+        if settings.lod:
+            scale = max(scale, footprint_scale(volumes, [t[0].size for t in textures], view))
+        self.stats["scale"] = scale
+        for scale, dither in self._layers(scale, scene.time.sim_time):
             self._draw_layer(frame, targets, volumes, textures, settings, scale, dither)
         self._evict()
 
@@ -374,7 +497,8 @@ class VolumesPass(RenderPass):
             targets.color_fbo.scissor = (x, y, w, h)
             self.ctx.enable(moderngl.BLEND)
             self.ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
-            up = self.programs.program("common/fullscreen.vert.glsl", "volumes/upsample.frag.glsl")
+            up = self.programs.program("common/fullscreen.vert.glsl", "volumes/upsample.frag.glsl",
+                                       {"LAYER_FADE": 1} if tuple(dither) != (0.0, 1.0) else None)
             far = max((float(np.linalg.norm(view.relative(v.bounding_sphere[0]))) + v.bounding_sphere[1]
                        for v in volumes), default=1.0)
             set_uniforms(up, {"u_volume_color": 0, "u_volume_distance": 2, "u_scene_distance": 1, "u_scale": scale,
@@ -409,6 +533,8 @@ class VolumesPass(RenderPass):
             defines = {"SMOKE": 1} if smoke else {}
             if settings.model_hz > 0.0:
                 defines["BLEND"] = 1
+            if tuple(dither) != (0.0, 1.0):
+                defines["LAYER_FADE"] = 1  # a cross-fade layer: the per-pixel dither and discard
             program = self.programs.program("volumes/march.vert.glsl", "volumes/march.frag.glsl", defines or None)
             set_uniforms(program, frame.uniforms)
             lo, hi = vol.box
@@ -457,4 +583,4 @@ class VolumesPass(RenderPass):
             del self._slots[key]
 
 
-__all__ = ["VolumesPass", "VolumeSettings", "PRESETS", "volumes_needed", "texture_size"]
+__all__ = ["VolumesPass", "VolumeSettings", "PRESETS", "volumes_needed", "texture_size", "footprint_scale"]
