@@ -290,7 +290,9 @@ vec3 haze_tau_up(float h0, float z) {
     return u_haze_beta * (c / sqrt(z * z + 2.0 * hc / HAZE_EARTH_RADIUS_M));
 }
 float hg(float g, float nu) {
-    return (1.0 - g * g) / (4.0 * ATMO_PI * pow(max(1.0 + g * g - 2.0 * g * nu, 1e-6), 1.5));
+    // d sqrt(d), not pow(d, 1.5): llvmpipe computes pow as exp2(log2) (~9 % of the sky pass's per-pixel work)
+    float d = max(1.0 + g * g - 2.0 * g * nu, 1e-6);
+    return (1.0 - g * g) / (4.0 * ATMO_PI * d * sqrt(d));
 }
 // In-scattered radiance source S(h, dir) of the layer (cd/m^2), from the per-frame table of its
 // light against height (sky/haze.py source_table(): the two-stream model evaluated once per frame

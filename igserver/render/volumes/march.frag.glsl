@@ -79,8 +79,12 @@ float layer_dither(vec2 pixel) {
 }
 
 void main() {
+#ifdef LAYER_FADE
+    // Compiled in only while two march resolutions cross-fade (volumes.py): llvmpipe pays for
+    // the hash and the discard on every pixel even when every pixel is kept.
     float keep = layer_dither(floor(gl_FragCoord.xy));
     if (keep < u_layer_range.x || keep >= u_layer_range.y) discard;
+#endif
     vec3 dir = normalize(v_rel);
     // Slab test against the AABB.
     vec3 inv = 1.0 / dir;

@@ -24,8 +24,12 @@ float layer_dither(vec2 pixel) {
 }
 
 void main() {
+#ifdef LAYER_FADE
+    // Compiled in only while two march resolutions cross-fade (volumes.py): llvmpipe pays for
+    // the hash and the discard on every pixel even when every pixel is kept.
     float keep = layer_dither(floor(gl_FragCoord.xy));
     if (keep < u_layer_range.x || keep >= u_layer_range.y) discard;
+#endif
     ivec2 pixel = ivec2(gl_FragCoord.xy);
     float d = min(texelFetch(u_scene_distance, pixel, 0).r, u_volumes_far);
     ivec2 low_size = textureSize(u_volume_color, 0);

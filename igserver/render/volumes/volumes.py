@@ -497,7 +497,8 @@ class VolumesPass(RenderPass):
             targets.color_fbo.scissor = (x, y, w, h)
             self.ctx.enable(moderngl.BLEND)
             self.ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
-            up = self.programs.program("common/fullscreen.vert.glsl", "volumes/upsample.frag.glsl")
+            up = self.programs.program("common/fullscreen.vert.glsl", "volumes/upsample.frag.glsl",
+                                       {"LAYER_FADE": 1} if tuple(dither) != (0.0, 1.0) else None)
             far = max((float(np.linalg.norm(view.relative(v.bounding_sphere[0]))) + v.bounding_sphere[1]
                        for v in volumes), default=1.0)
             set_uniforms(up, {"u_volume_color": 0, "u_volume_distance": 2, "u_scene_distance": 1, "u_scale": scale,
@@ -532,6 +533,8 @@ class VolumesPass(RenderPass):
             defines = {"SMOKE": 1} if smoke else {}
             if settings.model_hz > 0.0:
                 defines["BLEND"] = 1
+            if tuple(dither) != (0.0, 1.0):
+                defines["LAYER_FADE"] = 1  # a cross-fade layer: the per-pixel dither and discard
             program = self.programs.program("volumes/march.vert.glsl", "volumes/march.frag.glsl", defines or None)
             set_uniforms(program, frame.uniforms)
             lo, hi = vol.box

@@ -27,7 +27,7 @@ from ...water import sea_surface
 from ...water.spectrum import WaveSet
 from ...water.surface import SeaSurface
 from ..camera import CameraView, body_to_world
-from .. import presets
+from .. import gl_calls, presets
 from ..passes import RenderPass
 from ..shaders import assemble, set_uniforms
 from . import lod
@@ -354,6 +354,9 @@ class SeaTables:
 class WaterPass(RenderPass):
     name = "water"
     preset_pipeline = "water"
+    # ~3-8k triangles per flushed batch: enough to keep llvmpipe's workers busy while the next batch
+    # is set up, few enough scenes that their tile loads and stores stay small.
+    BLOCKS_PER_FLUSH = 64
 
     def __init__(self, ctx, programs):
         super().__init__(ctx, programs)
@@ -533,7 +536,8 @@ class WaterPass(RenderPass):
         # Detail maps read per block: the later (finer) ones are fully minified far enough away.
         maps = (minified_maps_from(selection, sea, tiles, view, -level_z) if self.skip_minified_maps
                 else np.full(len(selection.nodes), used_maps, dtype=int))
-        means = detail_means(tiles)
+        # Tile averages of the maps some block does not read (empty maps average 0).
+        means = detail_means(tiles) if np.any(maps < used_maps) else np.zeros((DETAIL_MAPS, 4))
         self._render_detail(sea, t, resolution, tiles, int(maps.max()) if len(maps) else 0)
         groups = [(with_hulls, fan, m, selection.nodes[(near_hull == with_hulls) & (flat == fan) & (maps == m)])
                   for with_hulls in (False, True) for fan in (False, True) for m in range(used_maps + 1)]
@@ -561,9 +565,18 @@ class WaterPass(RenderPass):
             # field): back faces (the far slopes of waves) are always hidden, so they are not drawn.
             self.ctx.enable(moderngl.CULL_FACE)
             self.ctx.front_face = "ccw"  # the patch's triangles wind counter-clockwise seen from above
-        for slot, (with_hulls, fan, m, nodes) in enumerate(groups):
-            if len(nodes):
-                self._vao(programs[(with_hulls, m)], nodes, slot, fan).render(moderngl.TRIANGLES, instances=len(nodes))
+        # Drawn in batches of about BLOCKS_PER_FLUSH blocks, each flushed: on llvmpipe this thread shades
+        # the vertices and sets up the triangles of the next batch while the workers rasterise the last.
+        unflushed = 0
+        for group, (with_hulls, fan, m, nodes) in enumerate(groups):
+            batches = np.array_split(nodes, -(-len(nodes) // self.BLOCKS_PER_FLUSH)) if len(nodes) else []
+            for part, batch in enumerate(batches):
+                # an instance-buffer slot per (group, batch): it keeps its patch kind (fan or not) frame to frame
+                self._vao(programs[(with_hulls, m)], batch, (group, part), fan).render(moderngl.TRIANGLES, instances=len(batch))
+                unflushed += len(batch)
+                if unflushed >= self.BLOCKS_PER_FLUSH:
+                    gl_calls.flush()
+                    unflushed = 0
         self.ctx.disable(moderngl.CULL_FACE)
         self.stats["culled_back_faces"] = not under
         if under:
@@ -659,9 +672,9 @@ class WaterPass(RenderPass):
             obj.release()
         return selection, positions
 
-    def _vao(self, program, nodes: np.ndarray, slot: int = 0, fan: bool = False) -> moderngl.VertexArray:
-        """The patch (or the fan of flat blocks) drawn once per block of ``nodes``; each slot (block
-        group drawn in one frame) has its own instance buffer."""
+    def _vao(self, program, nodes: np.ndarray, slot: tuple[int, int], fan: bool = False) -> moderngl.VertexArray:
+        """The patch (or the fan of flat blocks) drawn once per block of ``nodes``; each slot (a block
+        group's batch, see execute) has its own instance buffer."""
         verts, index = self._patch_buffer(fan)
         data = np.ascontiguousarray(nodes, dtype=np.float32).tobytes()
         buffers = self._instances if self._instances is not None else {}
