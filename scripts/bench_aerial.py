@@ -83,7 +83,11 @@ def main() -> None:
     ap.add_argument("--preset", default="medium")
     ap.add_argument("--frames", type=int, default=20)
     ap.add_argument("--step", type=float, default=1.5)
+    ap.add_argument("--no-spread", action="store_true",
+                    help="no table filled ahead in parts: refill at once when the view leaves the table")
     args = ap.parse_args()
+    if args.no_spread:
+        aerial_table.AERIAL_AHEAD = 1.0  # the view is never past the whole guard band while inside
     renderer = Renderer()
     out = {}
     for name in args.scenes.split(","):
