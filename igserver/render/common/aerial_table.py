@@ -125,9 +125,10 @@ class AerialTable:
         ``inputs`` (versions of the textures it samples).
 
         A turning camera: once its view has moved AERIAL_AHEAD of the guard band toward an edge, the
-        next table (for the view then) is filled in AERIAL_PARTS parts over as many frames into the
-        storage buffers while the textures keep serving, and swapped in when done; a view that
-        leaves the table first finishes it at once (or, when not inside it either, fills anew)."""
+        next table (turned ahead of the view: _start) is filled in AERIAL_PARTS parts, one a frame,
+        into the storage buffers while the textures keep serving, and swapped in when done; a view
+        that leaves the table first finishes it at once (or, when not inside it either, fills anew).
+        Every frame's view lies inside the table it reads."""
         prog = self.programs.compute("common/aerial_table.comp.glsl")
         values = {**uniforms, "u_aerial_map": table_map(d_max, self.size[2])}
         key = (inputs, tuple((name, values.get(name)) for name in sorted(prog)
@@ -141,7 +142,8 @@ class AerialTable:
             if pending is not None:
                 self._fill_part(prog, pending, 1)
                 if self._pending is None and not view_inside(self._frame, uniforms, 1.0 - AERIAL_AHEAD):
-                    self._start(values, key, self._frame)  # swapped in already turned past: the next one's parts from the next frame
+                    # Swapped in already turned past it: the next one's parts from the next frame.
+                    self._start(values, key, self._frame)
             return
         if pending is None or not view_inside(pending["frame"], uniforms):
             pending = self._start(values, key)
