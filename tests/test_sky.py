@@ -320,3 +320,69 @@ def test_cirrus_table_polygon_holds_every_texel_the_layer_reaches(renderer, monk
         assert 0.05 < areas[-1] < 0.8, areas  # the polygon did clip the frame
         sky_px = clipped[..., 1] > 0
         assert sky_px.any()
+
+
+def test_cirrus_layer_wraps_on_its_period_without_a_jump(renderer):
+    # The layer's noise offset (frame_sky.cirrus_offset_units) wraps on a 64-unit (384 km) period;
+    # a camera 1 m either side of the wrap sees the same layer: 1 m moves it ~1e-4 px here, so only
+    # 8-bit rounding may differ (1 level). With a streak period of 22.4 units (not a whole number
+    # of lattice units) the streaks jumped there by up to 67 levels.
+    period_m = 64.0 * 6000.0
+    frames = [renderer.render(scene(20.0, 180.0, pitch=20.0, x=period_m + dx, camera={"exposure_ev": 12.0},
+                                    weather={"cirrus_coverage": 0.6})).rgba[..., :3].astype(int)
+              for dx in (-0.5, 0.5)]
+    assert frames[0][..., 1].std() > 2.0  # there is a textured layer in view
+    assert np.abs(frames[0] - frames[1]).max() <= 1
+
+
+def test_cirrus_table_drawn_per_change(renderer):
+    # The cirrus table (640x360: the table path) is drawn again only when an input other than the
+    # layer's drift changed or the drift could move the layer by more than 0.25 px (sky.py
+    # cirrus_drift_px). A still camera at 30 Hz under a 40 m/s jet: ~1.3 m of drift a frame.
+    from igserver.render.sky.sky import CIRRUS_REDRAW_PX
+    sky = renderer.graph.passes["sky"]
+    base = scene(3.0, 200.0, pitch=10.0, camera={"exposure_ev": 11.0},  # fixed: no metering feedback
+                 weather={"cirrus_coverage": 0.5, "cirrus_wind_speed": 40.0})
+    base = base.model_copy(update={"camera": base.camera.model_copy(update={"width": 640, "height": 360})})
+
+    def at(i, s=base):
+        return s.model_copy(update={"time": s.time.model_copy(update={"sim_time": 1000.0 + i / 30.0})})
+
+    n = 30
+    stream, drew = [], []
+    for i in range(n):
+        before = sky.cirrus_draws
+        stream.append(renderer.render(at(i)).rgba[..., :3].astype(int))
+        drew.append(sky.cirrus_draws - before)
+    assert drew[0] == 1 and drew[1] == 0  # the first frame draws it; 1.3 m of drift is far below a pixel
+    assert 2 <= sum(drew) <= n // 3, drew  # the drift does redraw it, every few frames, not every frame
+    try:
+        sky.cirrus_redraw_px = 0.0  # the reference: drawn whenever anything moved
+        fresh = [renderer.render(at(i)).rgba[..., :3].astype(int) for i in range(n)]
+    finally:
+        sky.cirrus_redraw_px = CIRRUS_REDRAW_PX
+    for i in range(n):
+        err = np.abs(stream[i] - fresh[i]).max()
+        if drew[i]:
+            assert err == 0, i  # a redrawn table is the fresh one, bit for bit
+        else:
+            # <= 0.25 px of drift on streaks that change by a few levels per pixel here, so under a
+            # level, plus 8-bit rounding: 1 level.
+            assert err <= 1, (i, err)
+    # Every other input redraws it at once (a still frame first: nothing changed, nothing drawn).
+    s0 = at(n)
+    renderer.render(s0)
+    changes = {
+        "heading": {"camera": {"heading": 200.05}},
+        "fov": {"camera": {"fov_y": 60.05}},
+        "camera altitude": {"camera": {"position": [0.0, 0.0, 3.0]}},
+        "sun": {"time": {"sun_override": {"elevation": 3.05, "azimuth": 200.0}}},
+        "coverage": {"weather": {"cirrus_coverage": 0.51}},
+        "layer altitude": {"weather": {"cirrus_altitude": 9100.0}},
+    }
+    from igserver.scene.patch import apply_patch
+    for name, patch in [("none", {}), ("exposure", {"camera": {"exposure_ev": 11.5}})] + list(changes.items()):
+        renderer.render(s0)
+        before = sky.cirrus_draws
+        renderer.render(apply_patch(s0, patch))
+        assert sky.cirrus_draws - before == (name in changes), name
