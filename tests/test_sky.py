@@ -386,3 +386,50 @@ def test_cirrus_table_drawn_per_change(renderer):
         before = sky.cirrus_draws
         renderer.render(apply_patch(s0, patch))
         assert sky.cirrus_draws - before == (name in changes), name
+
+
+@pytest.mark.parametrize("pitch,heading,fov,alt,roll", [(10.0, 200.0, 60.0, 2.0, 0.0), (1.0, 288.0, 50.0, 6.0, 0.0),
+                                                        (60.0, 90.0, 60.0, 2.0, 0.0), (5.0, 30.0, 5.0, 2.0, 20.0),
+                                                        (-10.0, 0.0, 60.0, 12_000.0, 0.0)])
+def test_cirrus_drift_bound_holds_the_largest_pixel_shift(renderer, pitch, heading, fov, alt, roll):
+    # sky.py cirrus_drift_px against the shift measured on a 65 x 37 grid of the frame: each point of
+    # the layer (sphere at 9 km) moved by the drift, projected back into the frame. The bound must
+    # hold (a redraw is never late) and stay within 3x of the largest measured shift (it takes the
+    # nearest distance and the farthest corner's magnification together: measured 1.0-2.2x in these
+    # views; looser would redraw for nothing).
+    from igserver.render.sky.sky import cirrus_drift_px
+    s = scene(20.0, heading, alt=alt, pitch=pitch, fov=fov, weather={"cirrus_coverage": 0.5})
+    s = s.model_copy(update={"camera": s.camera.model_copy(update={"width": 640, "height": 360, "roll": roll})})
+    frame = build_frame(renderer.ctx, s)
+    u, view = frame.uniforms, frame.view
+    off = np.array([10.0, 20.0])
+    delta = np.array([3e-4, -2e-4])  # noise units (6 km): ~2 m, a second of a 2 m/s drift
+    bound = cirrus_drift_px(frame, tuple(off), tuple(off + delta))
+    R = float(u["u_bottom_radius_km"])
+    c = np.array([0.0, 0.0, R + float(u["u_camera_altitude"]) * 1e-3])
+    rc = R + float(u["u_cirrus_altitude_km"])
+    rot = np.asarray(view.rotation, dtype=np.float64)
+    right, forward, up = rot[:, 0], rot[:, 1], rot[:, 2]
+    lt, rt, bt, tt = (float(t) for t in view.tangents)
+    gu, gv = np.meshgrid(np.linspace(0, 1, 65), np.linspace(0, 1, 37))
+    d = forward + (lt + gu[..., None] * (rt - lt)) * right + (bt + gv[..., None] * (tt - bt)) * up
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    b = c[2] * d[..., 2]
+    disc = b * b - (c[2] ** 2 - rc * rc)
+    below = c[2] < rc
+    t = np.where(below, -b + np.sqrt(np.maximum(disc, 0)), -b - np.sqrt(np.maximum(disc, 0)))
+    ok = (disc > 0) & (t > 0)
+    if below:  # rays into the earth do not meet the layer
+        ok &= ~((b < 0) & (b * b - (c[2] ** 2 - R * R) > 0))
+    p = c + d * t[..., None]
+    q = p.copy()
+    q[..., :2] -= delta * 6.0  # the pattern seen at q = p.xy / 6 + offset moves by -delta * 6 km
+    q[..., 2] = np.sqrt(rc * rc - (q[..., :2] ** 2).sum(-1))
+
+    def px(x):
+        rel = x - c
+        f = rel @ forward
+        return np.stack([(rel @ right / f - lt) / (rt - lt) * 640, (rel @ up / f - bt) / (tt - bt) * 360], -1)
+    shift = np.linalg.norm(px(q) - px(p), axis=-1)[ok]
+    assert shift.size > 0
+    assert shift.max() <= bound <= 3.0 * shift.max(), (shift.max(), bound)

@@ -127,7 +127,7 @@ def cirrus_drift_px(frame, offset_a, offset_b) -> float:
     bottom = float(u["u_bottom_radius_km"])
     r_cam = bottom + max(float(u["u_camera_altitude"]) * 1e-3, 1e-3)
     r_layer = bottom + float(u["u_cirrus_altitude_km"])
-    t_min = abs(r_layer - r_cam)
+    t_min = max(abs(r_layer - r_cam), 1e-3)  # km; a camera in the layer: any drift redraws
     left_t, right_t, bottom_t, top_t = (float(t) for t in frame.view.tangents)
     if r_cam < r_layer:
         z = _highest_ray_z(np.asarray(frame.view.rotation, dtype=np.float64), left_t, right_t, bottom_t, top_t)
