@@ -24,6 +24,7 @@ uniform vec2 u_cirrus_offset;        // noise units, camera position minus wind 
 uniform float u_cirrus_feature_km;   // noise lattice unit
 uniform float u_cirrus_period;       // noise period (units) in x and y
 
+const float CIRRUS_STREAK_X = 0.34375;    // 11/32: streaks stretched ~3:1 along x (with the 3 on y)
 const float CIRRUS_SHADOW_CONE = 0.0087;  // rad, half-angle of the softened sun (0.5 deg)
 
 // Fraction of 16 rays around the sun direction from p (km, earth-centred) not blocked by the earth.
@@ -91,7 +92,11 @@ vec4 cirrus_layer(vec3 dir) {
     vec2 q = p.xy / u_cirrus_feature_km + u_cirrus_offset;
     vec3 period = vec3(u_cirrus_period, u_cirrus_period, 0.0);
     float n = turbulence3(vec3(q, 0.37), period, 4, 7u);
-    float streak = turbulence3(vec3(q.x * 0.35, q.y * 3.0, 1.9), vec3(u_cirrus_period * 0.35, u_cirrus_period * 3.0, 0.0), 3, 11u);
+    // The streak octaves' periods must be whole lattice units (common/noise.glsl) for the layer to
+    // wrap on u_cirrus_period without a jump: 64 x 11/32 = 22 (it was 0.35: 22.4, and the streaks
+    // jumped each time the drifting offset wrapped, e.g. between the demo's first two frames).
+    float streak = turbulence3(vec3(q.x * CIRRUS_STREAK_X, q.y * 3.0, 1.9),
+                               vec3(u_cirrus_period * CIRRUS_STREAK_X, u_cirrus_period * 3.0, 0.0), 3, 11u);
     float field = 0.5 + 0.35 * n + 0.25 * streak;
     float threshold = 1.0 - u_cirrus_coverage;
     float density = smoothstep(threshold - 0.1, threshold + 0.3, field);

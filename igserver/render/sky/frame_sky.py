@@ -24,7 +24,8 @@ from .sky_view import SkyView, horizon_elevation, sun_horizontal
 from .tables import TABLE_UNITS, AtmosphereTables
 
 CIRRUS_FEATURE_KM = 6.0     # noise lattice unit on the cirrus layer
-CIRRUS_PERIOD_UNITS = 64.0  # noise period (lattice units) per horizontal axis: offsets wrap on it
+CIRRUS_PERIOD_UNITS = 64.0  # noise period (lattice units) per horizontal axis: offsets wrap on it; x 11/32
+# (cirrus.glsl CIRRUS_STREAK_X) must stay a whole number too, or the streaks jump at the wrap
 
 
 def scene_atmosphere(scene: Scene) -> AtmosphereParameters:

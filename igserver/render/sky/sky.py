@@ -23,6 +23,10 @@ CIRRUS_HIDE_UNIT = 6    # (alpha x T): how much of the sky behind the layer it h
 # bilinear lookup needs no margin; one texel covers float32 rounding in the shader's ray.
 CIRRUS_POLYGON_MARGIN_TEXELS = 1.0
 CIRRUS_TABLE_MIN_WIDTH = 320  # px, the narrowest table
+# The table is drawn again only when an input other than the layer's drift changed, or when the
+# drift (wind, camera travel) since its last draw could have moved the layer by more than this
+# many frame pixels anywhere in view (cirrus_drift_px, a bound); 0 draws it whenever anything moved.
+CIRRUS_REDRAW_PX = 0.25
 STARS_BELOW_SUN_ELEVATION = -2.0  # deg; above this the day sky hides even Sirius
 
 
@@ -104,6 +108,62 @@ def cirrus_polygon(frame, table_size: tuple[int, int]) -> np.ndarray | None:
     return tris.astype("f4")
 
 
+def cirrus_drift_px(frame, offset_a, offset_b) -> float:
+    """An upper bound on how far (frame pixels) the cirrus pattern seen in this view moves when the
+    layer's noise offset (cirrus.glsl u_cirrus_offset, noise units) goes from ``offset_a`` to
+    ``offset_b``, all else equal: the pattern shifts by s km along the layer; a point of it at
+    distance t from the camera turns by at most s / t rad; t >= t_min, the layer's distance along
+    the view ray that meets it nearest (the frame's highest ray from below the layer, monotone:
+    cirrus_distance falls as dir.z rises; from above, the vertical distance); a turn of d rad moves
+    a rectilinear image point by at most d (1 + tan^2) tangent units, tan at the frame's farthest
+    corner, times the pixels per tangent unit of the finer axis."""
+    u = frame.uniforms
+    period = float(u["u_cirrus_period"])
+    d = np.asarray(offset_b, dtype=np.float64) - np.asarray(offset_a, dtype=np.float64)
+    d = (d + 0.5 * period) % period - 0.5 * period  # the offsets wrap on the noise period
+    s_km = float(np.hypot(d[0], d[1])) * float(u["u_cirrus_feature_km"])
+    if s_km == 0.0:
+        return 0.0
+    bottom = float(u["u_bottom_radius_km"])
+    r_cam = bottom + max(float(u["u_camera_altitude"]) * 1e-3, 1e-3)
+    r_layer = bottom + float(u["u_cirrus_altitude_km"])
+    t_min = max(abs(r_layer - r_cam), 1e-3)  # km; a camera in the layer: any drift redraws
+    left_t, right_t, bottom_t, top_t = (float(t) for t in frame.view.tangents)
+    if r_cam < r_layer:
+        z = _highest_ray_z(np.asarray(frame.view.rotation, dtype=np.float64), left_t, right_t, bottom_t, top_t)
+        b = r_cam * z
+        t_min = max(t_min, -b + math.sqrt(max(b * b - (r_cam - r_layer) * (r_cam + r_layer), 0.0)))
+    tan2 = max(left_t * left_t, right_t * right_t) + max(bottom_t * bottom_t, top_t * top_t)
+    px_per_tan = max(frame.view.width / (right_t - left_t), frame.view.height / (top_t - bottom_t))
+    return s_km / t_min * (1.0 + tan2) * px_per_tan
+
+
+def _highest_ray_z(rot: np.ndarray, left_t: float, right_t: float, bottom_t: float, top_t: float) -> float:
+    """The largest z of a normalised view ray over the frame: 1 when the zenith is in view, else the
+    largest over its four edges (on an edge a + s b, z/|d| has one stationary point, in closed form)."""
+    right, forward, up = rot[:, 0], rot[:, 1], rot[:, 2]
+    zf = float(forward[2])
+    if zf > 0.0:
+        tx, ty = float(right[2]) / zf, float(up[2]) / zf  # the zenith's tangent coordinates
+        if left_t <= tx <= right_t and bottom_t <= ty <= top_t:
+            return 1.0
+    corners = [forward + tx * right + ty * up for tx, ty in
+               ((left_t, bottom_t), (right_t, bottom_t), (right_t, top_t), (left_t, top_t))]
+    best = -1.0
+    for i in range(4):
+        a, e = corners[i], corners[(i + 1) % 4] - corners[i]
+        cands = [0.0, 1.0]
+        den = e[2] * (a @ e) - a[2] * (e @ e)
+        if den != 0.0:
+            s_star = (a[2] * (a @ e) - e[2] * (a @ a)) / den
+            if 0.0 < s_star < 1.0:
+                cands.append(s_star)
+        for s_ in cands:
+            d = a + s_ * e
+            best = max(best, float(d[2] / np.linalg.norm(d)))
+    return best
+
+
 def surface_below(scene) -> bool:
     """The sea or the ground is drawn below the camera (sky pixels are then above its horizon)."""
     z = scene.camera.position[2]
@@ -141,6 +201,8 @@ class SkyPass(RenderPass):
         self.ctx.depth_func = depth.NEAREST_WINS
 
     cirrus_scale = CIRRUS_TABLE_SCALE
+    cirrus_redraw_px = CIRRUS_REDRAW_PX
+    cirrus_draws = 0  # tables drawn (counted for the tests and the bench)
 
     def _disks(self, frame, defines: dict, targets) -> None:
         """The sun's and the moon's disks, added inside a scissor box around each (sky.glsl SKY_DISKS)."""
@@ -164,7 +226,9 @@ class SkyPass(RenderPass):
     def _cirrus_table(self, frame, model: str, targets) -> None:
         """Draw the cirrus layer at 1/cirrus_scale resolution into two float textures on units 7 and
         6 (cirrus_table.glsl), only inside the polygon of the frame whose rays can meet the layer
-        (cirrus_polygon; the rest cleared to no cloud: in the demo half the frame is sea)."""
+        (cirrus_polygon; the rest cleared to no cloud: in the demo half the frame is sea). Drawn per
+        change, not per frame: kept while every input but the layer's drift is the same as at its
+        last draw and the drift since then moves the layer by at most cirrus_redraw_px pixels."""
         w, h = targets.size
         size = (max(w // self.cirrus_scale, 1), max(h // self.cirrus_scale, 1))
         layer = self.held_target("cirrus", size, "f4")[0]
@@ -175,13 +239,39 @@ class SkyPass(RenderPass):
                 self._cirrus_fbo.release()
             self._cirrus_fbo = self.ctx.framebuffer([layer, hide])
             self._cirrus_fbo_key = key
+        tris = cirrus_polygon(frame, size)
+        program = self.programs.program("sky/cirrus_table.vert.glsl", "sky/cirrus_table.glsl",
+                                        {"SKY_" + model.upper(): 1})
+        offset = frame.uniforms["u_cirrus_offset"]
+        inputs = self._cirrus_inputs(frame, program, key, size, tris)
+        held = getattr(self, "_cirrus_drawn", None)
+        if (held is None or held[0] != inputs
+                or cirrus_drift_px(frame, held[1], offset) > self.cirrus_redraw_px):
+            self._draw_cirrus_table(frame, program, size, tris)
+            self._cirrus_drawn = (inputs, offset)
+        layer.use(location=CIRRUS_TABLE_UNIT)
+        hide.use(location=CIRRUS_HIDE_UNIT)
+
+    def _cirrus_inputs(self, frame, program, key, size, tris) -> tuple:
+        """Everything the cirrus table is drawn from except the layer's offset (its drift): the
+        values of the table shader's active uniforms (exposure is not one: the table is radiance),
+        the atmosphere tables it samples, its targets, size and polygon."""
+        names = self._cirrus_uniform_names.get(id(program)) if hasattr(self, "_cirrus_uniform_names") else None
+        if names is None:
+            self.__dict__.setdefault("_cirrus_uniform_names", {})
+            names = self._cirrus_uniform_names[id(program)] = tuple(
+                n for n in program if isinstance(program[n], moderngl.Uniform) and n != "u_cirrus_offset")
+        tables = frame.resources.get("atmosphere_tables")
+        values = tuple(_frozen(frame.uniforms.get(n)) for n in names)
+        return (id(program), key, size, None if tris is None else tris.tobytes(),
+                None if tables is None else (id(tables), tables.key), values)
+
+    def _draw_cirrus_table(self, frame, program, size, tris) -> None:
         fbo = self._cirrus_fbo
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0)
-        tris = cirrus_polygon(frame, size)
+        self.cirrus_draws += 1
         if tris is not None:
-            program = self.programs.program("sky/cirrus_table.vert.glsl", "sky/cirrus_table.glsl",
-                                            {"SKY_" + model.upper(): 1})
             set_uniforms(program, {**frame.uniforms, "u_cirrus_table_size": (float(size[0]), float(size[1]))})
             if getattr(self, "_cirrus_vbo", None) is None:
                 self._cirrus_vbo = self.ctx.buffer(reserve=9 * 2 * 4)  # a pentagon at most: 3 triangles of 2 floats
@@ -193,8 +283,6 @@ class SkyPass(RenderPass):
                     program, [(self._cirrus_vbo, "2f", "in_uv")])
             self.ctx.disable(moderngl.DEPTH_TEST)
             vao.render(moderngl.TRIANGLES, vertices=len(tris))
-        layer.use(location=CIRRUS_TABLE_UNIT)
-        hide.use(location=CIRRUS_HIDE_UNIT)
 
     def _stars(self, frame, model: str) -> None:
         scene = frame.scene
@@ -217,3 +305,12 @@ class SkyPass(RenderPass):
         self.ctx.blend_func = moderngl.ONE, moderngl.ONE
         self._star_vao.render(moderngl.POINTS, vertices=len(data))
         self.ctx.disable(moderngl.BLEND)
+
+
+def _frozen(value):
+    """A uniform's value as a hashable, exactly comparable key part."""
+    if isinstance(value, np.ndarray):
+        return (value.dtype.str, value.shape, value.tobytes())
+    if isinstance(value, (list, tuple)):
+        return tuple(_frozen(v) for v in value)
+    return value
