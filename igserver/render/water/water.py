@@ -673,8 +673,8 @@ class WaterPass(RenderPass):
         return selection, positions
 
     def _vao(self, program, nodes: np.ndarray, slot: tuple[int, int], fan: bool = False) -> moderngl.VertexArray:
-        """The patch (or the fan of flat blocks) drawn once per block of ``nodes``; each slot (a block
-        group's batch, see execute) has its own instance buffer."""
+        """The patch (or the fan of flat blocks) drawn once per block of ``nodes``; each slot (block
+        group drawn in one frame) has its own instance buffer."""
         verts, index = self._patch_buffer(fan)
         data = np.ascontiguousarray(nodes, dtype=np.float32).tobytes()
         buffers = self._instances if self._instances is not None else {}
