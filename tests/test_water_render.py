@@ -337,16 +337,3 @@ def test_minified_detail_maps_leave_the_picture(renderer):
             # variance (~0.05 %); the slope means are 0 in exact arithmetic, rounding leaves ~1e-4 of it.
             assert texel[2:] == pytest.approx(means[c, 2:], rel=5e-3)
             assert np.abs(texel[:2]).max() < 1e-3 * np.sqrt(means[c, 2:].max())
-
-
-def test_flushed_batches_draw_the_same_sea(renderer, monkeypatch):
-    """The blocks drawn in many flushed batches (each group split, each batch its own instance slot) give
-    the picture of one draw per group, bit for bit: no batch lost, none drawn with another's patch."""
-    from igserver.render.water.water import WaterPass
-
-    scene = sea_scene(camera={"position": [0.0, 0.0, 1000.0], "pitch": -20.0, "width": 160, "height": 90})
-    one_draw = renderer.render(scene).rgba
-    water = renderer.graph.passes["water"]
-    assert water.stats["fan_blocks"] > 0 and water.stats["blocks"] > 40  # full patches and fans, many blocks
-    monkeypatch.setattr(WaterPass, "BLOCKS_PER_FLUSH", 3)
-    np.testing.assert_array_equal(renderer.render(scene).rgba, one_draw)

@@ -27,7 +27,7 @@ from ...water import sea_surface
 from ...water.spectrum import WaveSet
 from ...water.surface import SeaSurface
 from ..camera import CameraView, body_to_world
-from .. import gl_calls, presets
+from .. import presets
 from ..passes import RenderPass
 from ..shaders import assemble, set_uniforms
 from . import lod
@@ -354,9 +354,6 @@ class SeaTables:
 class WaterPass(RenderPass):
     name = "water"
     preset_pipeline = "water"
-    # ~3-8k triangles per flushed batch: enough to keep llvmpipe's workers busy while the next batch
-    # is set up, few enough scenes that their tile loads and stores stay small.
-    BLOCKS_PER_FLUSH = 64
 
     def __init__(self, ctx, programs):
         super().__init__(ctx, programs)
@@ -565,18 +562,9 @@ class WaterPass(RenderPass):
             # field): back faces (the far slopes of waves) are always hidden, so they are not drawn.
             self.ctx.enable(moderngl.CULL_FACE)
             self.ctx.front_face = "ccw"  # the patch's triangles wind counter-clockwise seen from above
-        # Drawn in batches of about BLOCKS_PER_FLUSH blocks, each flushed: on llvmpipe this thread shades
-        # the vertices and sets up the triangles of the next batch while the workers rasterise the last.
-        unflushed = 0
-        for group, (with_hulls, fan, m, nodes) in enumerate(groups):
-            batches = np.array_split(nodes, -(-len(nodes) // self.BLOCKS_PER_FLUSH)) if len(nodes) else []
-            for part, batch in enumerate(batches):
-                # an instance-buffer slot per (group, batch): it keeps its patch kind (fan or not) frame to frame
-                self._vao(programs[(with_hulls, m)], batch, (group, part), fan).render(moderngl.TRIANGLES, instances=len(batch))
-                unflushed += len(batch)
-                if unflushed >= self.BLOCKS_PER_FLUSH:
-                    gl_calls.flush()
-                    unflushed = 0
+        for slot, (with_hulls, fan, m, nodes) in enumerate(groups):
+            if len(nodes):
+                self._vao(programs[(with_hulls, m)], nodes, slot, fan).render(moderngl.TRIANGLES, instances=len(nodes))
         self.ctx.disable(moderngl.CULL_FACE)
         self.stats["culled_back_faces"] = not under
         if under:
@@ -672,7 +660,7 @@ class WaterPass(RenderPass):
             obj.release()
         return selection, positions
 
-    def _vao(self, program, nodes: np.ndarray, slot: tuple[int, int], fan: bool = False) -> moderngl.VertexArray:
+    def _vao(self, program, nodes: np.ndarray, slot: int = 0, fan: bool = False) -> moderngl.VertexArray:
         """The patch (or the fan of flat blocks) drawn once per block of ``nodes``; each slot (block
         group drawn in one frame) has its own instance buffer."""
         verts, index = self._patch_buffer(fan)
