@@ -5,8 +5,10 @@ waits for the driver to complete everything queued. ``flush`` hands the queued w
 without waiting. On Mesa llvmpipe that is what lets the two kinds of work in a frame overlap:
 vertex shading, triangle setup and binning run in the calling thread, rasterisation and fragment
 shading on the worker threads, and a batch of binned work reaches the workers only when it is
-flushed (or when something waits for it). A pass that flushes after each large draw keeps the
-workers shading the previous batch while this thread bins the next one.
+flushed (or when something waits for it). The renderer flushes after each pass, so the workers
+shade one pass while this thread sets up the next (quiet machine, frame time with / without:
+demo 0.97, sea from 1 km 0.95, night_fire 0.98, sea from 2 m 1.04). Flushing inside the water pass
+every ~64 blocks as well measured no gain and was not kept.
 """
 
 from __future__ import annotations
