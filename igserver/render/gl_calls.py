@@ -7,7 +7,7 @@ vertex shading, triangle setup and binning run in the calling thread, rasterisat
 shading on the worker threads, and a batch of binned work reaches the workers only when it is
 flushed (or when something waits for it). The renderer flushes after each pass, so the workers
 shade one pass while this thread sets up the next (quiet machine, frame time with / without:
-demo 0.97, sea from 1 km 0.95, night_fire 0.98, sea from 2 m 1.04). Flushing inside the water pass
+demo 0.98, sea from 1 km 0.95, from 2 m 0.97, night_fire 1.00). Flushing inside the water pass
 every ~64 blocks as well measured no gain and was not kept.
 """
 
