@@ -12,6 +12,7 @@ from functools import lru_cache
 from importlib import resources
 
 import moderngl
+import numpy as np
 
 GLSL_VERSION = "#version 450 core"
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.MULTILINE)
@@ -76,6 +77,23 @@ class ProgramCache:
 
     def __len__(self) -> int:
         return len(self._programs)
+
+
+def uniform_inputs(program, values: dict, skip: tuple = ()) -> tuple:
+    """The values ``values`` gives ``program``'s active uniforms (all but ``skip``), as an exact,
+    hashable key: what a table the program draws or fills was made from, so the table can be kept
+    until one of them changes (a uniform the shader gains joins the key by itself)."""
+    return tuple((name, _frozen(values[name])) for name in sorted(program)
+                 if name in values and name not in skip and isinstance(program[name], moderngl.Uniform))
+
+
+def _frozen(value):
+    """A uniform's value as a hashable, exactly comparable key part."""
+    if isinstance(value, np.ndarray):
+        return (value.dtype.str, value.shape, value.tobytes())
+    if isinstance(value, (list, tuple)):
+        return tuple(_frozen(v) for v in value)
+    return value
 
 
 def set_uniforms(program, values: dict[str, object]) -> None:

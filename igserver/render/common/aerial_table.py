@@ -27,7 +27,7 @@ import weakref
 import moderngl
 import numpy as np
 
-from ..shaders import ProgramCache, set_uniforms
+from ..shaders import ProgramCache, set_uniforms, uniform_inputs
 from ..resident import resident
 from ..sky.frame_sky import _haze_tables
 
@@ -131,8 +131,7 @@ class AerialTable:
         Every frame's view lies inside the table it reads."""
         prog = self.programs.compute("common/aerial_table.comp.glsl")
         values = {**uniforms, "u_aerial_map": table_map(d_max, self.size[2])}
-        key = (inputs, tuple((name, values.get(name)) for name in sorted(prog)
-                             if name in values and name not in VIEW_UNIFORMS))
+        key = (inputs, uniform_inputs(prog, values, skip=VIEW_UNIFORMS))
         pending = self._pending if self._pending is not None and self._pending["key"] == key else None
         if key == self._key and self._frame is not None and view_inside(self._frame, uniforms):
             if pending is not None and not view_inside(pending["frame"], uniforms):

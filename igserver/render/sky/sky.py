@@ -11,7 +11,7 @@ import numpy as np
 from ...astro import star_field
 from .. import depth
 from ..passes import RenderPass
-from ..shaders import set_uniforms
+from ..shaders import set_uniforms, uniform_inputs
 
 STAR_POINT_PX = 2.0
 # The cirrus layer is evaluated once per frame on a grid this many times coarser per axis than the
@@ -256,15 +256,10 @@ class SkyPass(RenderPass):
         """Everything the cirrus table is drawn from except the layer's offset (its drift): the
         values of the table shader's active uniforms (exposure is not one: the table is radiance),
         the atmosphere tables it samples, its targets, size and polygon."""
-        names = self._cirrus_uniform_names.get(id(program)) if hasattr(self, "_cirrus_uniform_names") else None
-        if names is None:
-            self.__dict__.setdefault("_cirrus_uniform_names", {})
-            names = self._cirrus_uniform_names[id(program)] = tuple(
-                n for n in program if isinstance(program[n], moderngl.Uniform) and n != "u_cirrus_offset")
         tables = frame.resources.get("atmosphere_tables")
-        values = tuple(_frozen(frame.uniforms.get(n)) for n in names)
         return (id(program), key, size, None if tris is None else tris.tobytes(),
-                None if tables is None else (id(tables), tables.key), values)
+                None if tables is None else (id(tables), tables.key),
+                uniform_inputs(program, frame.uniforms, skip=("u_cirrus_offset",)))
 
     def _draw_cirrus_table(self, frame, program, size, tris) -> None:
         fbo = self._cirrus_fbo
@@ -306,11 +301,3 @@ class SkyPass(RenderPass):
         self._star_vao.render(moderngl.POINTS, vertices=len(data))
         self.ctx.disable(moderngl.BLEND)
 
-
-def _frozen(value):
-    """A uniform's value as a hashable, exactly comparable key part."""
-    if isinstance(value, np.ndarray):
-        return (value.dtype.str, value.shape, value.tobytes())
-    if isinstance(value, (list, tuple)):
-        return tuple(_frozen(v) for v in value)
-    return value
