@@ -212,13 +212,22 @@ def test_named_profile_changes_the_picture(http):
 
 # --------------------------------------------------------------------------- 2e. render time limit, watchdog
 
+def wait_until_ready(http, seconds: float) -> None:
+    deadline = time.monotonic() + seconds
+    while http.get("/v1/ready").status_code != 200:
+        assert time.monotonic() < deadline, http.get("/v1/ready").json()
+        time.sleep(0.05)
+
+
 def test_render_over_time_limit_is_abandoned_and_state_falls_back(server, http):
     http.patch("/v1/clock", json={"paused": True})
     http.patch("/v1/state", json={"camera": {"heading": 0.0}}).raise_for_status()
     png(http.get("/v1/frame", params={"format": "png"}))  # a good state, rendered
     service, restarts = server.service, server.service.restarts
+    last_rendered_heading = 0.0  # the state a hung render falls back to
     for attempt in range(5):
-        revision = int(http.patch("/v1/state", json={"camera": {"heading": 10.0 + attempt}}).headers["x-ig-revision"])
+        heading = 10.0 + attempt
+        revision = int(http.patch("/v1/state", json={"camera": {"heading": heading}}).headers["x-ig-revision"])
         result = {}
         getter = threading.Thread(target=lambda: result.update(r=http.get("/v1/frame")))
         getter.start()
@@ -227,6 +236,8 @@ def test_render_over_time_limit_is_abandoned_and_state_falls_back(server, http):
             time.sleep(0.0005)
         if service.rendering_since is None:
             getter.join()
+            if result["r"].status_code == 200:
+                last_rendered_heading = heading  # it rendered: now the state to fall back to
             continue  # the frame was done before we could stop it: try again
         pid = service.pid
         os.kill(pid, signal.SIGSTOP)  # the render hangs (as a poisoned state would)
@@ -239,18 +250,16 @@ def test_render_over_time_limit_is_abandoned_and_state_falls_back(server, http):
     assert "time limit" in answer.json()["detail"]
     ready = http.get("/v1/ready").json()
     assert ready["fault"]["revision"] == revision
-    # the hung state is not rendered again: the accepted state is the last good one (heading 0)
-    assert http.get("/v1/state").json()["camera"]["heading"] == 0.0
-    deadline = time.monotonic() + 60
-    while http.get("/v1/ready").status_code != 200:
-        assert time.monotonic() < deadline, http.get("/v1/ready").json()
-        time.sleep(0.1)
+    # the hung state is not rendered again: the accepted state is the last one that rendered
+    assert http.get("/v1/state").json()["camera"]["heading"] == last_rendered_heading
+    wait_until_ready(http, 60)
     assert service.restarts == restarts + 1 and service.pid != pid
     assert http.get("/v1/frame").status_code == 200
 
 
 def test_watchdog_notices_a_stopped_render_process(server, http):
     service = server.service
+    wait_until_ready(http, 60)  # a restart left by an earlier test is over
     pid = service.pid
     os.kill(pid, signal.SIGSTOP)
     try:
@@ -266,10 +275,7 @@ def test_watchdog_notices_a_stopped_render_process(server, http):
         assert answer.status_code == 503 and time.perf_counter() - t0 < 2.0  # at once, not after the stop
     finally:
         os.kill(pid, signal.SIGCONT)
-    deadline = time.monotonic() + 10
-    while http.get("/v1/ready").status_code != 200:
-        assert time.monotonic() < deadline, http.get("/v1/ready").json()
-        time.sleep(0.05)
+    wait_until_ready(http, 10)
     assert service.pid == pid  # resumed in time: no restart needed
 
 
