@@ -307,6 +307,40 @@ def test_fan_blocks_carry_no_wave(renderer):
     assert np.max(np.abs(height[level == selection.flat_level - 1])) > 10.0 * tol
 
 
+@pytest.mark.parametrize("wind", [0.0, 1.0, 5.0, 9.4, 22.6, 40.0])
+def test_detail_maps_keep_each_waves_direction_and_length(wind):
+    # Each detail map holds waves on its tile's lattice (k = 2 pi (m, n) / L, so the tile repeats).
+    # Snapped at 1-2 cycles a tile, waves went to 0, 45 or 90 degrees and the map showed a square
+    # lattice (Beaufort 9's dotted sea). Every wave spans >= DETAIL_MIN_CYCLES = 5 cycles of its tile,
+    # so rounding (m, n) moves its wave vector by <= sqrt(0.5) cycles: <= asin(0.707 / 5) = 8.1 deg in
+    # direction and 14 % in length; waves too short for every map go to the roughness, none is lost.
+    import math
+
+    from igserver.render.water.water import DETAIL_MAPS, _detail_bands, detail_tiles, detail_unresolved_var
+
+    scene = sea_scene(weather={"wind_speed": wind})
+    sea = sea_surface(scene.ocean, scene.weather)
+    d = sea.detail
+    tiles = detail_tiles(sea, 0.0)
+    _, band = _detail_bands(sea)
+    kept = 0
+    for c, (size, waves) in enumerate(tiles):
+        k_true = d.k[band == c, None] * d.direction[band == c]
+        assert len(waves) == len(k_true)
+        kept += len(waves)
+        if not len(waves):
+            continue
+        k_snap = waves[:, :2] * 2.0 * math.pi / size
+        assert np.linalg.norm(waves[:, :2], axis=1).min() >= 5.0 - 0.5
+        cos = np.sum(k_snap * k_true, axis=1) / (np.linalg.norm(k_snap, axis=1) * np.linalg.norm(k_true, axis=1))
+        assert np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).max() <= 8.2
+        assert np.abs(np.linalg.norm(k_snap, axis=1) / np.linalg.norm(k_true, axis=1) - 1.0).max() <= 0.15
+        assert waves[:, 2] == pytest.approx(d.amplitude[band == c] * np.linalg.norm(k_snap, axis=1))
+    lost = band >= DETAIL_MAPS
+    assert kept + np.count_nonzero(lost) == d.n
+    assert detail_unresolved_var(sea) == pytest.approx(float(np.sum((d.amplitude[lost] * d.k[lost]) ** 2) / 2.0))
+
+
 def test_minified_detail_maps_leave_the_picture(renderer):
     # Far blocks read the tile average of the detail maps that are fully minified there instead of
     # sampling them (the sampler would return the 1x1 mip level): the picture must not move.

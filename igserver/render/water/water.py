@@ -36,7 +36,14 @@ MAX_WAVES = 64
 MAX_DETAIL = 48
 MAX_HULLS = 32  # a pier's piles count one each
 DETAIL_MAPS = 3
-DETAIL_RATIO = 23.7  # tile sizes L, L/23.7, L/23.7² (not a power of two: no aligned repetition)
+# The detail band is split by wavelength into DETAIL_MAPS maps, each covering a ratio DETAIL_RATIO of
+# wavelengths on a tile DETAIL_MIN_CYCLES times its longest wave: a wave snapped to the tile's lattice
+# of (m, n) cycles then keeps its direction within atan(0.5 / 5) ≈ 6° and its wavelength within 10 %
+# (a wave of 1–2 cycles snaps to 0°, 45° or 90°, and the map shows a square lattice), and the shortest
+# spans 38.5 cycles, 3.3 texels each at the medium 128² maps. Not a whole ratio: the tiles never repeat
+# in step. Waves shorter than the finest map's band go to the roughness (``detail_unresolved_var``).
+DETAIL_MIN_CYCLES = 5.0
+DETAIL_RATIO = 7.7
 # Texture units bound for the water draw (the frame keeps 8..15: haze table, sky-view table, 4D tables).
 DETAIL_UNIT0 = 1  # 1, 2, 3
 FIELD_UNIT = 4
@@ -160,26 +167,40 @@ def blocks_near_hulls(nodes: np.ndarray, hulls: list[np.ndarray], margin: float)
     return near
 
 
+def _detail_bands(sea: SeaSurface) -> tuple[np.ndarray, np.ndarray]:
+    """Per detail map, the longest wavelength of its band (m); per detail wave, its map (DETAIL_MAPS:
+    shorter than every band)."""
+    wavelengths = 2.0 * math.pi / sea.detail.k
+    tops = float(np.max(wavelengths)) * 1.0001 / DETAIL_RATIO ** np.arange(DETAIL_MAPS)
+    band = np.minimum(np.floor(np.log(tops[0] / wavelengths) / math.log(DETAIL_RATIO)), DETAIL_MAPS).astype(int)
+    return tops, band
+
+
 def detail_tiles(sea: SeaSurface, t: float) -> list[tuple[float, np.ndarray]]:
     """Per detail map: (tile side L in m, waves (m, n, A k, phase) snapped to that tile's lattice)."""
     d: WaveSet = sea.detail
     if d.n == 0:
         return [(1.0, np.zeros((0, 4)))] * DETAIL_MAPS
-    longest = 2.0 * math.pi / float(np.min(d.k))
-    sizes = [longest * 1.01 / DETAIL_RATIO**c for c in range(DETAIL_MAPS)]
-    wavelengths = 2.0 * math.pi / d.k
+    tops, band = _detail_bands(sea)
     tiles = []
-    for c, size in enumerate(sizes):
-        lower = sizes[c + 1] if c + 1 < DETAIL_MAPS else 0.0
-        pick = (wavelengths <= size) & (wavelengths > lower)
-        kvec = d.k[pick, None] * d.direction[pick]
-        cycles = np.rint(kvec * size / (2.0 * math.pi))
-        cycles[np.all(cycles == 0, axis=1)] = (1.0, 0.0)
+    for c, top in enumerate(tops):
+        size = DETAIL_MIN_CYCLES * top
+        pick = band == c
+        cycles = np.rint(d.k[pick, None] * d.direction[pick] * size / (2.0 * math.pi))
         k_snap = np.linalg.norm(cycles, axis=1) * 2.0 * math.pi / size
         omega = np.sqrt(9.80665 * k_snap)
         phase = np.mod(d.phase[pick] - np.mod(omega * t, 2.0 * math.pi), 2.0 * math.pi)
         tiles.append((size, np.column_stack([cycles, d.amplitude[pick] * k_snap, phase])[:MAX_DETAIL]))
     return tiles
+
+
+def detail_unresolved_var(sea: SeaSurface) -> float:
+    """Mean-square slope of the detail waves shorter than every map's band: roughness only."""
+    if sea.detail.n == 0:
+        return 0.0
+    _, band = _detail_bands(sea)
+    lost = band >= DETAIL_MAPS
+    return float(np.sum((sea.detail.amplitude[lost] * sea.detail.k[lost]) ** 2) / 2.0)
 
 
 def detail_means(tiles: list[tuple[float, np.ndarray]]) -> np.ndarray:
@@ -588,7 +609,7 @@ class WaterPass(RenderPass):
             detail_map[c] = (1.0 / size, *(np.mod(view.position[:2], size) / size))
             self._detail[c].use(DETAIL_UNIT0 + c)
             set_uniforms(program, {f"u_detail{c}": DETAIL_UNIT0 + c})
-        set_uniforms(program, {"u_detail_map": detail_map[: max(read_maps, 1)].tobytes(), "u_min_slope_var": 2e-4})
+        set_uniforms(program, {"u_detail_map": detail_map[: max(read_maps, 1)].tobytes(), "u_min_slope_var": 2e-4 + detail_unresolved_var(sea)})
         if "u_detail_mean" in program:
             mean = program["u_detail_mean"]
             mean.write(means[read_maps:read_maps + mean.array_length].astype(np.float32).tobytes())
