@@ -44,6 +44,7 @@ DETAIL_MAPS = 3
 # in step. Waves shorter than the finest map's band go to the roughness (``detail_unresolved_var``).
 DETAIL_MIN_CYCLES = 5.0
 DETAIL_RATIO = 7.7
+DETAIL_MIN_WAVES = 4
 # Texture units bound for the water draw (the frame keeps 8..15: haze table, sky-view table, 4D tables).
 DETAIL_UNIT0 = 1  # 1, 2, 3
 FIELD_UNIT = 4
@@ -169,10 +170,17 @@ def blocks_near_hulls(nodes: np.ndarray, hulls: list[np.ndarray], margin: float)
 
 def _detail_bands(sea: SeaSurface) -> tuple[np.ndarray, np.ndarray]:
     """Per detail map, the longest wavelength of its band (m); per detail wave, its map (DETAIL_MAPS:
-    shorter than every band)."""
+    roughness only). The finest bands holding fewer than DETAIL_MIN_WAVES waves go to the roughness:
+    a tile of so few waves shows its period as a regular ripple, and costs a texture read per pixel
+    for under 4/36 of the detail band's slope variance (its waves carry equal shares)."""
     wavelengths = 2.0 * math.pi / sea.detail.k
     tops = float(np.max(wavelengths)) * 1.0001 / DETAIL_RATIO ** np.arange(DETAIL_MAPS)
     band = np.minimum(np.floor(np.log(tops[0] / wavelengths) / math.log(DETAIL_RATIO)), DETAIL_MAPS).astype(int)
+    for c in range(DETAIL_MAPS - 1, 0, -1):
+        few = band == c
+        if np.count_nonzero(few) >= DETAIL_MIN_WAVES:
+            break
+        band[few] = DETAIL_MAPS
     return tops, band
 
 
