@@ -25,7 +25,7 @@ import numpy as np
 from ...scene.model import Scene
 from ...water import sea_surface
 from ...water.spectrum import WaveSet
-from ...water.surface import SeaSurface
+from ...water.surface import SeaSurface, whitecap_coverage
 from ..camera import CameraView, body_to_world
 from .. import presets
 from ..passes import RenderPass
@@ -306,15 +306,68 @@ def glint_light(uniforms: dict) -> dict:
             "u_glint_illuminance": tuple(float(x) for x in (sun if use_sun else moon))}
 
 
+# The foam water.frag.glsl draws: a fraction f rising from 0 at J = threshold + FOAM_EDGE[0] to 1 at
+# threshold − FOAM_EDGE[1] (smoothstep), dithered into streaks by noise through a ramp of width
+# FOAM_SOFT (its mean over the noise: foam_mean).
+FOAM_EDGE = (0.02, 0.06)
+FOAM_SOFT = 0.25
+
+
+def foam_mean(f: np.ndarray) -> np.ndarray:
+    """The drawn foam's mean over the dither noise (u uniform on [0, 1]) at foam fraction f:
+    E[clamp((f − (1 − w) u) / w, 0, 1)], w = FOAM_SOFT, in closed form (water.frag.glsl foam_mean)."""
+    w = FOAM_SOFT
+    covered = np.where(f < w, f * f / (2.0 * w), np.where(
+        f <= 1.0 - w, f - 0.5 * w, (f - w) + (w * w - (f - 1.0 + w) ** 2) / (2.0 * w)))
+    return covered / (1.0 - w)
+FOAM_STREAK_SIZE = (24.0, 3.0)  # m along and across the wind: a noise cell of the streaks
+FOAM_LIFETIME = 6.0  # s: the streak pattern renews on this time scale
+FOAM_PERIOD = 64.0  # noise cells: the noise repeats after 512 m along the wind, 77 m across, 6.4 min
+
+
+def foam_frame(scene: Scene, view: CameraView) -> dict:
+    """The streak noise's frame (water.frag.glsl foam_streaks): downwind axis and cell sizes; the
+    camera's and the time's noise coordinates reduced mod the period in float64, so the streaks stay
+    put on the sea at any distance from the origin and any sim_time."""
+    to = math.radians(scene.weather.wind_direction + 180.0)  # the wind blows from wind_direction
+    axis = np.array([math.sin(to), math.cos(to)])
+    across = np.array([-axis[1], axis[0]])
+    cam = np.asarray(view.position[:2], dtype=np.float64)
+    offset = np.mod([float(cam @ axis) / FOAM_STREAK_SIZE[0], float(cam @ across) / FOAM_STREAK_SIZE[1],
+                     scene.time.sim_time / FOAM_LIFETIME], FOAM_PERIOD)
+    return {"u_foam_frame": (*axis, 1.0 / FOAM_STREAK_SIZE[0], 1.0 / FOAM_STREAK_SIZE[1]),
+            "u_foam_offset": tuple(float(x) for x in offset), "u_foam_period": FOAM_PERIOD}
 _FOAM_CACHE: dict[int, float] = {}
 
 
-def _foam_threshold(sea: SeaSurface, wind: float) -> float:
-    key = id(sea)
+def drawn_foam_threshold(sea: SeaSurface, wind: float) -> float:
+    """The J threshold at which the foam the shader draws covers Monahan's whitecap fraction W of the
+    sea on average. Its soft edge and its dither thin the foam out, so the threshold is set on the
+    drawn foam's mean (``foam_mean``) over the sea's J samples — weighted by J, the displaced area each rest point stands for —
+    not on the J quantile at W (which, softened and then halved by the old streak texture, drew foam
+    over 3 % of the sea at Beaufort 9 instead of W = 16 %, and 0.02 % at Beaufort 5 instead of 0.8 %)."""
+    key = id(sea), float(wind)
     if key not in _FOAM_CACHE:
         if len(_FOAM_CACHE) > 16:
             _FOAM_CACHE.clear()
-        _FOAM_CACHE[key] = sea.foam_jacobian(wind)
+        coverage = whitecap_coverage(wind)
+        if coverage <= 0.0 or sea.n == 0:
+            _FOAM_CACHE[key] = -1.0
+        else:
+            j = sea.jacobian_samples
+            area = np.maximum(j, 0.0)
+            edge = FOAM_EDGE[0] + FOAM_EDGE[1]
+            want = coverage
+
+            def drawn(threshold: float) -> float:
+                x = np.clip((threshold + FOAM_EDGE[0] - j) / edge, 0.0, 1.0)
+                return float(np.average(foam_mean(x * x * (3.0 - 2.0 * x)), weights=area))
+
+            lo, hi = float(j.min()) - FOAM_EDGE[0], float(j.max()) + FOAM_EDGE[1]  # drawn 0 .. 1
+            for _ in range(40):  # bisection: the drawn mean rises with the threshold
+                mid = 0.5 * (lo + hi)
+                lo, hi = (mid, hi) if drawn(mid) < want else (lo, mid)
+            _FOAM_CACHE[key] = 0.5 * (lo + hi)
     return _FOAM_CACHE[key]
 
 
@@ -396,6 +449,7 @@ class WaterPass(RenderPass):
         self._tables: SeaTables | None = None
         self.exact_atmosphere = False  # the atmosphere per pixel/vertex instead of the tables (quality study)
         self.skip_minified_maps = True  # False: every block reads every detail map (tests' reference)
+        self.foam_threshold: float | None = None  # tests: a J threshold instead of the calibrated one
         self.stats: dict = {}
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
@@ -621,8 +675,10 @@ class WaterPass(RenderPass):
         if "u_detail_mean" in program:
             mean = program["u_detail_mean"]
             mean.write(means[read_maps:read_maps + mean.array_length].astype(np.float32).tobytes())
-        set_uniforms(program, {"u_foam_jacobian": _foam_threshold(sea, scene.weather.wind_speed
-                                                                  if scene.ocean.sea_state is None else sea.spectrum.wind)})
+        wind = scene.weather.wind_speed if scene.ocean.sea_state is None else sea.spectrum.wind
+        threshold = drawn_foam_threshold(sea, wind) if self.foam_threshold is None else self.foam_threshold
+        set_uniforms(program, {"u_foam_jacobian": threshold, "u_foam_edge": FOAM_EDGE,
+                               **foam_frame(scene, view)})
         if "u_hull_count" in program:
             program["u_hull_count"].value = len(hulls)
             if hulls:
