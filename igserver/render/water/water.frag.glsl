@@ -5,7 +5,6 @@
 #include "common/frame.glsl"
 #include "common/brdf.glsl"
 #include "common/lights.glsl"
-#include "common/noise.glsl"
 #include "water/sea_tables.glsl"
 
 #ifndef MAX_HULLS
@@ -46,15 +45,15 @@ const vec3 FOAM_ALBEDO = vec3(0.75);
 uniform float u_foam_jacobian;  // J below which the sea turns white (water.py drawn_foam_threshold)
 uniform vec2 u_foam_edge;       // J above / below it where the foam starts / is solid (water.py FOAM_EDGE)
 uniform vec4 u_foam_frame;      // xy: unit downwind direction; zw: 1 / streak length, 1 / width (1/m)
-uniform vec3 u_foam_offset;     // noise coordinates of the camera and the time, reduced mod FOAM_PERIOD (CPU)
-uniform float u_foam_period;
+uniform vec2 u_foam_offset;     // noise coordinates of the camera, drifted downwind, mod FOAM_PERIOD (CPU)
+uniform float u_foam_period;    // noise cells per side of the tabulated noise
+uniform sampler2D u_foam_noise; // the streak noise, about uniform on [0, 1] (water/foam_noise.frag.glsl)
 
-// Foam: the J edge gives each point's foam fraction f; the streak noise dithers it — white where f
-// exceeds the noise, mapped to about uniform u on [0, 1] (the simplex turbulence is near-normal,
-// sigma 0.45; smoothstep over ±2.2 sigma follows its CDF within 0.02) — through a ramp of width
-// FOAM_SOFT, scaled so f = 0 draws none and f = 1 all. Crests (f near 1) are solid, their flanks
-// carry streaks. The noise frame is stretched along the wind, anchored to the world and evolves
-// slowly. Where a pixel spans about a noise cell the streaks would alias: the dither's mean over u,
+// Foam: the J edge gives each point's foam fraction f; the streak noise (tabulated, about uniform u
+// on [0, 1]) dithers it — white where f exceeds u — through a ramp of width FOAM_SOFT, scaled so
+// f = 0 draws none and f = 1 all. Crests (f near 1) are solid, their flanks carry streaks. The noise
+// frame is stretched along the wind, anchored to the world and drifts downwind with the surface.
+// Where a pixel spans 3/4 of a noise cell the streaks would alias: the dither's mean over u,
 // foam_mean(f) (water.py foam_mean, which the coverage calibration uses).
 const float FOAM_SOFT = 0.25;
 float foam_mean(float f) {
@@ -65,10 +64,10 @@ float foam_mean(float f) {
     return covered / (1.0 - w);
 }
 float foam_cover(float f, vec2 rest) {
-    vec3 q = vec3(dot(rest, u_foam_frame.xy) * u_foam_frame.z,
-                  dot(rest, vec2(-u_foam_frame.y, u_foam_frame.x)) * u_foam_frame.w, 0.0) + u_foam_offset;
-    float contrast = clamp(2.0 - 2.0 * length(fwidth(q.xy)), 0.0, 1.0);
-    float u = smoothstep(-0.98, 0.98, turbulence3(q, vec3(u_foam_period), 2, 7u));
+    vec2 q = vec2(dot(rest, u_foam_frame.xy) * u_foam_frame.z,
+                  dot(rest, vec2(-u_foam_frame.y, u_foam_frame.x)) * u_foam_frame.w) + u_foam_offset;
+    float contrast = clamp(1.5 - 2.0 * length(fwidth(q)), 0.0, 1.0);  // none past 3 texels a pixel
+    float u = texture(u_foam_noise, q / u_foam_period).r;
     float dithered = clamp((f - (1.0 - FOAM_SOFT) * u) / FOAM_SOFT, 0.0, 1.0);
     return mix(foam_mean(f), dithered, contrast);
 }

@@ -320,32 +320,41 @@ def foam_mean(f: np.ndarray) -> np.ndarray:
     covered = np.where(f < w, f * f / (2.0 * w), np.where(
         f <= 1.0 - w, f - 0.5 * w, (f - w) + (w * w - (f - 1.0 + w) ** 2) / (2.0 * w)))
     return covered / (1.0 - w)
+
+
 FOAM_STREAK_SIZE = (24.0, 3.0)  # m along and across the wind: a noise cell of the streaks
-FOAM_LIFETIME = 6.0  # s: the streak pattern renews on this time scale
-FOAM_PERIOD = 64.0  # noise cells: the noise repeats after 512 m along the wind, 77 m across, 6.4 min
+FOAM_DRIFT = 0.03  # × wind speed: the surface drift that carries the streaks downwind
+FOAM_PERIOD = 64.0  # noise cells per side of the tabulated noise: 1.5 km along the wind, 192 m across
+FOAM_NOISE_SIZE = 256  # texels per side: 4 per noise cell (bilinear; the shader fades the streaks before it minifies)
+FOAM_NOISE_UNIT = 16  # past the frame's 8..15
 
 
 def foam_frame(scene: Scene, view: CameraView) -> dict:
-    """The streak noise's frame (water.frag.glsl foam_streaks): downwind axis and cell sizes; the
-    camera's and the time's noise coordinates reduced mod the period in float64, so the streaks stay
-    put on the sea at any distance from the origin and any sim_time."""
+    """The streak noise's frame (water.frag.glsl foam_cover): downwind axis and cell sizes, and the
+    camera's noise coordinates, drifted downwind by the time, reduced mod the period in float64 so
+    the streaks stay put on the sea at any distance from the origin and any sim_time."""
     to = math.radians(scene.weather.wind_direction + 180.0)  # the wind blows from wind_direction
     axis = np.array([math.sin(to), math.cos(to)])
     across = np.array([-axis[1], axis[0]])
     cam = np.asarray(view.position[:2], dtype=np.float64)
-    offset = np.mod([float(cam @ axis) / FOAM_STREAK_SIZE[0], float(cam @ across) / FOAM_STREAK_SIZE[1],
-                     scene.time.sim_time / FOAM_LIFETIME], FOAM_PERIOD)
+    drift = FOAM_DRIFT * scene.weather.wind_speed * scene.time.sim_time  # m downwind
+    offset = np.mod([(float(cam @ axis) - drift) / FOAM_STREAK_SIZE[0], float(cam @ across) / FOAM_STREAK_SIZE[1]],
+                    FOAM_PERIOD)
     return {"u_foam_frame": (*axis, 1.0 / FOAM_STREAK_SIZE[0], 1.0 / FOAM_STREAK_SIZE[1]),
-            "u_foam_offset": tuple(float(x) for x in offset), "u_foam_period": FOAM_PERIOD}
-_FOAM_CACHE: dict[int, float] = {}
+            "u_foam_offset": tuple(float(x) for x in offset), "u_foam_period": FOAM_PERIOD,
+            "u_foam_noise": FOAM_NOISE_UNIT}
+
+
+_FOAM_CACHE: dict[tuple, float] = {}
 
 
 def drawn_foam_threshold(sea: SeaSurface, wind: float) -> float:
     """The J threshold at which the foam the shader draws covers Monahan's whitecap fraction W of the
     sea on average. Its soft edge and its dither thin the foam out, so the threshold is set on the
-    drawn foam's mean (``foam_mean``) over the sea's J samples — weighted by J, the displaced area each rest point stands for —
-    not on the J quantile at W (which, softened and then halved by the old streak texture, drew foam
-    over 3 % of the sea at Beaufort 9 instead of W = 16 %, and 0.02 % at Beaufort 5 instead of 0.8 %)."""
+    drawn foam's mean (``foam_mean``) over the sea's J samples — weighted by J, the displaced area each
+    rest point stands for — not on the J quantile at W (which, softened and then halved by the old
+    streak texture, drew foam over 3 % of the sea at Beaufort 9 instead of W = 16 %, and 0.02 % at
+    Beaufort 5 instead of 0.8 %)."""
     key = id(sea), float(wind)
     if key not in _FOAM_CACHE:
         if len(_FOAM_CACHE) > 16:
@@ -450,6 +459,7 @@ class WaterPass(RenderPass):
         self.exact_atmosphere = False  # the atmosphere per pixel/vertex instead of the tables (quality study)
         self.skip_minified_maps = True  # False: every block reads every detail map (tests' reference)
         self.foam_threshold: float | None = None  # tests: a J threshold instead of the calibrated one
+        self._foam_noise_tex: moderngl.Texture | None = None
         self.stats: dict = {}
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
@@ -511,6 +521,22 @@ class WaterPass(RenderPass):
             tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
             tex.repeat_x = tex.repeat_y = False
         self._field_tex = (field, scalar_tex)
+
+    def _foam_noise(self) -> moderngl.Texture:
+        """The foam's streak noise (water/foam_noise.frag.glsl), tabulated once per context."""
+        if self._foam_noise_tex is None:
+            tex = self.ctx.texture((FOAM_NOISE_SIZE, FOAM_NOISE_SIZE), 1, dtype="f1")
+            fbo = self.ctx.framebuffer(color_attachments=[tex])
+            program = self.programs.program("common/fullscreen.vert.glsl", "water/foam_noise.frag.glsl")
+            program["u_period"].value = FOAM_PERIOD
+            fbo.use()
+            self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+            self.fullscreen(program)
+            fbo.release()
+            tex.repeat_x = tex.repeat_y = True
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)  # no mipmaps: a trilinear fetch costs 2x
+            self._foam_noise_tex = tex
+        return self._foam_noise_tex
 
     def _render_detail(self, sea: SeaSurface, t: float, resolution: int, tiles, read: int) -> None:
         """Render the first ``read`` detail maps of ``tiles`` (those some block reads; the others are
@@ -677,6 +703,7 @@ class WaterPass(RenderPass):
             mean.write(means[read_maps:read_maps + mean.array_length].astype(np.float32).tobytes())
         wind = scene.weather.wind_speed if scene.ocean.sea_state is None else sea.spectrum.wind
         threshold = drawn_foam_threshold(sea, wind) if self.foam_threshold is None else self.foam_threshold
+        self._foam_noise().use(FOAM_NOISE_UNIT)
         set_uniforms(program, {"u_foam_jacobian": threshold, "u_foam_edge": FOAM_EDGE,
                                **foam_frame(scene, view)})
         if "u_hull_count" in program:
