@@ -408,15 +408,15 @@ def test_whitecaps_on_screen_follow_monahans_coverage(renderer, wind, height, pi
 
 def test_foam_streak_noise_is_about_uniform(renderer):
     # The foam's dither keeps the calibrated mean only if its noise u is uniform on [0, 1]: the
-    # tabulated two-octave noise, mapped through smoothstep as the normal CDF, within 0.04 at every
-    # decile (the smoothstep approximates the normal CDF within 0.02; 256² texels of 64² noise cells
-    # are a few thousand independent samples, spread ~0.01).
+    # tabulated two-octave noise, mapped through smoothstep as the normal CDF, within 0.03 at every
+    # decile (measured 0.016: the smoothstep approximates the normal CDF within 0.02, and 256² texels
+    # of 64² noise cells are a few thousand independent samples, spread ~0.01).
     scene = sea_scene(weather={"wind_speed": 22.6})
     renderer.render(scene)
     tex = renderer.graph.passes["water"]._foam_noise()
     u = np.frombuffer(tex.read(), dtype=np.uint8).astype(np.float64) / 255.0
     deciles = np.quantile(u, np.linspace(0.1, 0.9, 9))
-    assert np.abs(deciles - np.linspace(0.1, 0.9, 9)).max() < 0.04, deciles
+    assert np.abs(deciles - np.linspace(0.1, 0.9, 9)).max() < 0.03, deciles
 
 
 def test_minified_detail_maps_leave_the_picture(renderer):
