@@ -430,6 +430,7 @@ class VolumesPass(RenderPass):
             for tex in (color, distance):
                 tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
                 tex.repeat_x = tex.repeat_y = False
+            color.filter = (moderngl.LINEAR, moderngl.LINEAR)  # the upsample's one filtered fetch
             held = self._low[size] = (color, distance, self.ctx.framebuffer([color]), self.ctx.framebuffer([distance]))
         self._low_last = size
         return held
