@@ -323,3 +323,31 @@ def test_upsampling_with_one_filtered_fetch_blends_the_matching_texels(renderer)
             obj.release()
     want = upsample_reference(color.astype(np.float64), low_d, full_d, scale, 1000.0)
     assert np.abs(got - want).max() < 2e-3
+
+
+def test_march_reads_the_frames_aerial_table(renderer):
+    # Where the surfaces filled the frame's aerial-perspective table (a frame of at least the table's
+    # 115,200 nodes), the march reads it once a pixel instead of evaluating the atmosphere per pixel:
+    # night_fire within 1 level of the per-pixel function (the table's own bound on surfaces, README).
+    from igserver.render.volumes import volumes as vmod
+
+    scene = apply_patch(load_scene("night_fire"), {"camera": {"width": 480, "height": 270}})
+    vpass = renderer.graph.passes["volumes"]
+    with_table = renderer.render(scene).rgba
+    assert vpass.stats["aerial_table"]
+    orig = vmod.VolumesPass._march
+
+    def per_pixel(self, frame, *args, **kwargs):
+        held = frame.resources.pop("aerial_table", None)
+        try:
+            return orig(self, frame, *args, **kwargs)
+        finally:
+            frame.resources["aerial_table"] = held
+
+    vmod.VolumesPass._march = per_pixel
+    try:
+        exact = renderer.render(scene).rgba
+        assert not vpass.stats["aerial_table"]
+    finally:
+        vmod.VolumesPass._march = orig
+    assert np.abs(with_table.astype(int) - exact.astype(int)).max() <= 1
