@@ -8,7 +8,8 @@ Clear air (the tables, per turbidity class), at an altitude h:
   E_moon(h)  = E_moon,0(phase) exp(-tau(h, mu_m))      Krisciunas & Schaefer (1991) phase law
   L_night    = the natural night sky (airglow + zodiacal light + integrated starlight)
 then the fog/haze layer (sky/haze.py) turns these into the fluxes at the camera's height:
-  u_sun_illuminance = E_sun exp(-(1 - g^2) tau_above / mu_s)   (direct + forward peak: sharp shadows)
+  u_sun_illuminance = E_sun exp(-(1 - g^2) tau_above / slant_mu_s)   (direct + forward peak: sharp shadows;
+                      slant_mu_s: HazeLayer.slant_mu, the sun's path on the round earth)
   u_sky_ambient     = (F_down - direct beams) / pi              (cd/m^2)
   horizontal illuminance = F_down (sun + sky + moon through the layer) + pi L_night.
 """
@@ -114,11 +115,12 @@ def precomputed_daylight(params: AtmosphereParameters, irradiance_table: np.ndar
         f = haze.fluxes(haze_height_m, sun, mu_s, sky, moon, mu_m)
         ta = haze.tau_above(haze_height_m)
         scale = 1.0 - haze.g ** 2
-        sun_t = sun * np.exp(-np.minimum(scale * ta / max(mu_s, 1e-3), 80.0)) if mu_s > 0 else sun * 0.0
-        moon_t = moon * np.exp(-np.minimum(scale * ta / max(mu_m, 1e-3), 80.0)) if mu_m > 0 else moon * 0.0
+        slant_s, slant_m = haze.slant_mu(mu_s, haze_height_m), haze.slant_mu(mu_m, haze_height_m)
+        sun_t = sun * np.exp(-np.minimum(scale * ta / slant_s, 80.0)) if mu_s > 0 else sun * 0.0
+        moon_t = moon * np.exp(-np.minimum(scale * ta / slant_m, 80.0)) if mu_m > 0 else moon * 0.0
         down = f["down"]
         sky_diffuse = np.maximum(down - sun_t * max(mu_s, 0.0) - moon_t * max(mu_m, 0.0), 0.0)
-        true_sun = sun * np.exp(-np.minimum(ta / max(mu_s, 1e-3), 80.0))
+        true_sun = sun * np.exp(-np.minimum(ta / slant_s, 80.0))
         sun, moon = sun_t, moon_t
     else:
         down = sun * max(mu_s, 0.0) + moon * max(mu_m, 0.0) + sky
