@@ -424,3 +424,13 @@ def test_block_selection_is_reused_only_for_the_same_view_and_sea(renderer):
         cold = lod.select(view, float(view.position[2] - s.ocean.level), sea.waves.k, sea.waves.amplitude,
                           s.camera.fov_y, min(s.ocean.lod_error, 16.0), view.far)
         assert np.array_equal(got.nodes, cold.nodes) and np.array_equal(got.morph, cold.morph)
+    # The finest-spacing rule (the quality study's knob) is part of the key too.
+    sea, view = sea_surface(base.ocean, base.weather), make_view(base.camera)
+    saved = lod.SPACING_PER_WAVE
+    try:
+        lod.SPACING_PER_WAVE = saved / 2.0
+        coarser = water.select(sea, base, view)
+    finally:
+        lod.SPACING_PER_WAVE = saved
+    assert coarser.finest_spacing == 2.0 * first.finest_spacing
+    assert water.select(sea, base, view).finest_spacing == first.finest_spacing
