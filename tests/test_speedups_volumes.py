@@ -246,3 +246,108 @@ def test_smoke_shadows_modelled_once_per_change_of_their_inputs(renderer, volume
         np.testing.assert_array_equal(cached, renderer.read_hdr())
     finally:
         volumes.settings = None
+
+
+def upsample_reference(color: np.ndarray, low_d: np.ndarray, full_d: np.ndarray, scale: int, far: float) -> np.ndarray:
+    """The depth-aware upsampling rule (volumes/upsample.frag.glsl) in float64: the matching texels of
+    the four around a pixel blended bilinearly, renormalised; none matching: the closest texel."""
+    h, w = full_d.shape
+    lh, lw = low_d.shape
+    out = np.zeros((h, w, 4))
+    for y in range(h):
+        for x in range(w):
+            d = min(full_d[y, x], far)
+            p = np.array([(x + 0.5) / scale - 0.5, (y + 0.5) / scale - 0.5])
+            i0 = np.floor(p).astype(int)
+            f = p - i0
+            acc, weight, best, best_diff, matches = np.zeros(4), 0.0, None, np.inf, []
+            for oy in (0, 1):
+                for ox in (0, 1):
+                    qx, qy = min(max(i0[0] + ox, 0), lw - 1), min(max(i0[1] + oy, 0), lh - 1)
+                    dq = min(low_d[qy, qx], far)
+                    diff = abs(dq - d) / max(min(dq, d), 1e-3)
+                    wgt = (f[0] if ox else 1 - f[0]) * (f[1] if oy else 1 - f[1])
+                    if diff < 0.2:
+                        acc += wgt * color[qy, qx]
+                        weight += wgt
+                        matches.append((ox, oy))
+                    if diff < best_diff:
+                        best_diff, best = diff, color[qy, qx]
+            diagonal = len(matches) == 3 or (len(matches) == 2 and matches[0][0] != matches[1][0]
+                                              and matches[0][1] != matches[1][1])
+            out[y, x] = acc / weight if weight > 1e-4 and not diagonal else best
+    return out
+
+
+def test_upsampling_with_one_filtered_fetch_blends_the_matching_texels(renderer):
+    # The upsample reads four distances with one gather and the colour with one filtered fetch whose
+    # point slides to the matching column or row: exactly the renormalised blend of the matching
+    # texels when they are all four, one or an adjacent pair, the closest texel for two diagonal or
+    # three (the rule above). Checked on random low-resolution distances with edges (a crate's
+    # silhouette: 10 m against 200 m) against float64: float16 colour texels and the filter's
+    # weights agree within 2e-3 of the colour's range.
+    import moderngl
+
+    ctx = renderer.ctx
+    vpass = renderer.graph.passes["volumes"]
+    rng = np.random.default_rng(4)
+    scale, (lw, lh) = 4, (12, 8)
+    w, h = lw * scale, lh * scale
+    color = rng.uniform(0.0, 1.0, (lh, lw, 4)).astype(np.float16)
+    low_d = np.where(rng.uniform(size=(lh, lw)) < 0.5, 10.0, 200.0).astype(np.float32)
+    full_d = np.where(rng.uniform(size=(h, w)) < 0.5, 10.5, 190.0).astype(np.float32)
+    tex_color = ctx.texture((lw, lh), 4, color.tobytes(), dtype="f2")
+    tex_low = ctx.texture((lw, lh), 1, low_d.tobytes(), dtype="f4")
+    tex_full = ctx.texture((w, h), 1, full_d.tobytes(), dtype="f4")
+    tex_color.filter = (moderngl.LINEAR, moderngl.LINEAR)
+    for tex in (tex_low, tex_full):
+        tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    for tex in (tex_color, tex_low, tex_full):
+        tex.repeat_x = tex.repeat_y = False
+    target = ctx.texture((w, h), 4, dtype="f4")
+    fbo = ctx.framebuffer([target])
+    try:
+        program = vpass.programs.program("common/fullscreen.vert.glsl", "volumes/upsample.frag.glsl")
+        program["u_volume_color"].value, program["u_scene_distance"].value, program["u_volume_distance"].value = 0, 1, 2
+        program["u_scale"].value = scale
+        program["u_volumes_far"].value = 1000.0
+        tex_color.use(0)
+        tex_full.use(1)
+        tex_low.use(2)
+        fbo.use()
+        ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
+        vpass.fullscreen(program)
+        got = np.frombuffer(target.read(), dtype=np.float32).reshape(h, w, 4)
+    finally:
+        for obj in (fbo, target, tex_color, tex_low, tex_full):
+            obj.release()
+    want = upsample_reference(color.astype(np.float64), low_d, full_d, scale, 1000.0)
+    assert np.abs(got - want).max() < 2e-3
+
+
+def test_march_reads_the_frames_aerial_table(renderer):
+    # Where the surfaces filled the frame's aerial-perspective table (a frame of at least the table's
+    # 115,200 nodes), the march reads it once a pixel instead of evaluating the atmosphere per pixel:
+    # night_fire within 1 level of the per-pixel function (the table's own bound on surfaces, README).
+    from igserver.render.volumes import volumes as vmod
+
+    scene = apply_patch(load_scene("night_fire"), {"camera": {"width": 480, "height": 270}})
+    vpass = renderer.graph.passes["volumes"]
+    with_table = renderer.render(scene).rgba
+    assert vpass.stats["aerial_table"]
+    orig = vmod.VolumesPass._march
+
+    def per_pixel(self, frame, *args, **kwargs):
+        held = frame.resources.pop("aerial_table", None)
+        try:
+            return orig(self, frame, *args, **kwargs)
+        finally:
+            frame.resources["aerial_table"] = held
+
+    vmod.VolumesPass._march = per_pixel
+    try:
+        exact = renderer.render(scene).rgba
+        assert not vpass.stats["aerial_table"]
+    finally:
+        vmod.VolumesPass._march = orig
+    assert np.abs(with_table.astype(int) - exact.astype(int)).max() <= 1

@@ -9,7 +9,7 @@ import pytest
 from igserver.render.graph import plan_passes
 from igserver.render.water import lod
 from igserver.scene import apply_patch
-from igserver.scene.model import Scene
+from igserver.scene.model import Scene, Weather
 from igserver.water import sea_surface
 
 EARTH_RADIUS = 6.371e6
@@ -305,6 +305,118 @@ def test_fan_blocks_carry_no_wave(renderer):
     assert np.max(np.abs(height[flat])) < tol
     # One level finer the longest wave is faded to ~1e-3 of its 0.1-0.2 m but not to 0: centimetres.
     assert np.max(np.abs(height[level == selection.flat_level - 1])) > 10.0 * tol
+
+
+@pytest.mark.parametrize("wind", [0.0, 1.0, 5.0, 9.4, 22.6, 40.0])
+def test_detail_maps_keep_each_waves_direction_and_length(wind):
+    # Each detail map holds waves on its tile's lattice (k = 2 pi (m, n) / L, so the tile repeats).
+    # Snapped at 1-2 cycles a tile, waves went to 0, 45 or 90 degrees and the map showed a square
+    # lattice (Beaufort 9's dotted sea). Every wave spans >= DETAIL_MIN_CYCLES = 5 cycles of its tile,
+    # so rounding (m, n) moves its wave vector by <= sqrt(0.5) cycles: <= asin(0.707 / 5) = 8.1 deg in
+    # direction and 14 % in length; waves too short for every map go to the roughness, none is lost.
+    import math
+
+    from igserver.render.water.water import (DETAIL_MAPS, DETAIL_MIN_WAVES, _detail_bands, detail_tiles,
+                                              detail_unresolved_var)
+
+    scene = sea_scene(weather={"wind_speed": wind})
+    sea = sea_surface(scene.ocean, scene.weather)
+    d = sea.detail
+    tiles = detail_tiles(sea, 0.0)
+    _, band = _detail_bands(sea)
+    kept = 0
+    for c, (size, waves) in enumerate(tiles):
+        k_true = d.k[band == c, None] * d.direction[band == c]
+        assert len(waves) == len(k_true)
+        kept += len(waves)
+        if not len(waves):
+            continue
+        # a finer tile of a few waves would show its period: those go to the roughness
+        assert c == 0 or len(waves) >= DETAIL_MIN_WAVES
+        k_snap = waves[:, :2] * 2.0 * math.pi / size
+        assert np.linalg.norm(waves[:, :2], axis=1).min() >= 5.0 - 0.5
+        cos = np.sum(k_snap * k_true, axis=1) / (np.linalg.norm(k_snap, axis=1) * np.linalg.norm(k_true, axis=1))
+        assert np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))).max() <= 8.2
+        assert np.abs(np.linalg.norm(k_snap, axis=1) / np.linalg.norm(k_true, axis=1) - 1.0).max() <= 0.15
+        assert waves[:, 2] == pytest.approx(d.amplitude[band == c] * np.linalg.norm(k_snap, axis=1))
+    lost = band >= DETAIL_MAPS
+    assert kept + np.count_nonzero(lost) == d.n
+    assert detail_unresolved_var(sea) == pytest.approx(float(np.sum((d.amplitude[lost] * d.k[lost]) ** 2) / 2.0))
+
+
+@pytest.mark.parametrize("wind", [12.0, 22.6])
+def test_drawn_foam_is_calibrated_to_monahans_coverage(wind):
+    # The shader's foam (J edge, then the streak dither, mean foam_mean) averages Monahan's whitecap
+    # fraction W = 3.84e-6 U^3.41 (1.8 % at 12 m/s, 16 % at 22.6) over the sea's area. Checked on fresh
+    # points and instants, not the calibration's: within 25 % (the field is correlated over a
+    # wavelength: a few hundred independent samples below the threshold at 12 m/s).
+    from igserver.render.water.water import FOAM_EDGE, drawn_foam_threshold, foam_mean
+    from igserver.water.surface import whitecap_coverage
+
+    scene = sea_scene(weather={"wind_speed": wind})
+    sea = sea_surface(scene.ocean, scene.weather)
+    threshold = drawn_foam_threshold(sea, wind)
+    rng = np.random.default_rng(5)
+    j = np.concatenate([sea.evaluate(rng.uniform(-2000, 2000, (5000, 2)), t, full=False)["jacobian"]
+                        for t in (3.0, 50.0, 111.0, 170.0)])
+    x = np.clip((threshold + FOAM_EDGE[0] - j) / sum(FOAM_EDGE), 0.0, 1.0)
+    drawn = np.average(foam_mean(x * x * (3.0 - 2.0 * x)), weights=j)
+    assert drawn == pytest.approx(whitecap_coverage(wind), rel=0.25)
+    # the dither's mean in closed form against the dither itself over a uniform u
+    u = (np.arange(4000) + 0.5) / 4000
+    for f in (0.0, 0.1, 0.3, 0.5, 0.8, 0.95, 1.0):
+        dither = np.clip((f - 0.75 * u) / 0.25, 0.0, 1.0).mean()
+        assert foam_mean(np.array(f)) == pytest.approx(dither, abs=1e-4)
+    assert drawn_foam_threshold(sea_surface(scene.ocean, Weather(wind_speed=0.0)), 0.0) == -1.0
+
+
+def linear_luminance(rgb: np.ndarray) -> np.ndarray:
+    c = rgb[..., :3].astype(np.float64) / 255.0
+    c = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+    return c @ np.array([0.2126, 0.7152, 0.0722])
+
+
+@pytest.mark.parametrize("wind, height, pitch", [(22.6, 200.0, -45.0), (22.6, 1000.0, -60.0), (12.0, 200.0, -45.0)])
+def test_whitecaps_on_screen_follow_monahans_coverage(renderer, wind, height, pitch):
+    # Monahan's whitecap fraction W (16 % at 22.6 m/s, 1.8 % at 12). The foam used to be the J
+    # quantile softened by its edge and halved by a streak texture (3 % of the screen at Beaufort 9
+    # from 15 m), and from the air the LOD fades the short waves out of the mesh and flattens J (foam
+    # all but gone): the drawn fraction is now calibrated, and the faded waves' J variance keeps the
+    # foam's probability. Measured per pixel between the frame without whitecaps (threshold -1) and
+    # the frame all white (threshold 10), in linear luminance, averaged over the sea below the
+    # horizon. Within a factor 2 of W: the screen weighs the surface by its projected area (crests
+    # are compressed and tilted), a frame holds a few dozen dominant wavelengths, and from 1 km the
+    # faded waves' part is a normal approximation (measured: 1.7x, 1.5x, 1.4x of W).
+    from igserver.water.surface import whitecap_coverage
+
+    scene = sea_scene(camera={"position": [0.0, 0.0, height], "pitch": pitch, "width": 240, "height": 135,
+                              "exposure_ev": 13.0}, weather={"wind_speed": wind})
+    water = renderer.graph.passes["water"]
+    frames = {}
+    try:
+        for name, threshold in (("drawn", None), ("bare", -1.0), ("white", 10.0)):
+            water.foam_threshold = threshold
+            frames[name] = linear_luminance(renderer.render(scene).rgba[int(0.55 * 135):])
+    finally:
+        water.foam_threshold = None
+    span = frames["white"] - frames["bare"]
+    assert np.all(span > 0.02)  # foam is brighter than the bare sea everywhere in these views
+    coverage = float(np.mean(np.clip((frames["drawn"] - frames["bare"]) / span, 0.0, 1.0)))
+    want = whitecap_coverage(wind)
+    assert want / 2.0 < coverage < 2.0 * want, (coverage, want)
+
+
+def test_foam_streak_noise_is_about_uniform(renderer):
+    # The foam's dither keeps the calibrated mean only if its noise u is uniform on [0, 1]: the
+    # tabulated two-octave noise, mapped through smoothstep as the normal CDF, within 0.03 at every
+    # decile (measured 0.016: the smoothstep approximates the normal CDF within 0.02, and 256² texels
+    # of 64² noise cells are a few thousand independent samples, spread ~0.01).
+    scene = sea_scene(weather={"wind_speed": 22.6})
+    renderer.render(scene)
+    tex = renderer.graph.passes["water"]._foam_noise()
+    u = np.frombuffer(tex.read(), dtype=np.uint8).astype(np.float64) / 255.0
+    deciles = np.quantile(u, np.linspace(0.1, 0.9, 9))
+    assert np.abs(deciles - np.linspace(0.1, 0.9, 9)).max() < 0.03, deciles
 
 
 def test_minified_detail_maps_leave_the_picture(renderer):

@@ -21,6 +21,7 @@
 // (radiance, 1 - T), blended ONE, ONE_MINUS_SRC_ALPHA.
 #include "common/frame.glsl"
 #include "common/atmosphere.glsl"
+#include "common/aerial_table.glsl"
 
 uniform sampler3D u_volume;
 #ifdef BLEND
@@ -143,6 +144,6 @@ void main() {
     if (alpha <= 0.0) discard;
     // Aerial perspective at the opacity-weighted depth, applied to the un-premultiplied colour.
     vec3 rel = dir * (depth_sum / max(depth_weight, 1e-6));
-    vec3 colour = apply_aerial_perspective(radiance / alpha, rel) * alpha;
+    vec3 colour = aerial_perspective(radiance / alpha, rel) * alpha;  // the frame's table (or AERIAL_EXACT)
     out_color = vec4(pre_expose(colour), alpha);
 }

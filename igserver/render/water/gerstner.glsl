@@ -30,6 +30,7 @@ struct SeaSample {
     vec3 normal;
     float jacobian;  // horizontal Jacobian det(dP/dp): 1 flat, -> 0 where crests pinch (foam)
     float lost_var;  // slope variance of the waves faded out by the LOD
+    float lost_jvar; // variance of J those waves would add (the foam's probability, water.frag.glsl)
     float depth;     // m (1e4 where no field: deep)
     float breaking;  // 0 unbroken .. 1: how much the breaking cap cut the waves (surf zone)
 };
@@ -63,6 +64,7 @@ SeaSample sea_displace(vec2 p, float spacing) {
     float jxx = 1.0, jxy = 0.0, jyx = 0.0, jyy = 1.0;
     vec2 grad = vec2(0.0);
     float lost = 0.0;
+    float lost_j = 0.0;
     for (int i = 0; i < u_wave_count; ++i) {
         vec4 w = u_wave[i];
         float theta = dot(w.xy, p) + u_wave_phase[i];
@@ -77,8 +79,12 @@ SeaSample sea_displace(vec2 p, float spacing) {
         float kmag = max(length(kv), 1e-12);
         float fade = 1.0 - smoothstep(0.5 * PI, PI, kmag * spacing);
         lost += (1.0 - fade) * 0.5 * (kmag * a) * (kmag * a);
+        // To first order J = 1 - sum b k sin(theta): a wave faded from b_full to b takes
+        // (b_full - b)^2 k^2 / 2 of J's variance with it.
+        float b_full = min(q / (kmag * u_wave_norm), a);
         a *= fade;
         float b = min(q / (kmag * u_wave_norm), a);
+        lost_j += 0.5 * (b_full - b) * (b_full - b) * kmag * kmag;
         float s = sin(theta), c = cos(theta);
         vec2 bk = (b / kmag) * kv;  // b * Khat
         disp += bk * c;
@@ -96,6 +102,7 @@ SeaSample sea_displace(vec2 p, float spacing) {
     r.normal = normalize(cross(tx, ty));
     r.jacobian = jxx * jyy - jxy * jyx;
     r.lost_var = lost;
+    r.lost_jvar = lost_j;
     r.depth = depth;
     r.breaking = breaking;
     return r;

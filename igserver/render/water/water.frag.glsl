@@ -29,6 +29,7 @@ in vec2 v_rest;
 in vec3 v_normal;
 in float v_jacobian;
 in float v_lost_var;
+in float v_lost_jvar;
 in float v_depth;
 in float v_breaking;
 in vec3 v_air_t;
@@ -41,7 +42,35 @@ const float WATER_R0 = 0.02037;                    // Fresnel reflectance air-wa
 const vec3 ABSORPTION = vec3(0.35, 0.07, 0.045);    // 1/m, coastal water (red first)
 const vec3 BOTTOM_ALBEDO = vec3(0.35, 0.30, 0.22);  // sand
 const vec3 FOAM_ALBEDO = vec3(0.75);
-uniform float u_foam_jacobian;  // J below which the sea is white: the whitecap-coverage quantile (CPU)
+uniform float u_foam_jacobian;  // J below which the sea turns white (water.py drawn_foam_threshold)
+uniform vec2 u_foam_edge;       // J above / below it where the foam starts / is solid (water.py FOAM_EDGE)
+uniform vec4 u_foam_frame;      // xy: unit downwind direction; zw: 1 / streak length, 1 / width (1/m)
+uniform vec2 u_foam_offset;     // noise coordinates of the camera, drifted downwind, mod FOAM_PERIOD (CPU)
+uniform float u_foam_period;    // noise cells per side of the tabulated noise
+uniform sampler2D u_foam_noise; // the streak noise, about uniform on [0, 1] (water/foam_noise.frag.glsl)
+
+// Foam: the J edge gives each point's foam fraction f; the streak noise (tabulated, about uniform u
+// on [0, 1]) dithers it — white where f exceeds u — through a ramp of width FOAM_SOFT, scaled so
+// f = 0 draws none and f = 1 all. Crests (f near 1) are solid, their flanks carry streaks. The noise
+// frame is stretched along the wind, anchored to the world and drifts downwind with the surface.
+// Where a pixel spans 3/4 of a noise cell the streaks would alias: the dither's mean over u,
+// foam_mean(f) (water.py foam_mean, which the coverage calibration uses).
+const float FOAM_SOFT = 0.25;
+float foam_mean(float f) {
+    float w = FOAM_SOFT;
+    float covered = f < w ? f * f / (2.0 * w)
+                  : f <= 1.0 - w ? f - 0.5 * w
+                  : (f - w) + (w * w - (f - 1.0 + w) * (f - 1.0 + w)) / (2.0 * w);
+    return covered / (1.0 - w);
+}
+float foam_cover(float f, vec2 rest) {
+    vec2 q = vec2(dot(rest, u_foam_frame.xy) * u_foam_frame.z,
+                  dot(rest, vec2(-u_foam_frame.y, u_foam_frame.x)) * u_foam_frame.w) + u_foam_offset;
+    float contrast = clamp(1.5 - 2.0 * length(fwidth(q)), 0.0, 1.0);  // none past 3 texels a pixel
+    float u = texture(u_foam_noise, q / u_foam_period).r;
+    float dithered = clamp((f - (1.0 - FOAM_SOFT) * u) / FOAM_SOFT, 0.0, 1.0);
+    return mix(foam_mean(f), dithered, contrast);
+}
 
 vec4 detail(sampler2D tex, vec3 map) {
     return texture(tex, v_rest * map.x + map.yz);
@@ -123,14 +152,21 @@ void main() {
     vec3 body = DEEP_ALBEDO * e_down / PI;
 #endif
     vec3 lit = fresnel * sky + direct + (1.0 - fresnel) * body;
-    // Foam where the Gerstner surface pinches (J small): breaking crests and the surf zone.
-    float foam = smoothstep(u_foam_jacobian + 0.02, u_foam_jacobian - 0.06, v_jacobian);
-    // Surf zone: where the breaking cap cut the waves, the broken water is white on the crests.
-    // (J < 1 on the compressed crests, > 1 in the troughs.)
+    // Whitecaps where the Gerstner surface pinches (J small), torn into streaks by the wind. Where the
+    // LOD faded waves out of the mesh, their part of J is unknown here: the foam fraction is then the
+    // probability that the full J is under the edge, given the J the mesh keeps and the variance the
+    // faded waves carry (v_lost_jvar), a normal CDF, which smoothstep over ±2.2 sigma follows within
+    // 0.03 — so a sea seen from high up, its short waves all faded, keeps its whitecap coverage.
+    float foam_centre = u_foam_jacobian + 0.5 * (u_foam_edge.x - u_foam_edge.y);
+    float foam_width = sqrt(0.25 * (u_foam_edge.x + u_foam_edge.y) * (u_foam_edge.x + u_foam_edge.y)
+                            + 4.84 * v_lost_jvar);
+    float foam = foam_cover(smoothstep(-1.0, 1.0, (foam_centre - v_jacobian) / foam_width), v_rest);
+    // Surf zone: where the breaking cap cut the waves, the broken water is white on the crests
+    // (J < 1 on the compressed crests, > 1 in the troughs), in soft bands mottled by the detail slopes.
 #ifdef WATER_FIELD
-    foam = max(foam, smoothstep(0.1, 0.7, v_breaking) * smoothstep(1.02, 0.9, v_jacobian));
+    foam = max(foam, smoothstep(0.1, 0.7, v_breaking) * smoothstep(1.02, 0.9, v_jacobian)
+                     * smoothstep(0.15, 0.85, 0.5 + 4.0 * (d1.x - d2.y)));
 #endif
-    foam *= smoothstep(0.15, 0.85, 0.5 + 4.0 * (d1.x - d2.y));  // streaky texture from the detail maps
     lit = mix(lit, FOAM_ALBEDO * e_down / PI, foam);
     // Dry land of the bathymetry (h <= 0): no water, the bare beach at the water level (there is no
     // terrain pipeline yet), wet sand darker for the last few centimetres.

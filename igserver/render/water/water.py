@@ -25,7 +25,7 @@ import numpy as np
 from ...scene.model import Scene
 from ...water import sea_surface
 from ...water.spectrum import WaveSet
-from ...water.surface import SeaSurface
+from ...water.surface import SeaSurface, whitecap_coverage
 from ..camera import CameraView, body_to_world
 from .. import presets
 from ..passes import RenderPass
@@ -36,7 +36,15 @@ MAX_WAVES = 64
 MAX_DETAIL = 48
 MAX_HULLS = 32  # a pier's piles count one each
 DETAIL_MAPS = 3
-DETAIL_RATIO = 23.7  # tile sizes L, L/23.7, L/23.7² (not a power of two: no aligned repetition)
+# The detail band is split by wavelength into DETAIL_MAPS maps, each covering a ratio DETAIL_RATIO of
+# wavelengths on a tile DETAIL_MIN_CYCLES times its longest wave: a wave snapped to the tile's lattice
+# of (m, n) cycles then keeps its direction within atan(0.5 / 5) ≈ 6° and its wavelength within 10 %
+# (a wave of 1–2 cycles snaps to 0°, 45° or 90°, and the map shows a square lattice), and the shortest
+# spans 38.5 cycles, 3.3 texels each at the medium 128² maps. Not a whole ratio: the tiles never repeat
+# in step. Waves shorter than the finest map's band go to the roughness (``detail_unresolved_var``).
+DETAIL_MIN_CYCLES = 5.0
+DETAIL_RATIO = 7.7
+DETAIL_MIN_WAVES = 4
 # Texture units bound for the water draw (the frame keeps 8..15: haze table, sky-view table, 4D tables).
 DETAIL_UNIT0 = 1  # 1, 2, 3
 FIELD_UNIT = 4
@@ -174,26 +182,47 @@ def blocks_near_hulls(nodes: np.ndarray, hulls: list[np.ndarray], margin: float)
                   & (y0 + side >= lo[None, :, 1]), axis=1)
 
 
+def _detail_bands(sea: SeaSurface) -> tuple[np.ndarray, np.ndarray]:
+    """Per detail map, the longest wavelength of its band (m); per detail wave, its map (DETAIL_MAPS:
+    roughness only). The finest bands holding fewer than DETAIL_MIN_WAVES waves go to the roughness:
+    a tile of so few waves shows its period as a regular ripple, and costs a texture read per pixel
+    for under 4/36 of the detail band's slope variance (its waves carry equal shares)."""
+    wavelengths = 2.0 * math.pi / sea.detail.k
+    tops = float(np.max(wavelengths)) * 1.0001 / DETAIL_RATIO ** np.arange(DETAIL_MAPS)
+    band = np.minimum(np.floor(np.log(tops[0] / wavelengths) / math.log(DETAIL_RATIO)), DETAIL_MAPS).astype(int)
+    for c in range(DETAIL_MAPS - 1, 0, -1):
+        few = band == c
+        if np.count_nonzero(few) >= DETAIL_MIN_WAVES:
+            break
+        band[few] = DETAIL_MAPS
+    return tops, band
+
+
 def detail_tiles(sea: SeaSurface, t: float) -> list[tuple[float, np.ndarray]]:
     """Per detail map: (tile side L in m, waves (m, n, A k, phase) snapped to that tile's lattice)."""
     d: WaveSet = sea.detail
     if d.n == 0:
         return [(1.0, np.zeros((0, 4)))] * DETAIL_MAPS
-    longest = 2.0 * math.pi / float(np.min(d.k))
-    sizes = [longest * 1.01 / DETAIL_RATIO**c for c in range(DETAIL_MAPS)]
-    wavelengths = 2.0 * math.pi / d.k
+    tops, band = _detail_bands(sea)
     tiles = []
-    for c, size in enumerate(sizes):
-        lower = sizes[c + 1] if c + 1 < DETAIL_MAPS else 0.0
-        pick = (wavelengths <= size) & (wavelengths > lower)
-        kvec = d.k[pick, None] * d.direction[pick]
-        cycles = np.rint(kvec * size / (2.0 * math.pi))
-        cycles[np.all(cycles == 0, axis=1)] = (1.0, 0.0)
+    for c, top in enumerate(tops):
+        size = DETAIL_MIN_CYCLES * top
+        pick = band == c
+        cycles = np.rint(d.k[pick, None] * d.direction[pick] * size / (2.0 * math.pi))
         k_snap = np.linalg.norm(cycles, axis=1) * 2.0 * math.pi / size
         omega = np.sqrt(9.80665 * k_snap)
         phase = np.mod(d.phase[pick] - np.mod(omega * t, 2.0 * math.pi), 2.0 * math.pi)
         tiles.append((size, np.column_stack([cycles, d.amplitude[pick] * k_snap, phase])[:MAX_DETAIL]))
     return tiles
+
+
+def detail_unresolved_var(sea: SeaSurface) -> float:
+    """Mean-square slope of the detail waves shorter than every map's band: roughness only."""
+    if sea.detail.n == 0:
+        return 0.0
+    _, band = _detail_bands(sea)
+    lost = band >= DETAIL_MAPS
+    return float(np.sum((sea.detail.amplitude[lost] * sea.detail.k[lost]) ** 2) / 2.0)
 
 
 def detail_means(tiles: list[tuple[float, np.ndarray]]) -> np.ndarray:
@@ -291,15 +320,77 @@ def glint_light(uniforms: dict) -> dict:
             "u_glint_illuminance": tuple(float(x) for x in (sun if use_sun else moon))}
 
 
-_FOAM_CACHE: dict[int, float] = {}
+# The foam water.frag.glsl draws: a fraction f rising from 0 at J = threshold + FOAM_EDGE[0] to 1 at
+# threshold − FOAM_EDGE[1] (smoothstep), dithered into streaks by noise through a ramp of width
+# FOAM_SOFT (its mean over the noise: foam_mean).
+FOAM_EDGE = (0.02, 0.06)
+FOAM_SOFT = 0.25
 
 
-def _foam_threshold(sea: SeaSurface, wind: float) -> float:
-    key = id(sea)
+def foam_mean(f: np.ndarray) -> np.ndarray:
+    """The drawn foam's mean over the dither noise (u uniform on [0, 1]) at foam fraction f:
+    E[clamp((f − (1 − w) u) / w, 0, 1)], w = FOAM_SOFT, in closed form (water.frag.glsl foam_mean)."""
+    w = FOAM_SOFT
+    covered = np.where(f < w, f * f / (2.0 * w), np.where(
+        f <= 1.0 - w, f - 0.5 * w, (f - w) + (w * w - (f - 1.0 + w) ** 2) / (2.0 * w)))
+    return covered / (1.0 - w)
+
+
+FOAM_STREAK_SIZE = (24.0, 3.0)  # m along and across the wind: a noise cell of the streaks
+FOAM_DRIFT = 0.03  # × wind speed: the surface drift that carries the streaks downwind
+FOAM_PERIOD = 64.0  # noise cells per side of the tabulated noise: 1.5 km along the wind, 192 m across
+FOAM_NOISE_SIZE = 256  # texels per side: 4 per noise cell (bilinear; the shader fades the streaks before it minifies)
+FOAM_NOISE_UNIT = 16  # past the frame's 8..15
+
+
+def foam_frame(scene: Scene, view: CameraView) -> dict:
+    """The streak noise's frame (water.frag.glsl foam_cover): downwind axis and cell sizes, and the
+    camera's noise coordinates, drifted downwind by the time, reduced mod the period in float64 so
+    the streaks stay put on the sea at any distance from the origin and any sim_time."""
+    to = math.radians(scene.weather.wind_direction + 180.0)  # the wind blows from wind_direction
+    axis = np.array([math.sin(to), math.cos(to)])
+    across = np.array([-axis[1], axis[0]])
+    cam = np.asarray(view.position[:2], dtype=np.float64)
+    drift = FOAM_DRIFT * scene.weather.wind_speed * scene.time.sim_time  # m downwind
+    offset = np.mod([(float(cam @ axis) - drift) / FOAM_STREAK_SIZE[0], float(cam @ across) / FOAM_STREAK_SIZE[1]],
+                    FOAM_PERIOD)
+    return {"u_foam_frame": (*axis, 1.0 / FOAM_STREAK_SIZE[0], 1.0 / FOAM_STREAK_SIZE[1]),
+            "u_foam_offset": tuple(float(x) for x in offset), "u_foam_period": FOAM_PERIOD,
+            "u_foam_noise": FOAM_NOISE_UNIT}
+
+
+_FOAM_CACHE: dict[tuple, float] = {}
+
+
+def drawn_foam_threshold(sea: SeaSurface, wind: float) -> float:
+    """The J threshold at which the foam the shader draws covers Monahan's whitecap fraction W of the
+    sea on average. Its soft edge and its dither thin the foam out, so the threshold is set on the
+    drawn foam's mean (``foam_mean``) over the sea's J samples — weighted by J, the displaced area each
+    rest point stands for — not on the J quantile at W (which, softened and then halved by the old
+    streak texture, drew foam over 3 % of the sea at Beaufort 9 instead of W = 16 %, and 0.02 % at
+    Beaufort 5 instead of 0.8 %)."""
+    key = id(sea), float(wind)
     if key not in _FOAM_CACHE:
         if len(_FOAM_CACHE) > 16:
             _FOAM_CACHE.clear()
-        _FOAM_CACHE[key] = sea.foam_jacobian(wind)
+        coverage = whitecap_coverage(wind)
+        if coverage <= 0.0 or sea.n == 0:
+            _FOAM_CACHE[key] = -1.0
+        else:
+            j = sea.jacobian_samples
+            area = np.maximum(j, 0.0)
+            edge = FOAM_EDGE[0] + FOAM_EDGE[1]
+            want = coverage
+
+            def drawn(threshold: float) -> float:
+                x = np.clip((threshold + FOAM_EDGE[0] - j) / edge, 0.0, 1.0)
+                return float(np.average(foam_mean(x * x * (3.0 - 2.0 * x)), weights=area))
+
+            lo, hi = float(j.min()) - FOAM_EDGE[0], float(j.max()) + FOAM_EDGE[1]  # drawn 0 .. 1
+            for _ in range(40):  # bisection: the drawn mean rises with the threshold
+                mid = 0.5 * (lo + hi)
+                lo, hi = (mid, hi) if drawn(mid) < want else (lo, mid)
+            _FOAM_CACHE[key] = 0.5 * (lo + hi)
     return _FOAM_CACHE[key]
 
 
@@ -382,6 +473,8 @@ class WaterPass(RenderPass):
         self._selection = None  # (key, sea, LodSelection) of the last select()
         self.exact_atmosphere = False  # the atmosphere per pixel/vertex instead of the tables (quality study)
         self.skip_minified_maps = True  # False: every block reads every detail map (tests' reference)
+        self.foam_threshold: float | None = None  # tests: a J threshold instead of the calibrated one
+        self._foam_noise_tex: moderngl.Texture | None = None
         self.stats: dict = {}
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
@@ -443,6 +536,22 @@ class WaterPass(RenderPass):
             tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
             tex.repeat_x = tex.repeat_y = False
         self._field_tex = (field, scalar_tex)
+
+    def _foam_noise(self) -> moderngl.Texture:
+        """The foam's streak noise (water/foam_noise.frag.glsl), tabulated once per context."""
+        if self._foam_noise_tex is None:
+            tex = self.ctx.texture((FOAM_NOISE_SIZE, FOAM_NOISE_SIZE), 1, dtype="f1")
+            fbo = self.ctx.framebuffer(color_attachments=[tex])
+            program = self.programs.program("common/fullscreen.vert.glsl", "water/foam_noise.frag.glsl")
+            program["u_period"].value = FOAM_PERIOD
+            fbo.use()
+            self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+            self.fullscreen(program)
+            fbo.release()
+            tex.repeat_x = tex.repeat_y = True
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)  # no mipmaps: a trilinear fetch costs 2x
+            self._foam_noise_tex = tex
+        return self._foam_noise_tex
 
     def _render_detail(self, sea: SeaSurface, t: float, resolution: int, tiles, read: int) -> None:
         """Render the first ``read`` detail maps of ``tiles`` (those some block reads; the others are
@@ -612,12 +721,15 @@ class WaterPass(RenderPass):
             detail_map[c] = (1.0 / size, *(np.mod(view.position[:2], size) / size))
             self._detail[c].use(DETAIL_UNIT0 + c)
             set_uniforms(program, {f"u_detail{c}": DETAIL_UNIT0 + c})
-        set_uniforms(program, {"u_detail_map": detail_map[: max(read_maps, 1)].tobytes(), "u_min_slope_var": 2e-4})
+        set_uniforms(program, {"u_detail_map": detail_map[: max(read_maps, 1)].tobytes(), "u_min_slope_var": 2e-4 + detail_unresolved_var(sea)})
         if "u_detail_mean" in program:
             mean = program["u_detail_mean"]
             mean.write(means[read_maps:read_maps + mean.array_length].astype(np.float32).tobytes())
-        set_uniforms(program, {"u_foam_jacobian": _foam_threshold(sea, scene.weather.wind_speed
-                                                                  if scene.ocean.sea_state is None else sea.spectrum.wind)})
+        wind = scene.weather.wind_speed if scene.ocean.sea_state is None else sea.spectrum.wind
+        threshold = drawn_foam_threshold(sea, wind) if self.foam_threshold is None else self.foam_threshold
+        self._foam_noise().use(FOAM_NOISE_UNIT)
+        set_uniforms(program, {"u_foam_jacobian": threshold, "u_foam_edge": FOAM_EDGE,
+                               **foam_frame(scene, view)})
         if "u_hull_count" in program:
             program["u_hull_count"].value = len(hulls)
             if hulls:

@@ -16,6 +16,7 @@ out vec2 v_rest;               // camera-relative rest point (m): where the deta
 out vec3 v_normal;
 out float v_jacobian;
 out float v_lost_var;
+out float v_lost_jvar;
 out float v_depth;
 out float v_breaking;
 out vec3 v_air_t;               // aerial perspective as L -> L * v_air_t + v_air_s, per vertex
@@ -43,6 +44,7 @@ void main() {
     v_normal = normalize(s.normal + vec3(s.pos.xy / EARTH_RADIUS, 0.0) * s.normal.z);
     v_jacobian = s.jacobian;
     v_lost_var = s.lost_var;
+    v_lost_jvar = s.lost_jvar;
     v_depth = s.depth;
     v_breaking = s.breaking;
     // Aerial perspective is affine in the radiance and smooth in distance: the per-frame table of the
