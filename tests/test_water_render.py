@@ -449,3 +449,100 @@ def test_minified_detail_maps_leave_the_picture(renderer):
             # variance (~0.05 %); the slope means are 0 in exact arithmetic, rounding leaves ~1e-4 of it.
             assert texel[2:] == pytest.approx(means[c, 2:], rel=5e-3)
             assert np.abs(texel[:2]).max() < 1e-3 * np.sqrt(means[c, 2:].max())
+
+
+def test_hull_boxes_follow_the_entities_and_the_camera():
+    # hull_boxes is memoised on the visible entities' models and poses, the camera position and the
+    # sea level: each of those must still move the boxes (against a cold computation every time).
+    from igserver.render.camera import make_view
+    from igserver.render.water.water import _hull_boxes, hull_boxes
+    from igserver.scene import load_scene
+
+    scene = load_scene("demo")
+    boat = next(i for i, e in enumerate(scene.entities) if model_has_hull(e.model))
+    states = [scene,
+              apply_patch(scene, {"camera": {"position": [1.0, -120.0, 6.0]}}),
+              _patch_entity(scene, boat, {"position": [float(scene.entities[boat].position[0]) + 3.0,
+                                                      *scene.entities[boat].position[1:]]}),
+              _patch_entity(scene, boat, {"heading": float(scene.entities[boat].heading) + 20.0}),
+              _patch_entity(scene, boat, {"visible": False}),
+              scene]
+    results = []
+    for s in states:
+        view = make_view(s.camera)
+        got = hull_boxes(s, view)
+        cold = _hull_boxes(s, view)
+        assert len(got) == len(cold) and all(np.array_equal(a, b) for a, b in zip(got, cold))
+        results.append(got)
+    for moved in results[1:5]:  # every change moved at least one box (or dropped the boat's)
+        assert len(moved) != len(results[0]) or any(not np.array_equal(a, b) for a, b in zip(moved, results[0]))
+    assert all(np.array_equal(a, b) for a, b in zip(results[0], results[5]))
+
+
+def model_has_hull(model: str) -> bool:
+    from igserver.render.water.water import model_hulls
+    return model == "patrol_boat" and bool(model_hulls(model))
+
+
+def _patch_entity(scene: Scene, index: int, change: dict) -> Scene:
+    entities = [e.model_dump() for e in scene.entities]
+    entities[index].update(change)
+    return Scene.model_validate({**scene.model_dump(), "entities": entities})
+
+
+def test_blocks_near_hulls_matches_the_corner_test_for_turned_boxes():
+    # The footprint of a turned, tilted box from its matrix (centre ± Σ|column|) against the
+    # footprint of its 8 corners, for random boxes and blocks: the same blocks.
+    from igserver.render.camera import body_to_world
+    from igserver.render.water.water import blocks_near_hulls
+
+    rng = np.random.default_rng(3)
+    hulls = []
+    for _ in range(12):
+        m = np.eye(4)
+        m[:3, :3] = body_to_world(*rng.uniform(-180, 180, 3) * (1.0, 0.2, 0.2)) @ np.diag(rng.uniform(0.3, 20.0, 3))
+        m[:3, 3] = rng.uniform(-200.0, 200.0, 3)
+        hulls.append(np.linalg.inv(m))
+    nodes = np.column_stack([rng.uniform(-300, 300, (4000, 2)), rng.choice([2.0, 8.0, 64.0], 4000),
+                             np.zeros(4000)]).astype(np.float32)
+    corners = np.array([[x, y, z, 1.0] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+    expected = np.zeros(len(nodes), dtype=bool)
+    x0, y0, side = (nodes[:, c].astype(np.float64) for c in range(3))
+    for inv in hulls:
+        pts = corners @ np.linalg.inv(inv).T
+        lo, hi = pts[:, :2].min(axis=0) - 2.0, pts[:, :2].max(axis=0) + 2.0
+        expected |= (x0 <= hi[0]) & (x0 + side >= lo[0]) & (y0 <= hi[1]) & (y0 + side >= lo[1])
+    got = blocks_near_hulls(nodes, hulls, margin=2.0)
+    assert 0 < np.count_nonzero(expected) < len(nodes)  # the draw exercises both answers
+    assert np.array_equal(got, expected)
+
+
+def test_block_selection_is_reused_only_for_the_same_view_and_sea(renderer):
+    # The LOD selection is memoised on the view, the sea and the knobs: a later time reuses it; a
+    # turned or moved camera, another wind or another LOD bound gets a fresh one equal to lod.select.
+    from igserver.render.camera import make_view
+
+    water = renderer.graph.passes["water"]
+    base = sea_scene()
+    first = water.select(sea_surface(base.ocean, base.weather), base, make_view(base.camera))
+    later = apply_patch(base, {"time": {"sim_time": 250.0}})
+    assert water.select(sea_surface(later.ocean, later.weather), later, make_view(later.camera)) is first
+    for change in ({"camera": {"heading": 31.0}}, {"camera": {"position": [0.0, 5.0, 12.0]}},
+                   {"weather": {"wind_speed": 14.0}}, {"ocean": {"lod_error": 0.25}}, {"ocean": {"level": 0.5}}):
+        s = apply_patch(base, change)
+        sea, view = sea_surface(s.ocean, s.weather), make_view(s.camera)
+        got = water.select(sea, s, view)
+        assert got is not first
+        cold = lod.select(view, float(view.position[2] - s.ocean.level), sea.waves.k, sea.waves.amplitude,
+                          s.camera.fov_y, min(s.ocean.lod_error, 16.0), view.far)
+        assert np.array_equal(got.nodes, cold.nodes) and np.array_equal(got.morph, cold.morph)
+    # The finest-spacing rule (the quality study's knob) is part of the key too.
+    sea, view = sea_surface(base.ocean, base.weather), make_view(base.camera)
+    saved = lod.SPACING_PER_WAVE
+    try:
+        lod.SPACING_PER_WAVE = saved / 2.0
+        coarser = water.select(sea, base, view)
+    finally:
+        lod.SPACING_PER_WAVE = saved
+    assert coarser.finest_spacing == 2.0 * first.finest_spacing
+    assert water.select(sea, base, view).finest_spacing == first.finest_spacing

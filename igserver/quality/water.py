@@ -21,10 +21,13 @@ Two errors per setting, next to the water pass's median ms and the triangles dra
   (WMO Hs; Cox–Munk slope variance).
 
 Knobs: ocean.wave_count, ocean.lod_error, ocean.detail_resolution (one at a time from the default), the
-mesh's ring rule (``mesh coarse``: the ``low`` preset's) and the atmosphere (tables or exact).
+mesh's ring rule (``mesh coarse``: the ``low`` preset's), the finest vertex spacing (``spacing``: the
+shortest mesh wave over ``lod.SPACING_PER_WAVE``, rounded to a power of two; the reference uses 16) and
+the atmosphere (tables or exact).
 
 Usage: igserver quality water [--out out/quality_water.md] [--size 640x360] [--frames 3]
-       [--waves 8,16,24,32,48] [--lod 0.5,1,2,4] [--detail 64,128,256] [--wind 9.4]
+       [--waves 8,16,24,32,48] [--lod 0.5,1,2,4] [--detail 64,128,256] [--spacing 16,8,4,2] [--wind 9.4]
+       [--camera 0,0,12] [--pitch -6]   (an empty list skips that knob)
 """
 
 from __future__ import annotations
@@ -40,16 +43,17 @@ import numpy as np
 from .volumes import box_blur  # the same 9x9 lowpass as the volumes study
 
 REFERENCE = {"wave_count": 64, "lod_error": 0.25, "detail_resolution": 512}
+REFERENCE_SPACING_PER_WAVE = 16.0  # the reference mesh's finest spacing: 1/16 of the shortest mesh wave
 DEFAULTS = {"wave_count": 24, "lod_error": 1.0, "detail_resolution": 128}
 LOWPASS_LIMIT = 3.0  # 8-bit levels
 SURFACE_LIMIT_CM = 1.0  # near-field max error: the host-query bound of the issue
 
 
-def study_scene(width: int, height: int, wind: float, settings: dict):
+def study_scene(width: int, height: int, wind: float, settings: dict, position=(0.0, 0.0, 12.0), pitch: float = -6.0):
     from ..scene import Scene
 
     return Scene.model_validate({
-        "camera": {"position": [0.0, 0.0, 12.0], "heading": 200.0, "pitch": -6.0, "fov_y": 55.0,
+        "camera": {"position": list(position), "heading": 200.0, "pitch": pitch, "fov_y": 55.0,
                    "width": width, "height": height},
         "time": {"utc": "2026-06-21T10:00:00Z", "sim_time": 100.0}, "location": {"lat": 43.0, "lon": 5.0},
         "weather": {"wind_speed": wind, "wind_direction": 250.0},
@@ -103,19 +107,27 @@ def run(argv: list[str]) -> int:
     ap.add_argument("--waves", default="8,16,24,32,48")
     ap.add_argument("--lod", default="0.5,1,2,4")
     ap.add_argument("--detail", default="64,128,256")
+    ap.add_argument("--spacing", default="8,4,2", help="SPACING_PER_WAVE values (8 is the default)")
     ap.add_argument("--wind", type=float, default=9.4)
+    ap.add_argument("--camera", default="0,0,12", help="camera position x,y,z (m)")
+    ap.add_argument("--pitch", type=float, default=-6.0)
     args = ap.parse_args(argv)
+    position = tuple(float(v) for v in args.camera.split(","))
     width, height = (int(v) for v in args.size.split("x"))
     renderer = Renderer()
 
     water = renderer.graph.passes["water"]
+    from ..render.water import lod
 
-    def render(settings: dict, exact: bool = False, mesh: str = "default"):
+    DEFAULT_SPACING = lod.SPACING_PER_WAVE
+
+    def render(settings: dict, exact: bool = False, mesh: str = "default", spacing: float = DEFAULT_SPACING):
         from ..render.water.water import WaterKnobs
 
         water.exact_atmosphere = exact
         water.settings = WaterKnobs(detail_scale=1.0, lod_error_scale=1.0, mesh=mesh)  # the scene's own values
-        scene = study_scene(width, height, args.wind, settings)
+        lod.SPACING_PER_WAVE = spacing
+        scene = study_scene(width, height, args.wind, settings, position, args.pitch)
         times = []
         for i in range(args.frames + 1):
             from ..scene import apply_patch
@@ -126,32 +138,45 @@ def run(argv: list[str]) -> int:
                 times.append(result.pass_ms["water"])
         final = renderer.render(scene)  # the picture at sim_time 100
         water.exact_atmosphere, water.settings = False, None
+        lod.SPACING_PER_WAVE = DEFAULT_SPACING
         return scene, final.rgba[..., :3].astype(np.float64), statistics.median(times)
 
-    _, ref_many, ref_ms = render(REFERENCE, exact=True)
+    _, ref_many, ref_ms = render(REFERENCE, exact=True, spacing=REFERENCE_SPACING_PER_WAVE)
     # LOD and detail knobs are compared with the same 24 waves at high LOD and detail (the same sea,
     # pixel for pixel); wave counts with the 64-wave reference (another realisation: lowpass, stats).
-    _, ref_same, _ = render({**REFERENCE, "wave_count": DEFAULTS["wave_count"]}, exact=True)
-    sky_only = renderer.render(study_scene(width, height, args.wind, {**DEFAULTS, "enabled": False})).rgba[..., :3]
+    _, ref_same, _ = render({**REFERENCE, "wave_count": DEFAULTS["wave_count"]}, exact=True,
+                            spacing=REFERENCE_SPACING_PER_WAVE)
+    lod.SPACING_PER_WAVE = DEFAULT_SPACING
+    sky_only = renderer.render(study_scene(width, height, args.wind, {**DEFAULTS, "enabled": False}, position,
+                                           args.pitch)).rgba[..., :3]
     sea_mask = np.any(np.abs(ref_same - sky_only) > 2, axis=-1)
     rows = []
-    variants = ([("wave_count", int(v)) for v in args.waves.split(",")]
-                + [("lod_error", float(v)) for v in args.lod.split(",")]
-                + [("detail_resolution", int(v)) for v in args.detail.split(",")]
+    def values(text: str, kind):
+        return [kind(v) for v in text.split(",") if v.strip()]
+
+    variants = ([("wave_count", v) for v in values(args.waves, int)]
+                + [("lod_error", v) for v in values(args.lod, float)]
+                + [("detail_resolution", v) for v in values(args.detail, int)]
+                + [("spacing", v) for v in values(args.spacing, float)]
                 + [("mesh", "coarse"), ("atmosphere", "exact"), ("atmosphere", "tables")])
     for knob, value in variants:
-        settings = {**DEFAULTS, knob: value} if knob not in ("atmosphere", "mesh") else dict(DEFAULTS)
-        scene, img, ms = render(settings, exact=value == "exact", mesh=value if knob == "mesh" else "default")
+        settings = {**DEFAULTS, knob: value} if knob not in ("atmosphere", "mesh", "spacing") else dict(DEFAULTS)
+        scene, img, ms = render(settings, exact=value == "exact", mesh=value if knob == "mesh" else "default",
+                                spacing=value if knob == "spacing" else DEFAULT_SPACING)
+        finest = water.stats.get("finest_spacing_m")
         ref_img = ref_many if knob == "wave_count" else ref_same
         rmse = float(np.sqrt(np.mean((img - ref_img)[sea_mask] ** 2)))
         low = float(np.sqrt(np.mean((box_blur(img) - box_blur(ref_img))[sea_mask] ** 2)))
+        lod.SPACING_PER_WAVE = value if knob == "spacing" else DEFAULT_SPACING
         surf = surface_errors(renderer, scene, value if knob == "mesh" else "default")
+        lod.SPACING_PER_WAVE = DEFAULT_SPACING
         hs, mss = statistics_of(scene)
         row = {"knob": knob, "value": value, **settings, "ms": ms, "triangles": surf["triangles"],
+               "finest_spacing_m": finest,
                "rmse": rmse, "lowpass": low, "near_rms_cm": surf["near"][0], "near_max_cm": surf["near"][1],
                "far_rms_cm": surf["far"][0], "far_max_cm": surf["far"][1], "hs": hs, "mss": mss}
         rows.append(row)
-        print(f"{knob} {value}: {ms:6.1f} ms {surf['triangles']:7d} tri  rmse {rmse:5.1f} lowpass {low:4.1f}  "
+        print(f"{knob} {value}: {ms:6.1f} ms {surf['triangles']:7d} tri  finest {finest} m  rmse {rmse:5.1f} lowpass {low:4.1f}  "
               f"near {surf['near'][0]:.3f}/{surf['near'][1]:.3f} cm  far {surf['far'][0]:.1f}/{surf['far'][1]:.1f} cm"
               f"  Hs {hs:.2f} m  mss {mss:.4f}", flush=True)
     good = [r for r in rows if r["lowpass"] <= LOWPASS_LIMIT and r["near_max_cm"] <= SURFACE_LIMIT_CM]
@@ -162,7 +187,8 @@ def run(argv: list[str]) -> int:
     lines = [
         f"# Water quality ({width}x{height}, wind {args.wind} m/s, renderer {renderer.caps.renderer})",
         "",
-        f"Reference: {REFERENCE} ({ref_ms:.1f} ms). Targets: Hs {target_hs:.2f} m (WMO), "
+        f"Camera {list(position)}, pitch {args.pitch}. Reference: {REFERENCE}, finest spacing 1/"
+        f"{REFERENCE_SPACING_PER_WAVE:g} of the shortest mesh wave ({ref_ms:.1f} ms). Targets: Hs {target_hs:.2f} m (WMO), "
         f"mean-square slope {target_mss:.4f} (Cox–Munk).",
         "Surface: GPU mesh vs float64 wave set at the same points, cm (near: within 200 m; far: all blocks).",
         "Picture: 8-bit sRGB over the sea; lowpass = after a 9x9 box blur.",
@@ -171,8 +197,10 @@ def run(argv: list[str]) -> int:
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
-        mark = " **(default)**" if all(r[k] == DEFAULTS[k] for k in DEFAULTS) and r["value"] not in ("exact", "coarse") else ""
-        lines.append(f"| {r['knob']} | {r['value']}{mark} | {r['ms']:.1f} | {r['triangles']} | {r['rmse']:.1f} | "
+        mark = (" **(default)**" if all(r[k] == DEFAULTS[k] for k in DEFAULTS) and r["value"] not in ("exact", "coarse")
+                and (r["knob"] != "spacing" or r["value"] == DEFAULT_SPACING) else "")
+        value = f"{r['value']:g} ({r['finest_spacing_m']:g} m)" if r["knob"] == "spacing" else r["value"]
+        lines.append(f"| {r['knob']} | {value}{mark} | {r['ms']:.1f} | {r['triangles']} | {r['rmse']:.1f} | "
                      f"{r['lowpass']:.1f} | {r['near_rms_cm']:.3f} / {r['near_max_cm']:.3f} | "
                      f"{r['far_rms_cm']:.1f} / {r['far_max_cm']:.1f} | {r['hs']:.2f} | {r['mss']:.4f} |")
     if good:

@@ -39,6 +39,7 @@ import numpy as np
 from ..camera import CameraView
 
 PATCH_QUADS = 8  # G: quads per block side
+SPACING_PER_WAVE = 8.0  # the finest vertex spacing: this fraction of the shortest mesh wave (see select)
 MAX_LEVELS = 24
 MORPH_START = 0.5  # morph over the outer half of each level's ring
 MORPH_MARGIN = 6.0  # ranges[l] ≥ 6·S_l: the ring is wide enough for the neighbour rule (see above)
@@ -128,11 +129,11 @@ def select(view: CameraView, cam_height: float, k: np.ndarray, amplitude: np.nda
     morph_start, morph_margin = MESHES[mesh]
     sphere = float(np.sum(amplitude))
     h_abs = abs(cam_height)
-    # Finest spacing: 1/8 of the shortest wave, but no finer than 4 pixels straight below the camera
-    # (h·tan(fov/2)/(H_px/2) per pixel), and between 12.5 cm and 64 m.
+    # Finest spacing: 1/SPACING_PER_WAVE of the shortest wave, but no finer than 4 pixels straight below
+    # the camera (h·tan(fov/2)/(H_px/2) per pixel), and between 12.5 cm and 64 m.
     kmax = float(np.max(k)) if len(k) else 1.0
     px = max(h_abs, 1.0) * math.tan(math.radians(fov_y_deg) / 2.0) / (view.height / 2.0)
-    spacing = 2.0 ** round(math.log2(min(max(2.0 * math.pi / kmax / 8.0, 4.0 * px, 0.125), 64.0)))
+    spacing = 2.0 ** round(math.log2(min(max(2.0 * math.pi / kmax / SPACING_PER_WAVE, 4.0 * px, 0.125), 64.0)))
     s0 = spacing * PATCH_QUADS
     pixels_per_rad = (view.height / 2.0) / math.tan(math.radians(fov_y_deg) / 2.0)
     # To the geometric horizon (reversed-Z depth has no far clip; ``max_distance`` only bounds a

@@ -133,8 +133,23 @@ def _pieces(corners: np.ndarray) -> list[np.ndarray]:
     return [corners[piece == k] for k in np.unique(piece)]
 
 
+_HULL_BOXES_MEMO: dict[tuple, list[np.ndarray]] = {}
+
+
 def hull_boxes(scene: Scene, view: CameraView) -> list[np.ndarray]:
-    """Inverse 4x4 matrices (camera-relative world → [-1, 1]³) of the hulls standing or floating in the sea."""
+    """Inverse 4x4 matrices (camera-relative world → [-1, 1]³) of the hulls standing or floating in the sea.
+    Memoised on exactly what they depend on (each visible entity's model and pose, the camera position,
+    the sea level): a still scene pays it once, not per frame."""
+    key = (tuple((e.model, tuple(e.position), e.heading, e.pitch, e.roll, tuple(e.scale))
+                 for e in scene.entities if e.visible), tuple(float(x) for x in view.position), scene.ocean.level)
+    if key not in _HULL_BOXES_MEMO:
+        if len(_HULL_BOXES_MEMO) >= 8:
+            _HULL_BOXES_MEMO.clear()
+        _HULL_BOXES_MEMO[key] = _hull_boxes(scene, view)
+    return list(_HULL_BOXES_MEMO[key])
+
+
+def _hull_boxes(scene: Scene, view: CameraView) -> list[np.ndarray]:
     boxes = []
     for entity in scene.entities:
         if not entity.visible:
@@ -155,17 +170,16 @@ def hull_boxes(scene: Scene, view: CameraView) -> list[np.ndarray]:
 
 def blocks_near_hulls(nodes: np.ndarray, hulls: list[np.ndarray], margin: float) -> np.ndarray:
     """Which LOD blocks (rows of camera-relative x0, y0, side, level) come within ``margin`` (m) of a
-    hull box's horizontal footprint: only those need the fragment hull test."""
-    near = np.zeros(len(nodes), dtype=bool)
+    hull box's horizontal footprint: only those need the fragment hull test. All hulls at once: a
+    box's footprint is its centre ± the sum of |column| of its matrix (the extreme corners)."""
     if not hulls or not len(nodes):
-        return near
-    corners = np.array([[x, y, z, 1.0] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
-    x0, y0, side = nodes[:, 0], nodes[:, 1], nodes[:, 2]
-    for inv in hulls:
-        pts = corners @ np.linalg.inv(inv).T  # box corners, camera-relative
-        lo, hi = pts[:, :2].min(axis=0) - margin, pts[:, :2].max(axis=0) + margin
-        near |= (x0 <= hi[0]) & (x0 + side >= lo[0]) & (y0 <= hi[1]) & (y0 + side >= lo[1])
-    return near
+        return np.zeros(len(nodes), dtype=bool)
+    m = np.linalg.inv(np.asarray(hulls))  # (H, 4, 4) box → camera-relative
+    reach = np.sum(np.abs(m[:, :2, :3]), axis=2)  # (H, 2)
+    lo, hi = m[:, :2, 3] - reach - margin, m[:, :2, 3] + reach + margin
+    x0, y0, side = (nodes[:, c, None].astype(np.float64) for c in range(3))
+    return np.any((x0 <= hi[None, :, 0]) & (x0 + side >= lo[None, :, 0]) & (y0 <= hi[None, :, 1])
+                  & (y0 + side >= lo[None, :, 1]), axis=1)
 
 
 def _detail_bands(sea: SeaSurface) -> tuple[np.ndarray, np.ndarray]:
@@ -456,6 +470,7 @@ class WaterPass(RenderPass):
         self._detail_key = [None] * DETAIL_MAPS
         self._instances = None
         self._tables: SeaTables | None = None
+        self._selection = None  # (key, sea, LodSelection) of the last select()
         self.exact_atmosphere = False  # the atmosphere per pixel/vertex instead of the tables (quality study)
         self.skip_minified_maps = True  # False: every block reads every detail map (tests' reference)
         self.foam_threshold: float | None = None  # tests: a J threshold instead of the calibrated one
@@ -615,10 +630,19 @@ class WaterPass(RenderPass):
                mesh: str = "default") -> lod.LodSelection:
         cam = scene.camera
         fov = cam.fov_y if cam.frustum is None else cam.frustum.top - cam.frustum.bottom
-        return lod.select(view, float(view.position[2] - scene.ocean.level), sea.waves.k, sea.waves.amplitude
-                          * (np.max(sea.field.factor, axis=(1, 2)) if sea.field is not None else 1.0),
-                          fov, min(scene.ocean.lod_error * lod_error_scale, 16.0), view.far, mesh,
-                          fans=sea.field is None)  # a field's depth and surf vary per vertex even where flat
+        # The selection depends on the view, the sea (its wave set and field: one object per state,
+        # igserver.water's cache) and the knobs, not on the time: a still camera selects once.
+        key = (view.position.tobytes(), view.view_proj.tobytes(), int(view.height), view.far, id(sea),
+               scene.ocean.level, fov, scene.ocean.lod_error * lod_error_scale, mesh, lod.PATCH_QUADS,
+               lod.SPACING_PER_WAVE)
+        if self._selection is not None and self._selection[0] == key and self._selection[1] is sea:
+            return self._selection[2]
+        selection = lod.select(view, float(view.position[2] - scene.ocean.level), sea.waves.k, sea.waves.amplitude
+                               * (np.max(sea.field.factor, axis=(1, 2)) if sea.field is not None else 1.0),
+                               fov, min(scene.ocean.lod_error * lod_error_scale, 16.0), view.far, mesh,
+                               fans=sea.field is None)  # a field's depth and surf vary per vertex even where flat
+        self._selection = (key, sea, selection)
+        return selection
 
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
