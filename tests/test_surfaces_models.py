@@ -230,3 +230,45 @@ def test_committed_demo_models_are_the_generator_output(tmp_path):
     for name in ("crate", "barrel"):  # the cheap ones; all five use the same deterministic path
         data = demo_models.MODELS[name]().export(file_type="glb")
         assert data == (packaged / f"{name}.glb").read_bytes(), name
+
+
+def test_blended_surfaces_show_what_lies_behind_them(renderer, models_dir):
+    # A glTF material with alphaMode BLEND over the sky and the sea: in the HDR target (linear radiance,
+    # before the tone curve) a pane of opacity a must be a * (the same pane opaque) + (1 - a) * (the
+    # frame without it). The blended surfaces were drawn in the surfaces pass, before the water and
+    # the sky, with a depth mask set on the context (which moderngl ignores: it belongs to the
+    # framebuffer): the pane wrote depth, the sky and the sea behind it were never drawn, and it lay
+    # over the cleared black. Now they are drawn last of the opaque scene (blended_surfaces pass).
+    # Within 2 % of the pane's radiance + 1e-3 (float16 targets, and the blend's own rounding).
+    import trimesh
+    from trimesh.visual.material import PBRMaterial
+
+    def pane(alpha: float) -> bytes:
+        quad = trimesh.Trimesh(vertices=[[-3.0, -3.0, 0.0], [3.0, -3.0, 0.0], [3.0, 3.0, 0.0], [-3.0, 3.0, 0.0]],
+                               faces=[[0, 1, 2], [0, 2, 3]], process=False)  # glTF +Y up: upright
+        quad.visual = trimesh.visual.TextureVisuals(uv=np.zeros((4, 2)), material=PBRMaterial(
+            baseColorFactor=[0.6, 0.2, 0.2, alpha], alphaMode="BLEND", metallicFactor=0.0, roughnessFactor=0.9))
+        return trimesh.Scene(quad).export(file_type="glb")
+
+    (models_dir / "pane.glb").write_bytes(pane(0.25))
+    (models_dir / "solid.glb").write_bytes(pane(1.0))
+    base = {"camera": {"position": [0.0, 0.0, 3.0], "heading": 0.0, "pitch": 0.0, "width": 96, "height": 54,
+                       "exposure_ev": 14.0},
+            "time": {"utc": "2026-06-21T10:00:00Z"}, "ocean": {"enabled": True},
+            "shadows": {"enabled": False}}  # the opaque pane (alpha >= 0.5) would shadow itself, the glass not
+
+    def hdr(entities):
+        scene = Scene.model_validate({**base, "entities": entities})
+        assert ("blended_surfaces" in renderer.graph.plan(scene)) == bool(entities)
+        renderer.render(scene)
+        target = renderer.targets_for(96, 54).hdr
+        return np.frombuffer(target.read(), dtype=np.float16).reshape(54, 96, 4)[..., :3].astype(np.float64)
+
+    where = {"position": [0.0, 10.0, 3.0]}  # the pane straddles the horizon: sky above, sea below
+    glass = hdr([{"id": "p", "model": "pane", **where}])
+    solid = hdr([{"id": "p", "model": "solid", **where}])
+    bare = hdr([])
+    covered = np.abs(solid - bare).max(axis=2) > 0.05 * bare.max()  # the pane's pixels
+    assert covered.sum() > 200 and covered[:27].any() and covered[27:].any()
+    want = 0.25 * solid + 0.75 * bare
+    assert np.abs(glass - want)[covered].max() <= 0.02 * solid[covered].max() + 1e-3

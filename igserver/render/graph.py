@@ -1,7 +1,8 @@
 """FrameGraph: per frame, the list of passes this scene needs, in order (DESIGN §5).
 
-Order: opaque surfaces (ground/entities), water, sky (fills what nothing covered), depth copy
-(only when a later pass reads scene distance), volumes, precipitation, post.
+Order: opaque surfaces (ground/entities), water, sky (fills what nothing covered), blended surfaces
+(glTF alphaMode BLEND, over all of those), depth copy (only when a later pass reads scene distance),
+volumes, precipitation, post.
 """
 
 from __future__ import annotations
@@ -15,12 +16,13 @@ from .post.post import PostPass
 from .precip.precip import PrecipPass
 from .shaders import ProgramCache
 from .sky.sky import SkyPass
-from .surfaces.surfaces import SurfacesPass
+from .surfaces.surfaces import BlendedSurfacesPass, SurfacesPass
 from .volumes.volumes import VolumesPass
 from .water.water import WaterPass
 
 # Pipelines register here, in drawing order; DepthCopyPass is inserted before the first reader.
-PASS_TYPES: list[type[RenderPass]] = [SurfacesPass, WaterPass, SkyPass, VolumesPass, PrecipPass, PostPass]
+PASS_TYPES: list[type[RenderPass]] = [SurfacesPass, WaterPass, SkyPass, BlendedSurfacesPass, VolumesPass, PrecipPass,
+                                      PostPass]
 
 
 def register_pass(pass_type: type[RenderPass], before: str = "post") -> None:

@@ -56,6 +56,7 @@ class ModelInfo:
     vertices: int
     textures: int
     file_bytes: int
+    blended: bool = False  # a material with alphaMode BLEND (drawn by the late blended-surfaces pass)
 
 
 _cache: dict[tuple, ModelInfo] = {}
@@ -268,7 +269,10 @@ def _check_document(name: str, path: Path, doc: dict, bin_chunk: bytes | None, f
     nodes = _items(doc, "nodes", name, MAX_NODES)
     node_names = _check_nodes(name, nodes, doc)
     _check_images(name, path, doc, views, buffers, bin_chunk)
-    return ModelInfo(name, node_names, vertices, len(doc.get("images", [])), file_size)
+    materials = doc.get("materials", [])
+    blended = isinstance(materials, list) and any(
+        isinstance(m, dict) and str(m.get("alphaMode", "OPAQUE")).upper() == "BLEND" for m in materials)
+    return ModelInfo(name, node_names, vertices, len(doc.get("images", [])), file_size, blended)
 
 
 def _check_nodes(name: str, nodes: list, doc: dict) -> frozenset[str]:

@@ -24,6 +24,7 @@ from ..camera import CameraView, body_to_world, gl_matrix
 from ..common.aerial_table import frame_aerial_table
 from ..passes import RenderPass
 from ..shaders import set_uniforms
+from .gltf import check_model
 from .gpu_models import INSTANCE_FLOATS, SAMPLER_UNITS, GpuModel, ModelCache
 from .shadow_fit import ShadowProjection, fit_directional, fit_spot
 
@@ -181,6 +182,7 @@ class SurfacesPass(RenderPass):
                     "u_shadow_softness": scene.shadows.softness,
                     "u_key_shadow_map": SHADOW_UNIT_KEY, "u_spot_shadow_map": SHADOW_UNIT_SPOT}
         self.last_shadow_passes = []
+        self._bound_shadow_maps = []  # (texture, unit): bound again for the late blended pass
         bounds = np.concatenate([b.caster_bounds for b in batches.values()] or [np.zeros((0, 4))])
         if not scene.shadows.enabled or len(bounds) == 0:
             return uniforms
@@ -192,6 +194,7 @@ class SurfacesPass(RenderPass):
                                          scene.shadows.resolution, depth.zero_to_one(self.ctx))
             tex = self._render_shadow_map("key", scene.shadows.resolution, projection, batches)
             tex.use(location=SHADOW_UNIT_KEY)
+            self._bound_shadow_maps.append((tex, SHADOW_UNIT_KEY))
             uniforms.update({"u_key_shadow_light": which, "u_key_shadow_texel": projection.texel})
             uniforms["u_key_shadow_matrix"] = gl_matrix(projection.map_matrix())
             self.last_shadow_passes.append("sun" if which == SUN_LIGHT else "moon")
@@ -202,6 +205,7 @@ class SurfacesPass(RenderPass):
                                   SPOT_SHADOW_RESOLUTION, depth.zero_to_one(self.ctx))
             tex = self._render_shadow_map("spot", SPOT_SHADOW_RESOLUTION, projection, batches)
             tex.use(location=SHADOW_UNIT_SPOT)
+            self._bound_shadow_maps.append((tex, SHADOW_UNIT_SPOT))
             uniforms.update({"u_spot_shadow_light": index, "u_spot_shadow_texel": projection.texel,
                              "u_spot_shadow_matrix": gl_matrix(projection.map_matrix())})
             self.last_shadow_passes.append("spot")
@@ -292,14 +296,49 @@ class SurfacesPass(RenderPass):
         self._draw_batches(program, batches, "view", blended=False)
         if any(p.material.data.alpha_mode == 2 for b in batches.values() if len(b.rows["view"])
                for p in b.model.primitives):
-            # Blended surfaces over the opaque ones: colour only, depth tested but not written.
-            targets.color_fbo.use()
-            self.ctx.enable(moderngl.BLEND)
-            self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
-            self.ctx.depth_mask = False
-            try:
-                self._draw_batches(program, batches, "view", blended=True)
-            finally:
-                self.ctx.depth_mask = True
-                self.ctx.disable(moderngl.BLEND)
-                targets.scene_fbo.use()
+            # Blended surfaces come later, over the water and the sky (BlendedSurfacesPass).
+            frame.resources["blended_surfaces"] = lambda: self._draw_blended(frame, targets, program, batches)
+
+    def _draw_blended(self, frame, targets, program, batches) -> None:
+        """The blended primitives over everything opaque, the water and the sky: colour only, depth
+        tested but not written (moderngl keeps the depth mask on the framebuffer: the context
+        attribute once set here was ignored, and the panes wrote depth)."""
+        for tex, unit in self._bound_shadow_maps:
+            tex.use(location=unit)
+        table = frame.resources.get("aerial_table")
+        if table is not None and not self._aerial_exact_frame:
+            table.bind()
+        targets.color_fbo.depth_mask = False
+        targets.color_fbo.use()
+        self.ctx.enable(moderngl.DEPTH_TEST | moderngl.BLEND)
+        self.ctx.disable(moderngl.CULL_FACE)
+        self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        try:
+            self._draw_batches(program, batches, "view", blended=True)
+        finally:
+            targets.color_fbo.depth_mask = True
+            self.ctx.disable(moderngl.BLEND)
+            targets.scene_fbo.use()
+
+
+def _model_blends(name: str) -> bool:
+    try:
+        return check_model(name).blended
+    except Exception:  # a model that cannot be read draws nothing (the surfaces pass reports it)
+        return False
+
+
+class BlendedSurfacesPass(RenderPass):
+    """Surfaces of glTF materials with alphaMode BLEND (glass, windows, canopies), drawn after the
+    water and the sky so what lies behind them shows through them; the surfaces pass prepared their
+    program and instances this frame (frame.resources["blended_surfaces"])."""
+
+    name = "blended_surfaces"
+
+    def needed(self, scene: Scene, view: CameraView) -> bool:
+        return any(e.visible and _model_blends(e.model) for e in scene.entities)
+
+    def execute(self, frame, targets) -> None:
+        draw = frame.resources.get("blended_surfaces")
+        if draw is not None:
+            draw()

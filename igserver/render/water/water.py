@@ -340,7 +340,7 @@ FOAM_STREAK_SIZE = (24.0, 3.0)  # m along and across the wind: a noise cell of t
 FOAM_DRIFT = 0.03  # × wind speed: the surface drift that carries the streaks downwind
 FOAM_PERIOD = 64.0  # noise cells per side of the tabulated noise: 1.5 km along the wind, 192 m across
 FOAM_NOISE_SIZE = 256  # texels per side: 4 per noise cell (bilinear; the shader fades the streaks before it minifies)
-FOAM_NOISE_UNIT = 16  # past the frame's 8..15
+FOAM_NOISE_UNIT = 20  # past the frame's 8..15, the shadow maps' 16, 17 and the aerial table's 18, 19
 
 
 def foam_frame(scene: Scene, view: CameraView) -> dict:
