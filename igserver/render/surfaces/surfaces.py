@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import time
 from dataclasses import dataclass, field
 
 import moderngl
@@ -321,11 +322,25 @@ class SurfacesPass(RenderPass):
             targets.scene_fbo.use()
 
 
+_BLENDS: dict[str, tuple[bool, float]] = {}
+BLENDS_RECHECK_S = 1.0  # a model file replaced while the IG runs is noticed within this
+
+
 def _model_blends(name: str) -> bool:
+    """Whether the model has a BLEND material, from its check (cached on the file's identity, which
+    costs a stat: ~1 ms a frame over the demo's 22 entities, so the answer is kept a second)."""
+    now = time.monotonic()
+    held = _BLENDS.get(name)
+    if held is not None and now - held[1] < BLENDS_RECHECK_S:
+        return held[0]
     try:
-        return check_model(name).blended
+        blends = check_model(name).blended
     except Exception:  # a model that cannot be read draws nothing (the surfaces pass reports it)
-        return False
+        blends = False
+    if len(_BLENDS) > 256:
+        _BLENDS.clear()
+    _BLENDS[name] = (blends, now)
+    return blends
 
 
 class BlendedSurfacesPass(RenderPass):
