@@ -420,8 +420,9 @@ def test_foam_streak_noise_is_about_uniform(renderer):
 
 
 def test_minified_detail_maps_leave_the_picture(renderer):
-    # Far blocks read the tile average of the detail maps that are fully minified there instead of
-    # sampling them (the sampler would return the 1x1 mip level): the picture must not move.
+    # Far blocks read the tile average of the detail maps that are minified there (the sampler would
+    # read the 2x2 level or coarser: each wave averaged to <= 13 % of its slope) instead of sampling
+    # them: the picture must not move by more than a level.
     from igserver.render.water.water import detail_means, detail_tiles
 
     scene = sea_scene(camera={"position": [0.0, 0.0, 30.0], "pitch": -15.0, "width": 160, "height": 90})
