@@ -67,7 +67,7 @@ float foam_cover(float f, vec2 rest) {
     vec2 q = vec2(dot(rest, u_foam_frame.xy) * u_foam_frame.z,
                   dot(rest, vec2(-u_foam_frame.y, u_foam_frame.x)) * u_foam_frame.w) + u_foam_offset;
     float contrast = clamp(1.5 - 2.0 * length(fwidth(q)), 0.0, 1.0);  // none past 3 texels a pixel
-    float u = texture(u_foam_noise, q / u_foam_period).r;
+    float u = textureLod(u_foam_noise, q / u_foam_period, 0.0).r;  // no mipmaps: no implicit LOD
     float dithered = clamp((f - (1.0 - FOAM_SOFT) * u) / FOAM_SOFT, 0.0, 1.0);
     return mix(foam_mean(f), dithered, contrast);
 }
