@@ -378,8 +378,8 @@ class RenderService:
             raise RenderError(reply[1])
         _, shape, total_ms, pass_ms, passes, ev100, illuminance = reply
         rgba = np.ndarray(shape, dtype=np.uint8, buffer=slot.buf).copy()
-        self.warm = True
         self.ig_frame += 1
+        self.warm = True  # after the count: /v1/ready (another thread) never sees warm with no frame counted
         return Frame(rgba, self.ig_frame, scene.host_frame, total_ms, pass_ms, passes, scene.time.sim_time, ev100,
                      illuminance)
 
