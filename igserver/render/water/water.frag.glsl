@@ -167,7 +167,12 @@ void main() {
     foam = max(foam, smoothstep(0.1, 0.7, v_breaking) * smoothstep(1.02, 0.9, v_jacobian)
                      * smoothstep(0.15, 0.85, 0.5 + 4.0 * (d1.x - d2.y)));
 #endif
-    lit = mix(lit, FOAM_ALBEDO * e_down / PI, foam);
+    // Foam is a rough white surface on the facet n: the sun and the moon by n.l, the sky by the part
+    // of the dome the facet sees ((1 + n_z) / 2), local lights as on a level surface — so the foam on a
+    // crest facing the sun is brighter than on its lee (a level downwelling value drew a flat sheet).
+    vec3 e_foam = u_sun_illuminance * max(dot(n, u_sun_dir), 0.0) + u_moon_illuminance * max(dot(n, u_moon_dir), 0.0)
+                + PI * u_sky_ambient * (0.5 + 0.5 * n.z) + e_local;
+    lit = mix(lit, FOAM_ALBEDO * e_foam / PI, foam);
     // Dry land of the bathymetry (h <= 0): no water, the bare beach at the water level (there is no
     // terrain pipeline yet), wet sand darker for the last few centimetres.
 #ifdef WATER_FIELD
