@@ -38,10 +38,11 @@ MAX_HULLS = 32  # a pier's piles count one each
 DETAIL_MAPS = 3
 # The detail band is split by wavelength into DETAIL_MAPS maps, each covering a ratio DETAIL_RATIO of
 # wavelengths on a tile DETAIL_MIN_CYCLES times its longest wave: a wave snapped to the tile's lattice
-# of (m, n) cycles then keeps its direction within atan(0.5 / 5) ≈ 6° and its wavelength within 10 %
-# (a wave of 1–2 cycles snaps to 0°, 45° or 90°, and the map shows a square lattice), and the shortest
-# spans 38.5 cycles, 3.3 texels each at the medium 128² maps. Not a whole ratio: the tiles never repeat
-# in step. Waves shorter than the finest map's band go to the roughness (``detail_unresolved_var``).
+# of (m, n) cycles (rounding moves it by ≤ √0.5 cycle) keeps its direction within asin(0.71 / 5) ≈ 8°
+# and its wavelength within 14 % (a wave of 1–2 cycles snaps to 0°, 45° or 90°, and the map shows a
+# square lattice), and the shortest spans 38.5 cycles, 3.3 texels each at the medium 128² maps. Not a
+# whole ratio: the tiles never repeat in step. Waves shorter than the finest map's band go to the
+# roughness (``detail_unresolved_var``).
 DETAIL_MIN_CYCLES = 5.0
 DETAIL_RATIO = 7.7
 DETAIL_MIN_WAVES = 4
