@@ -33,7 +33,7 @@ def test_pass_units_avoid_the_frame_wide_units():
         **{f"material {k}": v for k, v in gpu_models.SAMPLER_UNITS.items()},
         "water field": water.FIELD_UNIT, "water field scalar": water.FIELD_SCALAR_UNIT,
         "water sky reflection": water.SKY_REFLECT_UNIT, "water air T": water.AIR_T_UNIT,
-        "water air S": water.AIR_S_UNIT,
+        "water air S": water.AIR_S_UNIT, "water foam noise": water.FOAM_NOISE_UNIT,
         "post halo table": post.HALO_TABLE_UNIT, "sky cirrus table": sky.CIRRUS_TABLE_UNIT,
         "sky cirrus hide": sky.CIRRUS_HIDE_UNIT,
     }

@@ -11,3 +11,12 @@ float nearest_distance(sampler2D distance, ivec2 low_pixel, int scale) {
             d = min(d, texelFetch(distance, min(base + ivec2(x, y), size - 1), 0).r);
     return d;
 }
+
+// Depth-aware upsampling (the halos in post/tonemap.glsl, the volumes' volumes/upsample.frag.glsl): of
+// the four low-resolution texels a textureGather returns — (0,1), (1,1), (1,0), (0,0) relative to the
+// lower-left one — the offset of the one whose distance differs least from the pixel's (ties: (0,0),
+// then (1,0), (0,1), (1,1)).
+vec2 gather_closest_offset(vec4 diff) {
+    float best = min(min(diff.x, diff.y), min(diff.z, diff.w));
+    return best == diff.w ? vec2(0.0) : best == diff.z ? vec2(1.0, 0.0) : best == diff.x ? vec2(0.0, 1.0) : vec2(1.0);
+}

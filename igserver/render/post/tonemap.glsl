@@ -1,6 +1,7 @@
 // Post pass: the HDR target is already pre-exposed; tone map (ACES fit, Narkowicz 2015), encode
 // sRGB, and dither by half an 8-bit step with interleaved gradient noise to hide banding.
 #include "common/frame.glsl"
+#include "common/nearest_distance.glsl"
 
 uniform sampler2D u_hdr;
 
@@ -20,9 +21,7 @@ vec3 upsampled_halo(vec2 uv) {
     vec4 diff = abs(textureGather(u_halos, uv, 3) - ld);  // texels (0,1), (1,1), (1,0), (0,0)
     vec2 size = vec2(textureSize(u_halos, 0));
     vec2 i0 = floor(uv * size - 0.5);
-    float best = min(min(diff.x, diff.y), min(diff.z, diff.w));
-    vec2 o = best == diff.w ? vec2(0.0, 0.0) : best == diff.z ? vec2(1.0, 0.0) : best == diff.x ? vec2(0.0, 1.0) : vec2(1.0, 1.0);
-    vec2 nearest = (clamp(i0 + o, vec2(0.0), size - 1.0) + 0.5) / size;
+    vec2 nearest = (clamp(i0 + gather_closest_offset(diff), vec2(0.0), size - 1.0) + 0.5) / size;
     return texture(u_halos, all(lessThan(diff, vec4(HALO_LOG2_TOLERANCE))) ? uv : nearest).rgb;
 }
 #endif

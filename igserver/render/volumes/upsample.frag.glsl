@@ -9,6 +9,8 @@
 // The filtered fetch's point slides to the matching column or row, which blends exactly the
 // matching texels when they are all four, one, or an adjacent pair; two diagonal or three take
 // the closest texel instead (edges only: the renormalised blend of those is not a bilinear fetch).
+#include "common/nearest_distance.glsl"
+
 uniform sampler2D u_volume_color;     // low resolution, premultiplied
 uniform sampler2D u_volume_distance;  // low resolution scene distance used by the march (m)
 uniform sampler2D u_scene_distance;   // full resolution (m)
@@ -51,9 +53,6 @@ void main() {
     // weights of (0,1), (1,1), (1,0), (0,0) at g: a non-matching texel with weight left -> closest
     vec4 w = vec4((1.0 - g.x) * g.y, g.x * g.y, g.x * (1.0 - g.y), (1.0 - g.x) * (1.0 - g.y));
     bool clean = any(match) && all(lessThanEqual(w * vec4(not(match)), vec4(0.0)));
-    float best = min(min(diff.x, diff.y), min(diff.z, diff.w));
-    vec2 nearest = best == diff.w ? vec2(0.0) : best == diff.z ? vec2(1.0, 0.0)
-                 : best == diff.x ? vec2(0.0, 1.0) : vec2(1.0);
-    vec2 at = clean ? g : nearest;
+    vec2 at = clean ? g : gather_closest_offset(diff);
     out_color = texture(u_volume_color, (clamp(i0 + at, vec2(0.0), size - 1.0) + 0.5) / size);
 }
