@@ -365,7 +365,7 @@ def foam_frame(scene: Scene, view: CameraView) -> dict:
             "u_foam_noise": FOAM_NOISE_UNIT}
 
 
-_FOAM_CACHE: dict[tuple, float] = {}
+_FOAM_CACHE: dict[tuple, tuple[SeaSurface, float]] = {}
 
 
 def drawn_foam_threshold(sea: SeaSurface, wind: float) -> float:
@@ -376,28 +376,29 @@ def drawn_foam_threshold(sea: SeaSurface, wind: float) -> float:
     streak texture, drew foam over 3 % of the sea at Beaufort 9 instead of W = 16 %, and 0.02 % at
     Beaufort 5 instead of 0.8 %)."""
     key = id(sea), float(wind)
-    if key not in _FOAM_CACHE:
-        if len(_FOAM_CACHE) > 16:
-            _FOAM_CACHE.clear()
-        coverage = whitecap_coverage(wind)
-        if coverage <= 0.0 or sea.n == 0:
-            _FOAM_CACHE[key] = -1.0
-        else:
-            j = sea.jacobian_samples
-            area = np.maximum(j, 0.0)
-            edge = FOAM_EDGE[0] + FOAM_EDGE[1]
-            want = coverage
+    held = _FOAM_CACHE.get(key)
+    if held is not None and held[0] is sea:  # the sea is held with it: its id cannot be reused meanwhile
+        return held[1]
+    if len(_FOAM_CACHE) > 16:
+        _FOAM_CACHE.clear()
+    coverage = whitecap_coverage(wind)
+    threshold = -1.0
+    if coverage > 0.0 and sea.n > 0:
+        j = sea.jacobian_samples
+        area = np.maximum(j, 0.0)
+        edge = FOAM_EDGE[0] + FOAM_EDGE[1]
 
-            def drawn(threshold: float) -> float:
-                x = np.clip((threshold + FOAM_EDGE[0] - j) / edge, 0.0, 1.0)
-                return float(np.average(foam_mean(x * x * (3.0 - 2.0 * x)), weights=area))
+        def drawn(t: float) -> float:
+            x = np.clip((t + FOAM_EDGE[0] - j) / edge, 0.0, 1.0)
+            return float(np.average(foam_mean(x * x * (3.0 - 2.0 * x)), weights=area))
 
-            lo, hi = float(j.min()) - FOAM_EDGE[0], float(j.max()) + FOAM_EDGE[1]  # drawn 0 .. 1
-            for _ in range(40):  # bisection: the drawn mean rises with the threshold
-                mid = 0.5 * (lo + hi)
-                lo, hi = (mid, hi) if drawn(mid) < want else (lo, mid)
-            _FOAM_CACHE[key] = 0.5 * (lo + hi)
-    return _FOAM_CACHE[key]
+        lo, hi = float(j.min()) - FOAM_EDGE[0], float(j.max()) + FOAM_EDGE[1]  # drawn 0 .. 1
+        for _ in range(40):  # bisection: the drawn mean rises with the threshold
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if drawn(mid) < coverage else (lo, mid)
+        threshold = 0.5 * (lo + hi)
+    _FOAM_CACHE[key] = (sea, threshold)
+    return threshold
 
 
 class SeaTables:
