@@ -435,9 +435,9 @@ def test_minified_detail_maps_leave_the_picture(renderer):
     finally:
         water.skip_minified_maps = True
     assert sum(by_maps[:-1]) > len(by_maps) and by_maps[-1] < sum(by_maps)  # maps were skipped
-    # The average in float64 against the GPU's box-filtered float16 map: a level at most.
+    # The average in float64 against the box-filtered float32 map: a level at most.
     assert np.abs(fast.astype(int) - full.astype(int)).max() <= 1
-    # The tile averages are what the maps' top mip level holds (float16 texels averaged in float16).
+    # The tile averages are what the maps' top mip level holds.
     sea = sea_surface(scene.ocean, scene.weather)
     tiles = detail_tiles(sea, scene.time.sim_time)
     means = detail_means(tiles)
@@ -445,11 +445,38 @@ def test_minified_detail_maps_leave_the_picture(renderer):
         if len(waves):
             tex = water._detail[c]
             top = int(np.log2(tex.size[0]))
-            texel = np.frombuffer(tex.read(level=top), dtype=np.float16).astype(np.float64)
-            # float16 keeps 11 bits: each texel and each mip level rounds by <= 2^-11 relative of the
-            # variance (~0.05 %); the slope means are 0 in exact arithmetic, rounding leaves ~1e-4 of it.
-            assert texel[2:] == pytest.approx(means[c, 2:], rel=5e-3)
-            assert np.abs(texel[:2]).max() < 1e-3 * np.sqrt(means[c, 2:].max())
+            texel = np.frombuffer(tex.read(level=top), dtype=np.float32).astype(np.float64)
+            # float32 sums over 128² texels: the slope means are 0 in exact arithmetic.
+            assert texel[2:] == pytest.approx(means[c, 2:], rel=1e-4)
+            assert np.abs(texel[:2]).max() < 1e-5 * np.sqrt(means[c, 2:].max())
+
+
+@pytest.mark.parametrize("resolution", [32, 128])
+def test_detail_maps_are_the_waves_at_the_texel_centres(resolution):
+    # detail_map_levels sums the tile's waves by an inverse FFT: at every texel centre it must equal
+    # the direct sum of their slopes (aliased waves included: at 32 texels the finest waves of a band,
+    # 38.5 cycles a tile, are past Nyquist), and each mip level the mean of 2x2 texels of the one above.
+    from igserver.render.water.water import detail_map_levels, detail_tiles
+
+    scene = sea_scene(weather={"wind_speed": 22.6})
+    sea = sea_surface(scene.ocean, scene.weather)
+    tiles = [waves for _, waves in detail_tiles(sea, 12.3) if len(waves)]
+    assert len(tiles) >= 2
+    u = (np.arange(resolution) + 0.5) / resolution
+    x, y = np.meshgrid(u, u)  # rows along the tile's y
+    for waves in tiles:
+        levels = detail_map_levels(waves, resolution)
+        mn = waves[:, :2]
+        g = waves[:, 2:3] * mn / np.linalg.norm(mn, axis=1, keepdims=True)
+        theta = 2.0 * np.pi * (mn[:, 0, None, None] * x + mn[:, 1, None, None] * y) + waves[:, 3, None, None]
+        sx = np.sum(g[:, 0, None, None] * np.cos(theta), axis=0)
+        sy = np.sum(g[:, 1, None, None] * np.cos(theta), axis=0)
+        expected = np.stack([sx, sy, sx * sx, sy * sy], axis=-1)
+        assert np.abs(levels[0] - expected).max() < 1e-5 * np.abs(expected).max()
+        assert [lv.shape[0] for lv in levels] == [resolution >> i for i in range(len(levels))]
+        for above, below in zip(levels, levels[1:]):
+            mean = above.reshape(below.shape[0], 2, below.shape[0], 2, 4).mean(axis=(1, 3))
+            assert np.abs(below - mean).max() < 1e-6 * np.abs(expected).max()
 
 
 def test_hull_boxes_follow_the_entities_and_the_camera():

@@ -237,7 +237,7 @@ class Ocean(Strict):
         0.6, ge=0.0, le=1.0, description="Gerstner steepness Q in deep water (0 round, 1 sharpest without loops)")
     wave_count: int = Field(24, ge=4, le=64, description="Gerstner waves displaced by the mesh (and the queries)")
     lod_error: float = Field(1.0, ge=0.25, le=16.0, description="px, screen-space error bound of the sea mesh LOD")
-    detail_resolution: int = Field(128, ge=32, le=512, description="texels per side of each detail normal map")
+    detail_resolution: int = Field(128, ge=32, le=512, description="texels per side of each detail normal map (the nearest power of two is used)")
 
 
 class Effect(Strict):

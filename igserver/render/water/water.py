@@ -217,6 +217,37 @@ def detail_tiles(sea: SeaSurface, t: float) -> list[tuple[float, np.ndarray]]:
     return tiles
 
 
+def detail_map_levels(waves: np.ndarray, resolution: int) -> list[np.ndarray]:
+    """One detail map and its mip chain, level 0 (``resolution``² texels, a power of two) first:
+    (sx, sy, sx², sy²) per texel, float32 (numpy has no fast float16 conversion: 3 ms a 128² map),
+    rows along the tile's y.
+
+    The texel (i, j) holds the slopes at its centre u = (i + ½) / N, v = (j + ½) / N of the tile's
+    waves (m, n, A k, phase) (``detail_tiles``): s = Σ g cos θ, g = A k (m, n) / |(m, n)| the slope
+    amplitude, θ = 2π (m u + n v) + phase = 2π (m i + n j) / N + ψ, ψ = phase + π (m + n) / N.
+    Both components at once as sx + i sy = Σ (gx + i gy) (e^{iθ} + e^{−iθ}) / 2: an inverse DFT of
+    N² coefficients (gx + i gy) e^{±iψ} / 2 placed at the bins ±(m, n) mod N — exact at the texel
+    centres, aliasing included, in O(N² log N) whatever the wave count. Each mip level is the mean of
+    2×2 texels of the one above (float32): what the sampler's trilinear filter reads,
+    and E[s²] − E[s]² of a level is the slope variance it no longer resolves (LEAN mapping)."""
+    n_side = int(resolution)
+    mn = waves[:, 0:2]
+    g = waves[:, 2:3] * mn / np.linalg.norm(mn, axis=1, keepdims=True)
+    half = 0.5 * (g[:, 0] + 1j * g[:, 1])
+    psi = waves[:, 3] + math.pi * (mn[:, 0] + mn[:, 1]) / n_side
+    m, n = mn[:, 0].astype(int), mn[:, 1].astype(int)
+    spectrum = np.zeros((n_side, n_side), dtype=complex)
+    np.add.at(spectrum, (n % n_side, m % n_side), half * np.exp(1j * psi))
+    np.add.at(spectrum, (-n % n_side, -m % n_side), half * np.exp(-1j * psi))
+    s = np.fft.ifft2(spectrum, norm="forward")  # Σ X e^{+2πi (m i + n j) / N}, no 1/N² factor
+    level = np.stack([s.real, s.imag, s.real * s.real, s.imag * s.imag], axis=-1).astype(np.float32)
+    levels = [level]
+    while level.shape[0] > 1:
+        level = 0.25 * (level[0::2, 0::2] + level[0::2, 1::2] + level[1::2, 0::2] + level[1::2, 1::2])
+        levels.append(level)
+    return levels
+
+
 def detail_unresolved_var(sea: SeaSurface) -> float:
     """Mean-square slope of the detail waves shorter than every map's band: roughness only."""
     if sea.detail.n == 0:
@@ -473,7 +504,6 @@ class WaterPass(RenderPass):
         self._field_key = None
         self._field_tex = None
         self._detail = None
-        self._detail_fbos = None
         self._detail_key = [None] * DETAIL_MAPS
         self._instances = None
         self._tables: SeaTables | None = None
@@ -560,22 +590,22 @@ class WaterPass(RenderPass):
             self._foam_noise_tex = tex
         return self._foam_noise_tex
 
-    def _render_detail(self, sea: SeaSurface, t: float, resolution: int, tiles, read: int) -> None:
-        """Render the first ``read`` detail maps of ``tiles`` (those some block reads; the others are
-        empty or fully minified everywhere this frame) for time ``t``."""
+    def _update_detail(self, sea: SeaSurface, t: float, resolution: int, tiles, read: int) -> None:
+        """Write the first ``read`` detail maps of ``tiles`` (those some block reads; the others are
+        empty or fully minified everywhere this frame) for time ``t``, with their mip chains
+        (``detail_map_levels``: an inverse FFT on the CPU; drawing the maps and building their mips on
+        llvmpipe cost 2-3 ms a map, most of it waiting for the rasteriser before the mipmap blit)."""
         if self._detail is None or self._detail[0].size[0] != resolution:
             if self._detail is not None:
-                for tex, fbo in zip(self._detail, self._detail_fbos):
-                    fbo.release()
+                for tex in self._detail:
                     tex.release()
             self._detail_key = [None] * DETAIL_MAPS
-            self._detail = [self.ctx.texture((resolution, resolution), 4, dtype="f2") for _ in range(DETAIL_MAPS)]
-            self._detail_fbos = [self.ctx.framebuffer(color_attachments=[t_]) for t_ in self._detail]
+            self._detail = [self.ctx.texture((resolution, resolution), 4, dtype="f4") for _ in range(DETAIL_MAPS)]
             for tex in self._detail:
+                tex.build_mipmaps()  # allocates the chain that _update_detail overwrites level by level
                 tex.repeat_x = tex.repeat_y = True
                 tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
-        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-        for c, ((size, waves), tex, fbo) in enumerate(zip(tiles[:read], self._detail, self._detail_fbos)):
+        for c, ((size, waves), tex) in enumerate(zip(tiles[:read], self._detail)):
             # A map depends on the sea state and the time only: a frame at the same time (another
             # view, a re-render of a paused scene) reuses it. (The sea is cached per state by
             # igserver.water, so identity is the state; a resolution change above clears the keys.)
@@ -583,21 +613,8 @@ class WaterPass(RenderPass):
                                    and self._detail_key[c][1] == float(t)):
                 continue
             self._detail_key[c] = (sea, float(t))
-            n = len(waves)
-            # The wave count compiled in: llvmpipe then unrolls the loop (a uniform count costs ~1/3 more).
-            program = self.programs.program("common/fullscreen.vert.glsl", "water/detail.frag.glsl",
-                                            {"DETAIL_COUNT": n})
-            fbo.use()
-            # Per wave: 2 pi (m, n) (rad per tile), phase; slope amplitude A k along the unit (m, n).
-            table = np.zeros((n, 4), dtype=np.float32)
-            slope = np.zeros((n, 4), dtype=np.float32)
-            table[:, 0:2] = 2.0 * math.pi * waves[:, 0:2]
-            table[:, 2] = waves[:, 3]
-            slope[:, 0:2] = waves[:, 2:3] * waves[:, 0:2] / np.linalg.norm(waves[:, 0:2], axis=1, keepdims=True)
-            program["u_detail_wave"].write(table.tobytes())
-            program["u_detail_slope"].write(slope.tobytes())
-            self.fullscreen(program)
-            tex.build_mipmaps()
+            for level, texels in enumerate(detail_map_levels(waves, resolution)):
+                tex.write(texels.tobytes(), level=level)
 
     # ---- per frame ------------------------------------------------------------------------------
     def wave_uniforms(self, sea: SeaSurface, scene: Scene, view: CameraView) -> dict:
@@ -656,7 +673,8 @@ class WaterPass(RenderPass):
         sea = sea_surface(scene.ocean, scene.weather)
         t = scene.time.sim_time
         knobs = self.knobs(frame)
-        resolution = int(min(max(round(scene.ocean.detail_resolution * knobs.detail_scale), 32), 512))
+        # A power of two (each mip level halves it exactly): the nearest to the scene's × the preset's scale.
+        resolution = 2 ** min(max(round(math.log2(scene.ocean.detail_resolution * knobs.detail_scale)), 5), 9)
         tiles = detail_tiles(sea, t)
         selection = self.select(sea, scene, view, knobs.lod_error_scale, knobs.mesh)
         hulls = hull_boxes(scene, view)
@@ -675,7 +693,7 @@ class WaterPass(RenderPass):
                 else np.full(len(selection.nodes), used_maps, dtype=int))
         # Tile averages of the maps some block does not read (empty maps average 0).
         means = detail_means(tiles) if np.any(maps < used_maps) else np.zeros((DETAIL_MAPS, 4))
-        self._render_detail(sea, t, resolution, tiles, int(maps.max()) if len(maps) else 0)
+        self._update_detail(sea, t, resolution, tiles, int(maps.max()) if len(maps) else 0)
         groups = [(with_hulls, fan, m, selection.nodes[(near_hull == with_hulls) & (flat == fan) & (maps == m)])
                   for with_hulls in (False, True) for fan in (False, True) for m in range(used_maps + 1)]
         programs = {}
