@@ -203,7 +203,7 @@ def build_frame(ctx: moderngl.Context, scene: Scene, state: FrameState | None = 
     frame.resources["frame_state"] = state
     frame.uniforms = common_uniforms(frame)
     frame.uniforms.update(sky.uniforms)
-    frame.defines = light_defines(celestial)
+    frame.defines = light_defines(celestial, lights)
     return frame
 
 
@@ -211,13 +211,15 @@ def build_frame(ctx: moderngl.Context, scene: Scene, state: FrameState | None = 
 BODY_TERM_MIN_Z = -0.1
 
 
-def light_defines(celestial: SunMoon) -> dict:
+def light_defines(celestial: SunMoon, lights: list) -> dict:
     """SUN_TERM / MOON_TERM for common/lights.glsl: 0 when that body's term would be skipped at run
-    time (same test, same float32 direction), so the frame's shaders do not carry its code. Passes
-    that do not add these defines compile both terms and test at run time."""
+    time (same test, same float32 direction), so the frame's shaders do not carry its code; and
+    LOCAL_LIGHTS: 0 when the frame has no point or spot light. Passes that do not add these defines
+    compile every term and test at run time."""
     sun_z = float(np.float32(celestial.sun_dir[2]))
     moon_z = float(np.float32(celestial.moon_dir[2]))
-    return {"SUN_TERM": int(sun_z > BODY_TERM_MIN_Z), "MOON_TERM": int(moon_z > BODY_TERM_MIN_Z)}
+    return {"SUN_TERM": int(sun_z > BODY_TERM_MIN_Z), "MOON_TERM": int(moon_z > BODY_TERM_MIN_Z),
+            "LOCAL_LIGHTS": int(bool(lights))}
 
 
 def pixel_angle(camera) -> float:

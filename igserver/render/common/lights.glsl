@@ -16,6 +16,11 @@
 // MOON_TERM as 0 when that body is below -0.1 (its term would be skipped at run time anyway). On
 // llvmpipe a branch not taken still costs much of its body (SIMD code runs masked), so the
 // night frame drops the sun's BRDF and shadow code entirely. Undefined: both compiled, run-time test.
+// LOCAL_LIGHTS 0: the frame has no point or spot light. A loop over u_light_count runs its body once
+// even for a count of 0 (masked, all lanes off), which cost the water ~6 ms of workers' CPU a frame.
+#ifndef LOCAL_LIGHTS
+#define LOCAL_LIGHTS 1
+#endif
 #ifndef SUN_TERM
 #define SUN_TERM 1
 #endif
@@ -94,6 +99,7 @@ vec3 shade_surface_ao(Material m, vec3 p, vec3 n, vec3 v, float ao) {
     if (u_moon_dir.z > -0.1)
         radiance += shadowed_light(m, n, v, u_moon_dir, u_moon_illuminance, light_shadow(MOON_LIGHT, p, n, u_moon_dir));
 #endif
+#if LOCAL_LIGHTS
     for (int i = 0; i < u_light_count; ++i) {
         vec3 d = u_light_pos[i].xyz - p;
         if (dot(d, d) >= u_light_pos[i].w * u_light_pos[i].w) continue;  // out of range: no cost
@@ -102,6 +108,7 @@ vec3 shade_surface_ao(Material m, vec3 p, vec3 n, vec3 v, float ao) {
         if (max(e.r, max(e.g, e.b)) <= 0.0 || dot(n, l) <= 0.0) continue;
         radiance += shadowed_light(m, n, v, l, e, light_shadow(i, p, n, l));
     }
+#endif
     return radiance;
 }
 

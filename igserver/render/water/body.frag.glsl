@@ -20,11 +20,13 @@ void main() {
     if (t < 0.0) discard;
     vec3 p = dir * t;
     vec3 e = sea_downwelling();
+#if LOCAL_LIGHTS
     for (int i = 0; i < u_light_count; ++i) {
         vec3 l;
         vec3 e_i = light_illuminance(i, p, l);
         e += e_i * max(l.z, 0.0);
     }
+#endif
     vec3 air_t, air_s;
     sea_aerial_perspective(p, air_t, air_s);
     out_color = vec4(pre_expose(DEEP_ALBEDO * e / PI * air_t + air_s), 1.0);

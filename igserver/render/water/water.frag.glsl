@@ -135,12 +135,14 @@ void main() {
     // millionth of the sun's, by night the sun's direct light is zero).
     vec3 direct = glint(u_glint_illuminance, n, v, u_glint_dir, alpha);
     vec3 e_local = vec3(0.0);  // local-light irradiance on a horizontal surface (lux), for body/foam
+#if LOCAL_LIGHTS
     for (int i = 0; i < u_light_count; ++i) {
         vec3 l;
         vec3 e = light_illuminance(i, v_rel, l);  // the shared light loop's falloff and spot cone
         direct += glint(e, n, v, l, alpha);
         e_local += e * max(l.z, 0.0);
     }
+#endif
     // Light entering the water (lux on the surface) and coming back up: deep backscatter, or the
     // sand bottom seen through depth h along the down-and-up path (Beer-Lambert), in the shallows.
     vec3 e_down = sea_downwelling() + e_local;

@@ -518,9 +518,10 @@ class WaterPass(RenderPass):
         return scene.ocean.enabled
 
     # ---- resources ------------------------------------------------------------------------------
-    def _program(self, field: bool, hulls: bool = False, detail_maps: int = DETAIL_MAPS) -> moderngl.Program:
+    def _program(self, field: bool, hulls: bool = False, detail_maps: int = DETAIL_MAPS,
+                 local_lights: bool = True) -> moderngl.Program:
         defines = {"MAX_WAVES": MAX_WAVES, "MAX_HULLS": MAX_HULLS, "WATER_DETAIL_MAPS": detail_maps,
-                   **self._atmosphere_define()}
+                   "LOCAL_LIGHTS": int(local_lights), **self._atmosphere_define()}
         if field:
             defines["WATER_FIELD"] = 1
         if hulls:
@@ -733,7 +734,7 @@ class WaterPass(RenderPass):
         """The water program (with or without the hull test, reading the first ``read_maps`` detail
         maps and the tile means of the others) with this frame's uniforms set."""
         scene, view = frame.scene, frame.view
-        program = self._program(sea.field is not None, with_hulls and bool(hulls), read_maps)
+        program = self._program(sea.field is not None, with_hulls and bool(hulls), read_maps, bool(frame.lights))
         set_uniforms(program, frame.uniforms)
         set_uniforms(program, table_uniforms)
         set_uniforms(program, glint_light(frame.uniforms))
@@ -788,7 +789,7 @@ class WaterPass(RenderPass):
         sphere = selection.error_sphere
         height = float(frame.view.position[2]) - frame.scene.ocean.level
         program = self.programs.program("common/fullscreen.vert.glsl", "water/body.frag.glsl",
-                                        self._atmosphere_define())
+                                        {"LOCAL_LIGHTS": int(bool(frame.lights)), **self._atmosphere_define()})
         set_uniforms(program, frame.uniforms)
         set_uniforms(program, table_uniforms)
         set_uniforms(program, {"u_plane_height": -height - 1.05 * sphere})
