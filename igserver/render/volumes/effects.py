@@ -24,6 +24,7 @@ CONTAINER_OVER_FLAME = 1.4  # container height / mean flame height: room for the
 NOISE_PERIOD = 32.0  # lattice units: the noise is periodic along P.z, the scroll is reduced modulo this
 NOISE_SCALE = 2.2  # lattice units per container radius (the paper's noiseScale, nominal size)
 G = 9.81
+MAX_SLABS = 8  # boxes a bent container is drawn as (Volume.slabs)
 
 
 def fade_level(effect: Effect, sim_time: float) -> float:
@@ -80,6 +81,24 @@ class Volume:
         lo = self.base + np.array([min(-r, self.lean[0] - r), min(-r, self.lean[1] - r), 0.0])
         hi = self.base + np.array([max(r, self.lean[0] + r), max(r, self.lean[1] + r), self.height])
         return lo, hi
+
+    def slabs(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """World AABBs of equal height slabs of the container, bottom first, tight around the bent
+        axis (march.frag.glsl to_volume: offset lean z for a fire, lean z² for a plume, at height
+        fraction z) ± the radius. A plume bent over by the wind fills a fraction of its one AABB
+        (the demo's: about a third), and every pixel of the box's screen area marches; slabs of
+        about a radius of lean each leave a staircase around it. At most MAX_SLABS."""
+        r = self.radius
+        count = int(min(max(math.ceil(float(np.linalg.norm(self.lean)) / max(r, 1e-6)), 1), MAX_SLABS))
+        z = np.linspace(0.0, 1.0, count + 1)
+        offset = self.lean[None, :] * (z * z if self.kind == "smoke" else z)[:, None]  # monotonic in z
+        boxes = []
+        for k in range(count):
+            a, b = offset[k], offset[k + 1]
+            lo = self.base + np.array([min(a[0], b[0]) - r, min(a[1], b[1]) - r, z[k] * self.height])
+            hi = self.base + np.array([max(a[0], b[0]) + r, max(a[1], b[1]) + r, z[k + 1] * self.height])
+            boxes.append((lo, hi))
+        return boxes
 
     @property
     def bounding_sphere(self) -> tuple[np.ndarray, float]:

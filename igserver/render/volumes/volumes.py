@@ -557,8 +557,6 @@ class VolumesPass(RenderPass):
             voxel = min(2.0 * vol.radius / size[0], 2.0 * vol.radius / size[1], vol.height / size[2])
             uniforms = {
                 "u_volume": 0, "u_volume_next": 2, "u_blend": blend, "u_scene_distance": 1,
-                "u_box_min": tuple(float(x) for x in view.relative(lo)),
-                "u_box_max": tuple(float(x) for x in view.relative(hi)),
                 "u_base": tuple(float(x) for x in view.relative(vol.base)),
                 "u_extent": (vol.radius, vol.radius, vol.height),
                 "u_lean": (float(vol.lean[0]), float(vol.lean[1])),
@@ -583,8 +581,18 @@ class VolumesPass(RenderPass):
             set_uniforms(program, uniforms)
             tex.use(0)
             tex_next.use(2)
-            self._vao(program).render(moderngl.TRIANGLES)
+            # The container as slabs (Volume.slabs), each marching its own stretch of the ray: along
+            # a ray z is monotonic, so its slabs come in order of their height distance from the
+            # camera; drawn farthest first, the ONE, ONE_MINUS_SRC_ALPHA blend composes them as one
+            # front-to-back march would.
+            cam_z = float(view.position[2])
+            slabs = sorted(vol.slabs(), key=lambda b: -max(float(b[0][2]) - cam_z, cam_z - float(b[1][2]), 0.0))
+            for slab_lo, slab_hi in slabs:
+                program["u_box_min"].value = tuple(float(x) for x in view.relative(slab_lo))
+                program["u_box_max"].value = tuple(float(x) for x in view.relative(slab_hi))
+                self._vao(program).render(moderngl.TRIANGLES)
             self.stats["drawn"] += 1
+            self.stats["slabs"] = self.stats.get("slabs", 0) + len(slabs)
         self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
         self.ctx.cull_face = "back"
 
