@@ -86,7 +86,7 @@ class Volume:
         """World AABBs of equal height slabs of the container, bottom first, tight around the bent
         axis (march.frag.glsl to_volume: offset lean z for a fire, lean z² for a plume, at height
         fraction z) ± the radius. A plume bent over by the wind fills a fraction of its one AABB
-        (the demo's: about a third), and every pixel of the box's screen area marches; slabs of
+        (the demo's: about a fifth), and every pixel of the box's screen area marches; slabs of
         about a radius of lean each leave a staircase around it. At most MAX_SLABS."""
         r = self.radius
         count = int(min(max(math.ceil(float(np.linalg.norm(self.lean)) / max(r, 1e-6)), 1), MAX_SLABS))
