@@ -88,3 +88,21 @@ def test_gpu_halos_match_the_table(renderer):
         assert data[j, i, :3] == pytest.approx(expected, rel=0.01, abs=1e-3 * max(expected.max(), 1e-6))
         checked += expected.max() > 0.0
     assert checked >= 3
+
+
+@pytest.mark.parametrize("size", [(101, 57), (160, 90)])
+def test_meter_holds_the_block_means_of_the_frame(renderer, size):
+    # The exposure meter (post/meter.glsl) reads 2x2 texel groups through one bilinear fetch at their
+    # shared corner: each cell must hold the plain mean of its block of the HDR frame, blocks cut by
+    # the frame's edge (odd rows and columns: 101x57 in blocks of 4) included.
+    scene = apply_patch(load_scene("demo"), {"camera": {"width": size[0], "height": size[1]}})
+    renderer.render(scene)
+    hdr = np.maximum(renderer.read_hdr()[::-1, :, :3].astype(np.float64), 0.0)  # bottom row first, as GL
+    post = renderer.graph.passes["post"]
+    cells_w, cells_h = post._meter_tex.size
+    block = math.ceil(size[0] / 32)
+    meter = np.frombuffer(post._meter_tex.read(), dtype=np.float32).reshape(cells_h, cells_w, 4)[..., :3]
+    for j in range(cells_h):
+        for i in range(cells_w):
+            expected = hdr[j * block:(j + 1) * block, i * block:(i + 1) * block].mean(axis=(0, 1))
+            assert meter[j, i] == pytest.approx(expected, rel=2e-3, abs=1e-6)

@@ -130,9 +130,14 @@ class PostPass(RenderPass):
             tex = self._meter_tex = self.ctx.texture(size, 4, dtype="f4")
         prog = self.programs.compute("post/meter.glsl")
         prog["u_block"].value = block
+        if getattr(self, "_meter_sampler", None) is None:  # bilinear over the target's nearest filter
+            self._meter_sampler = self.ctx.sampler(filter=(moderngl.LINEAR, moderngl.LINEAR),
+                                                   repeat_x=False, repeat_y=False)
         targets.hdr.use(0)
+        self._meter_sampler.use(0)
         tex.bind_to_image(0, read=False, write=True)
-        prog.run((size[0] + 7) // 8, (size[1] + 7) // 8, 1)
+        prog.run((size[0] + 3) // 4, (size[1] + 3) // 4, 1)
+        self._meter_sampler.clear(0)
         self.ctx.memory_barrier()
         cells = np.frombuffer(tex.read(), dtype=np.float32).reshape(-1, 4)[:, :3].astype(np.float64)
         cells = cells[np.all(np.isfinite(cells), axis=1)] / max(frame.exposure, 1e-30)
