@@ -36,6 +36,7 @@ def test_pass_units_avoid_the_frame_wide_units():
         "water air S": water.AIR_S_UNIT, "water foam noise": water.FOAM_NOISE_UNIT,
         "post halo table": post.HALO_TABLE_UNIT, "sky cirrus table": sky.CIRRUS_TABLE_UNIT,
         "sky cirrus hide": sky.CIRRUS_HIDE_UNIT,
+        "sky hazy table": sky.SKY_HAZY_UNIT, "sky hazy moon": sky.SKY_HAZY_MOON_UNIT,
     }
     clash = {name: unit for name, unit in pass_units.items() if unit in frame_wide_units()}
     assert not clash, clash

@@ -303,29 +303,42 @@ uniform float u_haze_table_top;  // m, height of the table's last column
 vec2 haze_phases(vec3 dir) {
     return vec2(hg(u_haze_g, dot(dir, u_sun_dir)), u_moon_dir.z > 0.0 ? hg(u_haze_g, dot(dir, u_moon_dir)) : 0.0);
 }
-vec3 haze_source_phased(float h, vec3 dir, vec2 phases) {
+// The source's parts at height h for a ray of direction z: the sun's and the moon's beams (to be
+// weighted by their phases) and the diffuse light (already per steradian), each times omega.
+void haze_source_terms(float h, float dir_z, out vec3 sun, out vec3 moon, out vec3 diffuse) {
     float u = tex_coord(clamp(h / u_haze_table_top, 0.0, 1.0), float(textureSize(u_haze_table, 0).x));
-    vec3 beams = texture(u_haze_table, vec2(u, 0.625)).rgb * phases.x;
-    if (u_moon_dir.z > 0.0) beams += texture(u_haze_table, vec2(u, 0.875)).rgb * phases.y;
-    float w_down = 0.5 + 0.5 * dir.z;  // looking up: light travelling down
+    sun = u_haze_omega * texture(u_haze_table, vec2(u, 0.625)).rgb;
+    moon = u_moon_dir.z > 0.0 ? u_haze_omega * texture(u_haze_table, vec2(u, 0.875)).rgb : vec3(0.0);
+    float w_down = 0.5 + 0.5 * dir_z;  // looking up: light travelling down
     // up (1 - w_down) + down w_down in one bilinear fetch between the two rows' texel centres
     // (0.125: down, 0.375: up; the table is 4 rows, linear-filtered), not two fetches and a mix:
     // the demo's sky pass ~0.97x CPU, frames within 1 level (a GPU's 8-bit filter weights would
     // round w_down to 1/256: |up - down| / 512 at most).
-    vec3 diffuse = texture(u_haze_table, vec2(u, 0.375 - 0.25 * w_down)).rgb;
-    return u_haze_omega * (beams + diffuse / ATMO_PI);
+    diffuse = u_haze_omega / ATMO_PI * texture(u_haze_table, vec2(u, 0.375 - 0.25 * w_down)).rgb;
 }
-vec3 haze_source(float h, vec3 dir) { return haze_source_phased(h, dir, haze_phases(dir)); }
+vec3 haze_source_phased(float h, vec3 dir, vec2 phases) {
+    vec3 sun, moon, diffuse;
+    haze_source_terms(h, dir.z, sun, moon, diffuse);
+    return sun * phases.x + moon * phases.y + diffuse;
+}
 // Height where the ray's in-scattering is gathered: half of the first optical depth's run along it
 // (inside the fog: next to the camera; above it: half way down), within [0, d].
 float haze_first_depth_run(float h0) { return 1.0 / max(u_haze_beta.g * haze_density(h0), 1e-12); }
 float haze_effective_height(float h0, vec3 dir, float d) {
     return h0 + dir.z * 0.5 * min(d, haze_first_depth_run(h0));
 }
-// The layer along a whole view ray: into the ground (flat, at the layer's base) or to space.
-vec3 haze_sky(vec3 radiance, vec3 dir, out vec3 transmittance) {
-    transmittance = vec3(1.0);
-    if (!haze_present()) return radiance;
+// The layer along a whole view ray: into the ground (flat, at the layer's base) or to space, as
+//   haze_sky(L, dir) = L T + S_diffuse + S_sun p_sun + S_moon p_moon,
+// where T and the three S (the source's parts times 1 - T) depend on the ray's height above the
+// horizon only and p are the phase functions toward the sun and the moon (haze_phases): the sky pass
+// reads all but the moon's term from a table on the sky-view map (sky/sky_hazy.glsl).
+struct HazeRay {
+    vec3 transmittance;
+    vec3 diffuse;
+    vec3 sun;   // x the sun's phase
+    vec3 moon;  // x the moon's phase
+};
+HazeRay haze_ray(vec3 dir) {
     float h0 = haze_height();
     vec3 tau;
     float d;
@@ -352,9 +365,22 @@ vec3 haze_sky(vec3 radiance, vec3 dir, out vec3 transmittance) {
         tau = haze_tau_up(h0, dir.z);
         d = 1e30;
     }
-    transmittance = exp(-min(tau, vec3(80.0)));
-    vec3 s = haze_source(haze_effective_height(h0, dir, min(d, 1e7)), dir);
-    return radiance * transmittance + s * one_minus_exp(tau);
+    HazeRay ray;
+    ray.transmittance = exp(-min(tau, vec3(80.0)));
+    haze_source_terms(haze_effective_height(h0, dir, min(d, 1e7)), dir.z, ray.sun, ray.moon, ray.diffuse);
+    vec3 scattered = one_minus_exp(tau);
+    ray.sun *= scattered;
+    ray.moon *= scattered;
+    ray.diffuse *= scattered;
+    return ray;
+}
+vec3 haze_sky(vec3 radiance, vec3 dir, out vec3 transmittance) {
+    transmittance = vec3(1.0);
+    if (!haze_present()) return radiance;
+    HazeRay ray = haze_ray(dir);
+    vec2 phases = haze_phases(dir);
+    transmittance = ray.transmittance;
+    return radiance * ray.transmittance + ray.diffuse + ray.sun * phases.x + ray.moon * phases.y;
 }
 
 // ---------------------------------------------------------------------------------------------

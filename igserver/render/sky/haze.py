@@ -164,7 +164,7 @@ class HazeLayer:
         return np.minimum(col[:, None] * self.beta, 1e4)
 
     def source(self, h: float, dirs: np.ndarray, flux: dict, sun_dir, sun_normal, moon_dir, moon_normal) -> np.ndarray:
-        """(N, 3) in-scattered radiance source S(h, dir) (cd/m^2), the mirror of haze_source()."""
+        """(N, 3) in-scattered radiance source S(h, dir) (cd/m^2), the mirror of haze_source_phased()."""
         dirs = np.asarray(dirs, float)
         ta = self.tau_above(h)
         w_down = 0.5 + 0.5 * dirs[:, 2:3]
@@ -183,7 +183,7 @@ class HazeLayer:
     def source_table(self, sun_normal, mu_s: float, sky_horizontal, moon_normal, mu_m: float) -> np.ndarray:
         """(4, HAZE_TABLE_SIZE, 4) float32 per-frame table of the layer's light against height,
         0 .. table_top(): rows diffuse down, up, sun beam (normal), moon beam (normal), all before
-        the single-scattering albedo; the shader's haze_source() reads it instead of evaluating the
+        the single-scattering albedo; the shader's haze_source_terms() reads it instead of evaluating the
         two-stream model per pixel (the same formulas, tabulated once per frame)."""
         h = np.linspace(0.0, self.table_top(), HAZE_TABLE_SIZE)
         f = self.fluxes(h, sun_normal, mu_s, sky_horizontal, moon_normal, mu_m)

@@ -18,6 +18,10 @@ vec3 composite_cirrus_table(vec3 radiance) {
     return radiance * (1.0 - texture(u_cirrus_hide, v_uv).rgb) + texture(u_cirrus_table, v_uv).rgb;
 }
 #endif
+#ifdef SKY_HAZY_TABLE
+uniform sampler2D u_sky_hazy;       // the sky through the haze on the sky-view map (sky/sky_hazy.glsl)
+uniform sampler2D u_sky_hazy_moon;  // the moon's haze term per row, times its phase per pixel
+#endif
 uniform float u_moon_disk_cos;       // cos of the moon's angular radius
 uniform vec3 u_moon_disk_luminance;  // cd/m^2 of the lit part, after the atmosphere
 
@@ -81,7 +85,15 @@ void main() {
     out_color = vec4(pre_expose(disks(dir)), 0.0);
     out_distance = 0.0;  // added to the sky's 1e30 by the blend
 #else
+#ifdef SKY_HAZY_TABLE
+    vec2 uv = sky_view_uv_sized(dir, vec2(textureSize(u_sky_hazy, 0)));
+    vec3 radiance = texture(u_sky_hazy, uv).rgb;
+#ifdef SKY_HAZY_MOON
+    radiance += texture(u_sky_hazy_moon, vec2(0.5, uv.y)).rgb * haze_phases(dir).y;
+#endif
+#else
     vec3 radiance = sky_radiance_only(dir);
+#endif
 #if defined(CIRRUS) && defined(CIRRUS_PER_PIXEL)
     radiance = apply_cirrus(radiance, dir);  // a variant: the noise costs 2x the sky even when skipped
 #elif defined(CIRRUS)

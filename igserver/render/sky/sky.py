@@ -12,6 +12,7 @@ from ...astro import star_field
 from .. import depth
 from ..passes import RenderPass
 from ..shaders import set_uniforms, uniform_inputs
+from .sky_view import SKY_VIEW_SIZE
 
 STAR_POINT_PX = 2.0
 # The cirrus layer is evaluated once per frame on a grid this many times coarser per axis than the
@@ -19,6 +20,24 @@ STAR_POINT_PX = 2.0
 CIRRUS_TABLE_SCALE = 2
 CIRRUS_TABLE_UNIT = 7   # (cloud radiance x alpha x T, alpha)
 CIRRUS_HIDE_UNIT = 6    # (alpha x T): how much of the sky behind the layer it hides, per channel
+SKY_HAZY_UNIT = 5       # the sky through the haze layer on the sky-view map (sky_hazy.glsl)
+SKY_HAZY_MOON_UNIT = 4  # its moon term, one column
+# Its size (azimuth from the sun, elevation): the clear sky-view table's, whose texel centres it
+# reads exactly; against haze_sky() per pixel within 1 level in fog, haze, dusk and from 500 m (README).
+SKY_HAZY_SIZE = SKY_VIEW_SIZE
+
+
+def hazy_table_holds(uniforms: dict) -> bool:
+    """Whether the sky pass reads the haze from the table (sky_hazy.glsl): with a haze layer, from a
+    camera inside it or at most one scale height above its top. From higher up the layer's limb is a
+    band a fraction of a degree tall just above the horizon, finer than the table's rows there, and
+    haze_sky() stays per pixel (measured against it at 640x360: within 1 level up to one scale
+    height, 1 pixel at 2 levels from 1 km in the default haze; from 10 km up to 10 levels, and 13-20
+    levels from 50-300 m above a fog top)."""
+    if uniforms.get("u_sky_model") != 1 or uniforms["u_haze_beta"][1] <= 0.0:
+        return False
+    height = uniforms["u_camera_altitude"] - uniforms["u_haze_base"]
+    return height <= uniforms["u_haze_top"] + uniforms["u_haze_edge"]
 # Texels outside the polygon hold zero, as the shader would compute there, so the sky pass's
 # bilinear lookup needs no margin; one texel covers float32 rounding in the shader's ray.
 CIRRUS_POLYGON_MARGIN_TEXELS = 1.0
@@ -189,8 +208,17 @@ class SkyPass(RenderPass):
                 self._cirrus_table(frame, model, targets)
         if surface_below(frame.scene):
             defines["SURFACE_BELOW"] = 1
+        if self.hazy_table and hazy_table_holds(frame.uniforms):
+            hazy, moon = self._hazy_table(frame)
+            hazy.use(SKY_HAZY_UNIT)
+            moon.use(SKY_HAZY_MOON_UNIT)
+            defines["SKY_HAZY_TABLE"] = 1
+            if float(np.float32(frame.uniforms["u_moon_dir"][2])) > 0.0:  # haze_phases' own test
+                defines["SKY_HAZY_MOON"] = 1
         program = self.programs.program("common/fullscreen.vert.glsl", "sky/sky.glsl", defines)
         set_uniforms(program, frame.uniforms)
+        if "SKY_HAZY_TABLE" in defines:
+            set_uniforms(program, {"u_sky_hazy": SKY_HAZY_UNIT, "u_sky_hazy_moon": SKY_HAZY_MOON_UNIT})
         targets.scene_fbo.use()
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.depth_func = depth.AT_INFINITY  # only where nothing nearer was drawn
@@ -199,6 +227,32 @@ class SkyPass(RenderPass):
         if frame.celestial.sun_elevation < STARS_BELOW_SUN_ELEVATION:
             self._stars(frame, model)
         self.ctx.depth_func = depth.NEAREST_WINS
+
+    hazy_table = True  # False: haze_sky() per pixel (the reference of the table's error)
+    hazy_fills = 0  # tables filled (counted for the tests)
+
+    def _hazy_table(self, frame) -> tuple[moderngl.Texture, moderngl.Texture]:
+        """The sky through the haze layer on the sky-view map and its moon column (sky_hazy.glsl),
+        filled again only when one of its inputs changed: the clear sky-view table or a uniform the
+        fill reads (the haze, its light, the camera's altitude, the sun and the moon)."""
+        program = self.programs.compute("sky/sky_hazy.glsl")
+        sky_view = frame.resources["sky_view"]
+        key = (id(sky_view), sky_view.fills, uniform_inputs(program, frame.uniforms))
+        if getattr(self, "_hazy_tex", None) is None:
+            self._hazy_tex = (self.ctx.texture(SKY_HAZY_SIZE, 4, dtype="f4"),
+                              self.ctx.texture((1, SKY_HAZY_SIZE[1]), 4, dtype="f4"))
+            for tex in self._hazy_tex:
+                tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+                tex.repeat_x = tex.repeat_y = False
+        if key != getattr(self, "_hazy_key", None):
+            set_uniforms(program, frame.uniforms)
+            for binding, tex in enumerate(self._hazy_tex):
+                tex.bind_to_image(binding, read=False, write=True)
+            program.run((SKY_HAZY_SIZE[0] + 7) // 8, (SKY_HAZY_SIZE[1] + 7) // 8, 1)
+            self.ctx.memory_barrier()
+            self._hazy_key = key
+            self.hazy_fills += 1
+        return self._hazy_tex
 
     cirrus_scale = CIRRUS_TABLE_SCALE
     cirrus_redraw_px = CIRRUS_REDRAW_PX
