@@ -272,3 +272,25 @@ def test_blended_surfaces_show_what_lies_behind_them(renderer, models_dir):
     assert covered.sum() > 200 and covered[:27].any() and covered[27:].any()
     want = 0.25 * solid + 0.75 * bare
     assert np.abs(glass - want)[covered].max() <= 0.02 * solid[covered].max() + 1e-3
+
+
+def test_a_replaced_model_file_is_reloaded_within_the_recheck_interval(renderer, models_dir, monkeypatch):
+    # The model cache reads a file's identity (a stat) at most once per MODEL_RECHECK_S: a frame
+    # within it draws the model it holds, the first after it notices the new file.
+    import trimesh
+
+    from igserver.render.surfaces import gpu_models
+
+    clock = [1000.0]
+    monkeypatch.setattr(gpu_models.time, "monotonic", lambda: clock[0])
+    path = models_dir / "swap.glb"
+    path.write_bytes(trimesh.Scene(trimesh.creation.box()).export(file_type="glb"))
+    cache = renderer.graph.passes["surfaces"].models
+    first = cache.get("swap")
+    assert first is not None
+    path.write_bytes(trimesh.Scene(trimesh.creation.icosphere(subdivisions=1)).export(file_type="glb"))
+    clock[0] += 0.5 * gpu_models.MODEL_RECHECK_S
+    assert cache.get("swap") is first
+    clock[0] += gpu_models.MODEL_RECHECK_S
+    second = cache.get("swap")
+    assert second is not first and second.model.primitives[0].indices.size != first.model.primitives[0].indices.size

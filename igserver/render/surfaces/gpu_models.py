@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 import os
+import time
 
 import moderngl
 import numpy as np
@@ -129,6 +130,9 @@ class GpuModel:
         self.primitive_nodes = np.array([p.node for p in self.primitives], dtype=np.intp)
 
 
+MODEL_RECHECK_S = 1.0  # a model file replaced while the IG runs is noticed within this
+
+
 class ModelCache:
     """Models by asset name, loaded on first use and reloaded when the file changes. A model that
     fails to load is remembered (with the file's identity) and drawn as nothing; ``problems``
@@ -138,9 +142,16 @@ class ModelCache:
         self.ctx = ctx
         self.textures = Textures(ctx)
         self._models: dict[str, tuple[tuple, GpuModel | None]] = {}
+        self._checked: dict[str, float] = {}  # name -> when its file's identity was last read
         self.problems: dict[str, str] = {}
 
     def get(self, name: str) -> GpuModel | None:
+        # The file's identity costs a stat (~0.2 ms a model, every frame): read it once a second.
+        now = time.monotonic()
+        cached = self._models.get(name)
+        if cached is not None and now - self._checked.get(name, -1e30) < MODEL_RECHECK_S:
+            return cached[1]
+        self._checked[name] = now
         try:
             identity = ("builtin",) if name in BUILTIN else _identity(name)
         except Exception as exc:  # noqa: BLE001 - a vanished or refused file: draw nothing

@@ -26,7 +26,7 @@ from ..common.aerial_table import frame_aerial_table
 from ..passes import RenderPass
 from ..shaders import set_uniforms
 from .gltf import check_model
-from .gpu_models import INSTANCE_FLOATS, SAMPLER_UNITS, GpuModel, ModelCache
+from .gpu_models import INSTANCE_FLOATS, MODEL_RECHECK_S, SAMPLER_UNITS, GpuModel, ModelCache
 from .shadow_fit import ShadowProjection, fit_directional, fit_spot
 
 SHADOW_UNIT_KEY = 16   # texture units of the shadow maps: above the frame-wide 8..15 (haze, sky view, tables)
@@ -323,7 +323,6 @@ class SurfacesPass(RenderPass):
 
 
 _BLENDS: dict[str, tuple[bool, float]] = {}
-BLENDS_RECHECK_S = 1.0  # a model file replaced while the IG runs is noticed within this
 
 
 def _model_blends(name: str) -> bool:
@@ -331,7 +330,7 @@ def _model_blends(name: str) -> bool:
     costs a stat: ~1 ms a frame over the demo's 22 entities, so the answer is kept a second)."""
     now = time.monotonic()
     held = _BLENDS.get(name)
-    if held is not None and now - held[1] < BLENDS_RECHECK_S:
+    if held is not None and now - held[1] < MODEL_RECHECK_S:
         return held[0]
     try:
         blends = check_model(name).blended
