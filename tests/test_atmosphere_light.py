@@ -337,3 +337,17 @@ def test_low_sun_beam_crosses_the_layer_on_a_round_earth(elevation, height, laye
     assert got == pytest.approx(want, rel=tolerance)
     if fog_top is None and 0.0 < elevation <= 1.0:
         assert layer.tau_above(height)[1] / mu > 1.3 * want  # what the flat earth did
+
+
+@pytest.mark.parametrize("elevation", [-30.0, -5.0, 0.0, 10.0])
+@pytest.mark.parametrize("altitude", [0.0, 5_000.0, 1e6, 1e7])
+def test_beams_through_the_layer_stay_finite_at_any_height(renderer, elevation, altitude):
+    # Seen from 10,000 km the sun below the astronomical horizon still lights the camera; the layer's
+    # scale length came out of column / density as 0 / e^-80 = 0 there, the beam's slant cosine as 0
+    # and the sun disk's luminance as 0 / 0 = NaN (it reached a shader uniform). The lights must be
+    # finite and non-negative for every sun elevation and height.
+    scene = Scene.model_validate({"camera": {"position": [0.0, 0.0, max(altitude, 2.0)], "width": 32, "height": 18},
+                                  "time": {"sun_override": {"elevation": elevation, "azimuth": 180.0}}})
+    light = build_frame(renderer.ctx, scene).light
+    for value in (light.sun_illuminance, light.sun_disk_luminance, light.sky_ambient, light.moon_illuminance):
+        assert np.all(np.isfinite(value)) and np.all(np.asarray(value) >= 0.0)

@@ -68,13 +68,16 @@ class HazeLayer:
     # --- profile ------------------------------------------------------------------------------
     def density(self, h):
         h = np.asarray(h, dtype=np.float64)
-        return np.where(h <= self.top, 1.0, np.exp(-np.maximum(h - self.top, 0.0) / self.edge))
+        return np.where(h <= self.top, 1.0, np.exp(-np.minimum(np.maximum(h - self.top, 0.0) / self.edge, 80.0)))
 
     def column(self, h):
-        """Integral of the density from h to infinity (m)."""
+        """Integral of the density from h to infinity (m). Both exponents stop at 80 edges, as in the
+        shader's haze_density() and haze_column(): column / density (the local scale length) stays the
+        edge at any height, where two underflows gave 0 / 0 from ~745 edges up (a sun below the
+        horizon seen from 10,000 km: a NaN sun-disk luminance, passed to the shaders)."""
         h = np.asarray(h, dtype=np.float64)
         return np.where(h <= self.top, self.top - h + self.edge,
-                        self.edge * np.exp(-np.maximum(h - self.top, 0.0) / self.edge))
+                        self.edge * np.exp(-np.minimum(np.maximum(h - self.top, 0.0) / self.edge, 80.0)))
 
     def optical_depth(self, h0: float, rel) -> np.ndarray:
         """(..., 3) optical depth of the straight segment from height h0 to h0 + rel (flat earth)."""
