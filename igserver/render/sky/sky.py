@@ -23,8 +23,18 @@ CIRRUS_HIDE_UNIT = 6    # (alpha x T): how much of the sky behind the layer it h
 SKY_HAZY_UNIT = 5       # the sky through the haze layer on the sky-view map (sky_hazy.glsl)
 SKY_HAZY_MOON_UNIT = 4  # its moon term, one column
 # Its size (azimuth from the sun, elevation): the clear sky-view table's, whose texel centres it
-# reads exactly; against haze_sky() per pixel within 1 level in fog, haze, dusk and from 500 m (README).
+# reads exactly; against haze_sky() per pixel within 1 level where it is used (hazy_table_holds, README).
 SKY_HAZY_SIZE = SKY_VIEW_SIZE
+
+# Texels outside the polygon hold zero, as the shader would compute there, so the sky pass's
+# bilinear lookup needs no margin; one texel covers float32 rounding in the shader's ray.
+CIRRUS_POLYGON_MARGIN_TEXELS = 1.0
+CIRRUS_TABLE_MIN_WIDTH = 320  # px, the narrowest table
+# The table is drawn again only when an input other than the layer's drift changed, or when the
+# drift (wind, camera travel) since its last draw could have moved the layer by more than this
+# many frame pixels anywhere in view (cirrus_drift_px, a bound); 0 draws it whenever anything moved.
+CIRRUS_REDRAW_PX = 0.25
+STARS_BELOW_SUN_ELEVATION = -2.0  # deg; above this the day sky hides even Sirius
 
 
 def hazy_table_holds(uniforms: dict) -> bool:
@@ -38,15 +48,6 @@ def hazy_table_holds(uniforms: dict) -> bool:
         return False
     height = uniforms["u_camera_altitude"] - uniforms["u_haze_base"]
     return height <= uniforms["u_haze_top"] + uniforms["u_haze_edge"]
-# Texels outside the polygon hold zero, as the shader would compute there, so the sky pass's
-# bilinear lookup needs no margin; one texel covers float32 rounding in the shader's ray.
-CIRRUS_POLYGON_MARGIN_TEXELS = 1.0
-CIRRUS_TABLE_MIN_WIDTH = 320  # px, the narrowest table
-# The table is drawn again only when an input other than the layer's drift changed, or when the
-# drift (wind, camera travel) since its last draw could have moved the layer by more than this
-# many frame pixels anywhere in view (cirrus_drift_px, a bound); 0 draws it whenever anything moved.
-CIRRUS_REDRAW_PX = 0.25
-STARS_BELOW_SUN_ELEVATION = -2.0  # deg; above this the day sky hides even Sirius
 
 
 # Angular half-size of the boxes the disks are drawn in: the disk (sun 0.27 deg, moon 0.26 deg)
