@@ -574,3 +574,22 @@ def test_block_selection_is_reused_only_for_the_same_view_and_sea(renderer):
         lod.SPACING_PER_WAVE = saved
     assert coarser.finest_spacing == 2.0 * first.finest_spacing
     assert water.select(sea, base, view).finest_spacing == first.finest_spacing
+
+
+def test_faded_foam_streaks_leave_the_picture(renderer):
+    # Blocks where every pixel spans 3/4 of a streak cell (water.py foam_streaks_needed: the shader's
+    # contrast is exactly 0 there) are drawn without the streak noise: a Beaufort 9 sea, whitecaps on
+    # every crest, from 300 m (the near blocks keep the noise, the far ones not) must be the same
+    # frame as with the noise read on every block.
+    scene = sea_scene(camera={"position": [0.0, 0.0, 300.0], "pitch": -10.0, "width": 320, "height": 180},
+                      weather={"wind_speed": 22.6})
+    water = renderer.graph.passes["water"]
+    fast = renderer.render(scene).rgba
+    stats = dict(water.stats)
+    water.skip_faded_streaks = False
+    try:
+        full = renderer.render(scene).rgba
+    finally:
+        water.skip_faded_streaks = True
+    assert 0 < stats["foam_streak_blocks"] < stats["blocks"]
+    np.testing.assert_array_equal(fast, full)

@@ -63,6 +63,7 @@ float foam_mean(float f) {
                   : (f - w) + (w * w - (f - 1.0 + w) * (f - 1.0 + w)) / (2.0 * w);
     return covered / (1.0 - w);
 }
+#if WATER_FOAM_STREAKS
 float foam_cover(float f, vec2 rest) {
     vec2 q = vec2(dot(rest, u_foam_frame.xy) * u_foam_frame.z,
                   dot(rest, vec2(-u_foam_frame.y, u_foam_frame.x)) * u_foam_frame.w) + u_foam_offset;
@@ -71,6 +72,9 @@ float foam_cover(float f, vec2 rest) {
     float dithered = clamp((f - (1.0 - FOAM_SOFT) * u) / FOAM_SOFT, 0.0, 1.0);
     return mix(foam_mean(f), dithered, contrast);
 }
+#else  // a block where every pixel spans 3/4 of a noise cell (water.py foam_streaks_needed): the mean
+float foam_cover(float f, vec2 rest) { return foam_mean(f); }
+#endif
 
 vec4 detail(sampler2D tex, vec3 map) {
     return texture(tex, v_rest * map.x + map.yz);

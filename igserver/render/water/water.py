@@ -298,6 +298,16 @@ def _min_pixel_angle(tangents: tuple[float, float, float, float], w: int, h: int
     return min(angles)
 
 
+@functools.lru_cache(maxsize=16)
+def _min_pixel_angle_any(tangents: tuple[float, float, float, float], w: int, h: int) -> float:
+    left, right, bottom, top = tangents
+    # A step of one pixel in any direction on the image plane turns the ray by at least the step in
+    # tangent times 1 / (1 + t^2), t the tangent's length: the radial direction at the corner farthest
+    # from the axis is the least. 0.99: the finite step against this derivative.
+    t2 = max(abs(left), abs(right)) ** 2 + max(abs(bottom), abs(top)) ** 2
+    return 0.99 * min((right - left) / w, (top - bottom) / h) / (1.0 + t2)
+
+
 def min_pixel_angle(view: CameraView) -> float:
     """The smallest angle (rad) between the rays of two neighbouring pixels anywhere on the screen
     (at the frame's corners, where a pixel subtends the least)."""
@@ -330,6 +340,18 @@ def minified_maps_from(selection: lod.LodSelection, sea: SeaSurface, tiles, view
     used = sum(1 for _, waves in tiles if len(waves))
     if sea.field is not None or n_blocks == 0:
         return np.full(n_blocks, used, dtype=int)
+    footprint = rest_spacing(selection, sea, cam_height, min_pixel_angle(view)) / math.sqrt(2.0)
+    count = np.zeros(n_blocks, dtype=int)
+    for c, (size, waves) in enumerate(tiles):
+        if len(waves):
+            count = np.where(footprint / size < 0.5, c + 1, count)  # ρ/N = footprint / L < 1/2: still read
+    return count
+
+
+def rest_spacing(selection: lod.LodSelection, sea: SeaSurface, cam_height: float, pixel_angle: float) -> np.ndarray:
+    """Per block, a lower bound (m) on the distance between the rest points (the detail maps' and the
+    foam's coordinates) of two rays ``pixel_angle`` apart (``minified_maps_from`` has the argument;
+    uniform depth only)."""
     nodes = selection.nodes.astype(np.float64)
     w = sea.waves
     level = nodes[:, 3].astype(int)
@@ -341,12 +363,23 @@ def minified_maps_from(selection: lod.LodSelection, sea: SeaSurface, tiles, view
     sphere = selection.error_sphere
     gap = np.maximum(np.maximum(nodes[:, :2], -(nodes[:, :2] + nodes[:, 2:3])), 0.0)  # camera at (0, 0)
     d = np.hypot(np.maximum(np.hypot(gap[:, 0], gap[:, 1]) - sphere, 0.0), max(abs(cam_height) - sphere, 0.0))
-    footprint = d * math.sin(min_pixel_angle(view)) / (math.sqrt(2.0) * np.sqrt(1.0 + slope**2) * (1.0 + slope))
-    count = np.zeros(n_blocks, dtype=int)
-    for c, (size, waves) in enumerate(tiles):
-        if len(waves):
-            count = np.where(footprint / size < 0.5, c + 1, count)  # ρ/N = footprint / L < 1/2: still read
-    return count
+    return d * math.sin(pixel_angle) / (np.sqrt(1.0 + slope**2) * (1.0 + slope))
+
+
+def foam_streaks_needed(selection: lod.LodSelection, sea: SeaSurface, view: CameraView,
+                        cam_height: float) -> np.ndarray:
+    """Per block, whether the foam's streak noise can show there (water.frag.glsl foam_cover): the
+    shader fades the streaks to their mean where a pixel spans FOAM_STREAK_FADE of a noise cell,
+    contrast = clamp(1.5 - 2 |fwidth(q)|, 0, 1) with q the rest point in cells (24 m along the wind,
+    3 m across). |fwidth(q)| >= its across-wind part (|a.dx| + |a.dy|) / 3 >= sigma_min / 3, sigma_min
+    the least stretch of the pixel -> rest-point map in any direction, which ``rest_spacing`` bounds
+    with the least angle a one-pixel step in any direction turns a ray (``_min_pixel_angle_any``).
+    Where that bound reaches 0.75 cells the contrast is exactly 0: the block is drawn without the
+    noise's fetch (the frame is the same). Over a bathymetry field every block keeps it."""
+    if sea.field is not None or len(selection.nodes) == 0:
+        return np.ones(len(selection.nodes), dtype=bool)
+    angle = _min_pixel_angle_any(tuple(float(t) for t in view.tangents), int(view.width), int(view.height))
+    return rest_spacing(selection, sea, cam_height, angle) < FOAM_STREAK_FADE * FOAM_STREAK_SIZE[1]
 
 
 def glint_light(uniforms: dict) -> dict:
@@ -374,6 +407,7 @@ def foam_mean(f: np.ndarray) -> np.ndarray:
 
 
 FOAM_STREAK_SIZE = (24.0, 3.0)  # m along and across the wind: a noise cell of the streaks
+FOAM_STREAK_FADE = 0.75  # cells a pixel spans where the streaks have faded to their mean (water.frag.glsl)
 FOAM_DRIFT = 0.03  # × wind speed: the surface drift that carries the streaks downwind
 FOAM_PERIOD = 64.0  # noise cells per side of the tabulated noise: 1.5 km along the wind, 192 m across
 FOAM_NOISE_SIZE = 256  # texels per side: 4 per noise cell (bilinear; the shader fades the streaks before it minifies)
@@ -510,6 +544,7 @@ class WaterPass(RenderPass):
         self._selection = None  # (key, sea, LodSelection) of the last select()
         self.exact_atmosphere = False  # the atmosphere per pixel/vertex instead of the tables (quality study)
         self.skip_minified_maps = True  # False: every block reads every detail map (tests' reference)
+        self.skip_faded_streaks = True  # False: every block reads the foam's streak noise (tests' reference)
         self.foam_threshold: float | None = None  # tests: a J threshold instead of the calibrated one
         self._foam_noise_tex: moderngl.Texture | None = None
         self.stats: dict = {}
@@ -519,9 +554,10 @@ class WaterPass(RenderPass):
 
     # ---- resources ------------------------------------------------------------------------------
     def _program(self, field: bool, hulls: bool = False, detail_maps: int = DETAIL_MAPS,
-                 local_lights: bool = True) -> moderngl.Program:
+                 local_lights: bool = True, foam_streaks: bool = True) -> moderngl.Program:
         defines = {"MAX_WAVES": MAX_WAVES, "MAX_HULLS": MAX_HULLS, "WATER_DETAIL_MAPS": detail_maps,
-                   "LOCAL_LIGHTS": int(local_lights), **self._atmosphere_define()}
+                   "LOCAL_LIGHTS": int(local_lights), "WATER_FOAM_STREAKS": int(foam_streaks),
+                   **self._atmosphere_define()}
         if field:
             defines["WATER_FIELD"] = 1
         if hulls:
@@ -695,19 +731,26 @@ class WaterPass(RenderPass):
         # Tile averages of the maps some block does not read (empty maps average 0).
         means = detail_means(tiles) if np.any(maps < used_maps) else np.zeros((DETAIL_MAPS, 4))
         self._update_detail(sea, t, resolution, tiles, int(maps.max()) if len(maps) else 0)
-        groups = [(with_hulls, fan, m, selection.nodes[(near_hull == with_hulls) & (flat == fan) & (maps == m)])
-                  for with_hulls in (False, True) for fan in (False, True) for m in range(used_maps + 1)]
+        # The foam's streak noise only where a pixel is small enough to show it.
+        streaks = (foam_streaks_needed(selection, sea, view, -level_z) if self.skip_faded_streaks
+                   else np.ones(len(selection.nodes), dtype=bool))
+        groups = [((with_hulls, m, streak), fan, selection.nodes[(near_hull == with_hulls) & (flat == fan)
+                                                                 & (maps == m) & (streaks == streak)])
+                  for with_hulls in (False, True) for fan in (False, True) for m in range(used_maps + 1)
+                  for streak in (False, True)]
         programs = {}
-        for with_hulls, _, m, nodes in groups:
-            if len(nodes) and (with_hulls, m) not in programs:
-                programs[(with_hulls, m)] = self._configured_program(frame, sea, waves, tiles, m, means, selection,
-                                                                     hulls, table_uniforms, with_hulls)
+        for key, _, nodes in groups:
+            if len(nodes) and key not in programs:
+                with_hulls, m, streak = key
+                programs[key] = self._configured_program(frame, sea, waves, tiles, m, means, selection,
+                                                         hulls, table_uniforms, with_hulls, streak)
         self.stats = {"blocks": int(len(selection.nodes)), "triangles": selection.triangles,
                       "lod_error_px": selection.error_bound_px, "error_sphere_m": selection.error_sphere,
                       "finest_spacing_m": selection.finest_spacing, "waves": sea.n,
                       "detail_resolution": resolution, "hull_blocks": int(np.count_nonzero(near_hull)),
                       "fan_blocks": int(np.count_nonzero(flat)),
-                      "blocks_by_detail_maps": np.bincount(maps, minlength=used_maps + 1).tolist()}
+                      "blocks_by_detail_maps": np.bincount(maps, minlength=used_maps + 1).tolist(),
+                      "foam_streak_blocks": int(np.count_nonzero(streaks))}
         if len(selection.nodes) == 0:
             return
         targets.scene_fbo.use()
@@ -721,20 +764,22 @@ class WaterPass(RenderPass):
             # field): back faces (the far slopes of waves) are always hidden, so they are not drawn.
             self.ctx.enable(moderngl.CULL_FACE)
             self.ctx.front_face = "ccw"  # the patch's triangles wind counter-clockwise seen from above
-        for slot, (with_hulls, fan, m, nodes) in enumerate(groups):
+        for slot, (key, fan, nodes) in enumerate(groups):
             if len(nodes):
-                self._vao(programs[(with_hulls, m)], nodes, slot, fan).render(moderngl.TRIANGLES, instances=len(nodes))
+                self._vao(programs[key], nodes, slot, fan).render(moderngl.TRIANGLES, instances=len(nodes))
         self.ctx.disable(moderngl.CULL_FACE)
         self.stats["culled_back_faces"] = not under
         if under:
             self._fill_under_crests(frame, selection, table_uniforms)
 
     def _configured_program(self, frame, sea, waves: dict, tiles, read_maps: int, means: np.ndarray, selection,
-                            hulls, table_uniforms, with_hulls: bool) -> moderngl.Program:
+                            hulls, table_uniforms, with_hulls: bool, foam_streaks: bool) -> moderngl.Program:
         """The water program (with or without the hull test, reading the first ``read_maps`` detail
-        maps and the tile means of the others) with this frame's uniforms set."""
+        maps and the tile means of the others, with or without the foam's streak noise) with this
+        frame's uniforms set."""
         scene, view = frame.scene, frame.view
-        program = self._program(sea.field is not None, with_hulls and bool(hulls), read_maps, bool(frame.lights))
+        program = self._program(sea.field is not None, with_hulls and bool(hulls), read_maps, bool(frame.lights),
+                                foam_streaks)
         set_uniforms(program, frame.uniforms)
         set_uniforms(program, table_uniforms)
         set_uniforms(program, glint_light(frame.uniforms))
