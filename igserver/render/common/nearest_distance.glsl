@@ -1,7 +1,9 @@
 // Reduced-resolution passes (volumes' march, fog halos): the scene distance of a low-resolution
 // pixel is the NEAREST of the scale x scale full-resolution pixels it covers, so what is computed
 // there for the nearest surface is never drawn over it; the depth-aware upsampling fills the
-// further pixels from neighbours whose distance matches theirs.
+// further pixels from neighbours whose distance matches theirs. Callers pass scale as a compile-time
+// constant (a define): the loops unroll into scale^2 fetches, where a uniform bound cost llvmpipe a
+// loop's bookkeeping per pixel (the halo pass ~0.9 CPU ms of ~7).
 float nearest_distance(sampler2D distance, ivec2 low_pixel, int scale) {
     ivec2 base = low_pixel * scale;
     ivec2 size = textureSize(distance, 0);

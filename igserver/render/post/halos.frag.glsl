@@ -46,7 +46,9 @@ vec3 light_halos(vec3 dir, float D) {
     return sum;
 }
 uniform sampler2D u_distance;  // m along the view ray, full resolution (1e30: sky)
-uniform int u_halo_scale;
+#ifndef HALO_SCALE
+#define HALO_SCALE 2  // post.py HALO_SCALE (compiled in)
+#endif
 uniform float u_halo_far;      // m, 20 / beta
 in vec2 v_uv;
 out vec4 out_color;
@@ -54,6 +56,6 @@ out vec4 out_color;
 void main() {
     // The nearest surface of the block this pixel covers (as the volumes' reduced march); its
     // distance goes in alpha (log2) for the depth-aware upsampling in tonemap.glsl.
-    float d = clamp(nearest_distance(u_distance, ivec2(gl_FragCoord.xy), u_halo_scale), 1e-3, u_halo_far);
+    float d = clamp(nearest_distance(u_distance, ivec2(gl_FragCoord.xy), HALO_SCALE), 1e-3, u_halo_far);
     out_color = vec4(pre_expose(light_halos(view_ray(v_uv), d)), log2(d));
 }

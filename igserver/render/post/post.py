@@ -102,10 +102,10 @@ class PostPass(RenderPass):
         self._halo_target = self.held_target("halos", size, "f2")
         if getattr(self, "_halo_table", None) is None:
             self._halo_table = HaloTable(self.ctx)
-        program = self.programs.program("common/fullscreen.vert.glsl", "post/halos.frag.glsl")
+        program = self.programs.program("common/fullscreen.vert.glsl", "post/halos.frag.glsl", {"HALO_SCALE": HALO_SCALE})
         set_uniforms(program, frame.uniforms)
         set_uniforms(program, halos)
-        set_uniforms(program, {"u_distance": 1, "u_halo_table": HALO_TABLE_UNIT, "u_halo_scale": HALO_SCALE})
+        set_uniforms(program, {"u_distance": 1, "u_halo_table": HALO_TABLE_UNIT})
         targets.distance.use(1)
         self._halo_table.use(halos["u_halo_g"], HALO_TABLE_UNIT)
         self._halo_target[1].use()

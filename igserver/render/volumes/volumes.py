@@ -486,8 +486,8 @@ class VolumesPass(RenderPass):
             self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
             distance_fbo.use()
             distance_fbo.scissor = low_rect
-            down = self.programs.program("common/fullscreen.vert.glsl", "volumes/downsample.frag.glsl")
-            set_uniforms(down, {"u_scene_distance": 1, "u_scale": scale})
+            down = self.programs.program("common/fullscreen.vert.glsl", "volumes/downsample.frag.glsl", {"SCALE": scale})
+            set_uniforms(down, {"u_scene_distance": 1})
             distance.use(1)
             self.fullscreen(down)
             distance_fbo.scissor = None
