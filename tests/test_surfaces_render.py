@@ -278,3 +278,40 @@ def test_shadow_map_is_reused_only_while_nothing_changed(renderer):
     assert not np.array_equal(out, first)
     surfaces._shadow_signatures.clear()
     assert np.array_equal(renderer.render(moved).rgba, out)
+
+
+@pytest.mark.parametrize("view", [{}, {"camera": {"pitch": -20.0}}, {"camera": {"position": [4.0, 10.0, 30.0], "pitch": -35.0}}])
+def test_ground_drawn_with_the_shadow_lookup_only_under_the_casters_footprints(renderer, view, monkeypatch):
+    # The snow scene's boxes on a clear day, sun 20 deg up: the ground is drawn without the key map's
+    # lookup, then again with it inside each caster's shadow footprint (surfaces.ground_shadow_rects:
+    # its bounding sphere grown by the lookup's reach, swept along the light onto the ground). Every
+    # shadowed pixel must lie in a footprint: the frame is the same as the ground drawn with the
+    # lookup everywhere (the shadows: up to ~100 levels on 200-1200 pixels of these views).
+    from igserver.render.surfaces import surfaces
+    from igserver.scene import apply_patch, load_scene
+
+    clear = {"camera": {"width": 320, "height": 180}, "weather": {"precipitation": {"type": "none"}},
+             "atmosphere": {"visibility": 30000.0}, "time": {"sun_override": {"elevation": 20.0, "azimuth": 140.0}}}
+    scene = apply_patch(apply_patch(load_scene("snow"), clear), view)
+    split = renderer.render(scene).rgba
+    assert renderer.graph.passes["surfaces"].ground_parts > 1
+    monkeypatch.setattr(surfaces, "GROUND_SPLIT_MAX_AREA", 0.0)
+    whole = renderer.render(scene).rgba
+    assert renderer.graph.passes["surfaces"].ground_parts == 1
+    np.testing.assert_array_equal(split, whole)
+    lit = renderer.render(apply_patch(scene, {"shadows": {"enabled": False}})).rgba
+    assert np.abs(lit.astype(int) - whole.astype(int)).max() > 20  # there are shadows on the ground
+
+
+def test_ground_shadow_footprints_give_up_for_a_grazing_light():
+    # Within 2 deg of the horizon a shadow runs to the horizon: no footprint rectangles.
+    from igserver.render.surfaces.surfaces import ground_shadow_rects
+    from igserver.scene import load_scene
+
+    view = make_view(load_scene("snow").camera)
+    bounds = np.array([[8.0, 30.0, 1.3, 5.2]])
+    low = np.array([0.0, -math.cos(math.radians(1.0)), math.sin(math.radians(1.0))])
+    high = np.array([0.0, -math.cos(math.radians(30.0)), math.sin(math.radians(30.0))])
+    assert ground_shadow_rects(bounds, low, 0.0, 0.5, view, (640, 360)) is None
+    rects = ground_shadow_rects(bounds, high, 0.0, 0.5, view, (640, 360))
+    assert rects is not None and len(rects) == 1 and rects[0][2] * rects[0][3] < 0.5 * 640 * 360

@@ -35,6 +35,7 @@ log = logging.getLogger(__name__)
 CLEAR_DEPTH = 0.0  # window depth at infinity
 NEAREST_WINS = ">"  # larger window depth = closer
 AT_INFINITY = ">="  # for passes drawn at infinity (the sky) over the cleared depth
+SAME_OR_NEARER = ">="  # a surface drawn again over itself (the ground's shadowed parts: the same depth)
 
 GL_LOWER_LEFT = 0x8CA1
 GL_ZERO_TO_ONE = 0x935F

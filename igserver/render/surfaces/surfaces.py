@@ -12,6 +12,7 @@ the same sun reuses it).
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import time
 from dataclasses import dataclass, field
@@ -103,6 +104,7 @@ class SurfacesPass(RenderPass):
         self.shadow_taps = DEFAULT_SHADOW_TAPS  # PCF taps per lookup (quality knob: igserver quality surfaces)
         self._shadow_signatures: dict[str, tuple] = {}  # what each map holds (skip redrawing it)
         self.shadow_maps_reused = 0
+        self.ground_parts = 0  # draws of the ground plane last frame (1 + shadow footprints when split)
         # Aerial perspective per pixel (the reference) instead of the frame's table: for the
         # table's error studies and tests; IGSERVER_AERIAL_EXACT=1 sets it for a whole process.
         self.aerial_exact = os.environ.get("IGSERVER_AERIAL_EXACT") == "1"
@@ -183,6 +185,7 @@ class SurfacesPass(RenderPass):
                     "u_shadow_softness": scene.shadows.softness,
                     "u_key_shadow_map": SHADOW_UNIT_KEY, "u_spot_shadow_map": SHADOW_UNIT_SPOT}
         self.last_shadow_passes = []
+        self._key_shadow = None  # (direction toward the light, texel m, caster bounds) when drawn
         self._bound_shadow_maps = []  # (texture, unit): bound again for the late blended pass
         bounds = np.concatenate([b.caster_bounds for b in batches.values()] or [np.zeros((0, 4))])
         if not scene.shadows.enabled or len(bounds) == 0:
@@ -198,6 +201,7 @@ class SurfacesPass(RenderPass):
             self._bound_shadow_maps.append((tex, SHADOW_UNIT_KEY))
             uniforms.update({"u_key_shadow_light": which, "u_key_shadow_texel": projection.texel})
             uniforms["u_key_shadow_matrix"] = gl_matrix(projection.map_matrix())
+            self._key_shadow = (np.asarray(direction, dtype=np.float64), projection.texel, bounds)
             self.last_shadow_passes.append("sun" if which == SUN_LIGHT else "moon")
         spot = self._shadow_spot(frame)
         if spot is not None:
@@ -278,16 +282,7 @@ class SurfacesPass(RenderPass):
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
         if scene.ground.enabled and not scene.ocean.enabled:
-            program = self.programs.program("common/fullscreen.vert.glsl", "surfaces/plane.glsl",
-                                            self._receiver_defines(frame))
-            set_uniforms(program, frame.uniforms)
-            set_uniforms(program, receiver_uniforms)
-            set_uniforms(program, {
-                "u_plane_height": scene.ground.level - float(view.position[2]),
-                "u_base_color": tuple(scene.ground.color),
-                "u_roughness": scene.ground.roughness,
-            })
-            self.fullscreen(program)
+            self._draw_ground(frame, targets, receiver_uniforms)
         if not any(len(batch.rows["view"]) for batch in batches.values()):
             return
         program = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl", self._receiver_defines(frame))
@@ -299,6 +294,44 @@ class SurfacesPass(RenderPass):
                for p in b.model.primitives):
             # Blended surfaces come later, over the water and the sky (BlendedSurfacesPass).
             frame.resources["blended_surfaces"] = lambda: self._draw_blended(frame, targets, program, batches)
+
+    def _draw_ground(self, frame, targets, receiver_uniforms: dict) -> None:
+        """The ground plane (surfaces/plane.glsl), a full-screen pass. The key light's shadows fall on
+        it only within the casters' footprints (``ground_shadow_rects``); when those cover little of
+        the frame, the plane is drawn without the key map's lookup and then again, with it, inside
+        them (the same depth, drawn over). The lookup's percentage-closer taps were about half of the
+        plane's CPU (the snow scene); on llvmpipe a run-time test would still pay for them."""
+        scene, view = frame.scene, frame.view
+        defines = self._receiver_defines(frame)
+        parts = [(defines, None)]
+        if "KEY_SHADOW_MAP" in defines and self._key_shadow is not None:
+            direction, texel, bounds = self._key_shadow
+            # The lookup reaches the PCF disk (softness, at least half a texel), the normal offset
+            # (2 texels) and the bilinear compare (1) past the caster's own shadow.
+            margin = max(scene.shadows.softness, 0.5 * texel) + 3.0 * texel
+            rects = ground_shadow_rects(bounds, direction, scene.ground.level, margin, view, targets.size)
+            width, height = targets.size
+            if rects is not None and sum(w * h for _, _, w, h in rects) < GROUND_SPLIT_MAX_AREA * width * height:
+                plain = {k: v for k, v in defines.items() if k != "KEY_SHADOW_MAP"}
+                if "SPOT_SHADOW_MAP" not in plain:
+                    plain = {k: v for k, v in plain.items() if k not in ("SURFACE_SHADOWS", "SHADOW_TAPS")}
+                parts = [(plain, None)] + [(defines, rect) for rect in rects]
+        fbo = targets.scene_fbo
+        try:
+            for i, (part_defines, scissor) in enumerate(parts):
+                program = self.programs.program("common/fullscreen.vert.glsl", "surfaces/plane.glsl", part_defines)
+                set_uniforms(program, frame.uniforms)
+                set_uniforms(program, receiver_uniforms)
+                set_uniforms(program, {"u_plane_height": scene.ground.level - float(view.position[2]),
+                                       "u_base_color": tuple(scene.ground.color), "u_roughness": scene.ground.roughness})
+                fbo.scissor = scissor
+                if i == 1:
+                    self.ctx.depth_func = depth.SAME_OR_NEARER
+                self.fullscreen(program)
+        finally:
+            fbo.scissor = None
+            self.ctx.depth_func = depth.NEAREST_WINS
+        self.ground_parts = len(parts)
 
     def _draw_blended(self, frame, targets, program, batches) -> None:
         """The blended primitives over everything opaque, the water and the sky: colour only, depth
@@ -320,6 +353,48 @@ class SurfacesPass(RenderPass):
             targets.color_fbo.depth_mask = True
             self.ctx.disable(moderngl.BLEND)
             targets.scene_fbo.use()
+
+
+# The ground is drawn in parts only when the casters' shadow footprints cover less than this share
+# of the frame (their rectangles are drawn twice).
+GROUND_SPLIT_MAX_AREA = 0.5
+
+
+def ground_shadow_rects(bounds: np.ndarray, direction: np.ndarray, level: float, margin: float, view,
+                        size: tuple[int, int]) -> list[tuple[int, int, int, int]] | None:
+    """Screen rectangles (x, y, w, h, GL's lower-left origin) holding every pixel of the ground
+    (world height ``level``) a caster's shadow can touch: each caster's bounding sphere (world
+    centre, radius; ``bounds`` (n, 4)), grown by ``margin``, swept along the light (unit
+    ``direction`` toward it) down to the ground: the corners of its box projected along the light
+    onto the ground, then onto the screen. None when that cannot bound them: the light within 2 deg
+    of the horizon (the sweep runs to the horizon) or a footprint reaching behind the camera. The
+    sweep of the box is the convex hull of its corners' (an affine map), so their projections bound
+    it on the screen."""
+    d = np.asarray(direction, dtype=np.float64)
+    if d[2] < math.sin(math.radians(2.0)):
+        return None
+    w, h = size
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
+    rects = []
+    for c, r in zip(np.asarray(bounds, dtype=np.float64)[:, :3], np.asarray(bounds, dtype=np.float64)[:, 3]):
+        box = c + (r + margin) * corners
+        # Nothing under the ground shadows it (the light comes from above: what lies below a ground
+        # point is behind it), so the box stops at the ground; each corner slid along the light onto
+        # the ground, and the box's own footprint there.
+        box[:, 2] = np.maximum(box[:, 2], level)
+        ground = box - d * ((box[:, 2] - level) / d[2])[:, None]
+        points = np.vstack([ground, np.column_stack([box[:, :2], np.full(8, level)])])
+        rel = points - view.position
+        clip = np.column_stack([rel, np.ones(len(rel))]) @ np.asarray(view.view_proj, dtype=np.float64).T
+        if np.any(clip[:, 3] <= view.near):
+            return None
+        px = (clip[:, :2] / clip[:, 3:4] * 0.5 + 0.5) * np.array([w, h])
+        x0, y0 = np.floor(px.min(axis=0)).astype(int) - 1
+        x1, y1 = np.ceil(px.max(axis=0)).astype(int) + 1
+        x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
+        if x1 > x0 and y1 > y0:
+            rects.append((int(x0), int(y0), int(x1 - x0), int(y1 - y0)))
+    return rects
 
 
 _BLENDS: dict[str, tuple[bool, float]] = {}
