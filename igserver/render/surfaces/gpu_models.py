@@ -142,18 +142,11 @@ class ModelCache:
         self.ctx = ctx
         self.textures = Textures(ctx)
         self._models: dict[str, tuple[tuple, GpuModel | None]] = {}
-        self._checked: dict[str, float] = {}  # name -> when its file's identity was last read
         self.problems: dict[str, str] = {}
 
     def get(self, name: str) -> GpuModel | None:
-        # The file's identity costs a stat (~0.2 ms a model, every frame): read it once a second.
-        now = time.monotonic()
-        cached = self._models.get(name)
-        if cached is not None and now - self._checked.get(name, -1e30) < MODEL_RECHECK_S:
-            return cached[1]
-        self._checked[name] = now
         try:
-            identity = ("builtin",) if name in BUILTIN else _identity(name)
+            identity = model_identity(name)
         except Exception as exc:  # noqa: BLE001 - a vanished or refused file: draw nothing
             return self._fail(name, None, exc)
         cached = self._models.get(name)
@@ -178,6 +171,24 @@ class ModelCache:
         return None
 
 
-def _identity(name: str) -> tuple:
+_identities: dict[tuple, tuple[float, tuple]] = {}
+
+
+def model_identity(name: str) -> tuple:
+    """A model asset's file identity (size, mtime, inode; ("builtin",) for the built-in ones), read
+    at most once per MODEL_RECHECK_S: a stat costs ~0.2 ms and the render process asks for every
+    entity's model every frame (the model cache, the blended-surfaces check). A vanished or refused
+    file raises, and is not remembered."""
+    if name in BUILTIN:
+        return ("builtin",)
+    key = (name, os.environ.get("IGSERVER_ASSETS"))  # the same name may resolve elsewhere
+    now = time.monotonic()
+    held = _identities.get(key)
+    if held is not None and 0.0 <= now - held[0] < MODEL_RECHECK_S:
+        return held[1]
     st = os.stat(model_path(name))
-    return (st.st_size, st.st_mtime_ns, st.st_ino)
+    identity = (st.st_size, st.st_mtime_ns, st.st_ino)
+    if len(_identities) > 256:
+        _identities.clear()
+    _identities[key] = (now, identity)
+    return identity

@@ -14,7 +14,6 @@ from __future__ import annotations
 import hashlib
 import math
 import os
-import time
 from dataclasses import dataclass, field
 
 import moderngl
@@ -27,7 +26,7 @@ from ..common.aerial_table import frame_aerial_table
 from ..passes import RenderPass
 from ..shaders import set_uniforms
 from .gltf import check_model
-from .gpu_models import INSTANCE_FLOATS, MODEL_RECHECK_S, SAMPLER_UNITS, GpuModel, ModelCache
+from .gpu_models import INSTANCE_FLOATS, SAMPLER_UNITS, GpuModel, ModelCache, model_identity
 from .shadow_fit import ShadowProjection, fit_directional, fit_spot
 
 SHADOW_UNIT_KEY = 16   # texture units of the shadow maps: above the frame-wide 8..15 (haze, sky view, tables)
@@ -303,7 +302,7 @@ class SurfacesPass(RenderPass):
         plane's CPU (the snow scene); on llvmpipe a run-time test would still pay for them."""
         scene, view = frame.scene, frame.view
         defines = self._receiver_defines(frame)
-        parts = [(defines, None)]
+        parts = [(defines, [None])]  # (program defines, the scissor boxes it is drawn in)
         if "KEY_SHADOW_MAP" in defines and self._key_shadow is not None:
             direction, texel, bounds = self._key_shadow
             # The lookup reaches the PCF disk (softness, at least half a texel), the normal offset
@@ -315,23 +314,24 @@ class SurfacesPass(RenderPass):
                 plain = {k: v for k, v in defines.items() if k != "KEY_SHADOW_MAP"}
                 if "SPOT_SHADOW_MAP" not in plain:
                     plain = {k: v for k, v in plain.items() if k not in ("SURFACE_SHADOWS", "SHADOW_TAPS")}
-                parts = [(plain, None)] + [(defines, rect) for rect in rects]
+                parts = [(plain, [None]), (defines, rects)]
         fbo = targets.scene_fbo
         try:
-            for i, (part_defines, scissor) in enumerate(parts):
+            for i, (part_defines, scissors) in enumerate(parts):
                 program = self.programs.program("common/fullscreen.vert.glsl", "surfaces/plane.glsl", part_defines)
                 set_uniforms(program, frame.uniforms)
                 set_uniforms(program, receiver_uniforms)
                 set_uniforms(program, {"u_plane_height": scene.ground.level - float(view.position[2]),
                                        "u_base_color": tuple(scene.ground.color), "u_roughness": scene.ground.roughness})
-                fbo.scissor = scissor
                 if i == 1:
                     self.ctx.depth_func = depth.SAME_OR_NEARER
-                self.fullscreen(program)
+                for scissor in scissors:
+                    fbo.scissor = scissor
+                    self.fullscreen(program)
         finally:
             fbo.scissor = None
             self.ctx.depth_func = depth.NEAREST_WINS
-        self.ground_parts = len(parts)
+        self.ground_parts = sum(len(scissors) for _, scissors in parts)
 
     def _draw_blended(self, frame, targets, program, batches) -> None:
         """The blended primitives over everything opaque, the water and the sky: colour only, depth
@@ -397,23 +397,23 @@ def ground_shadow_rects(bounds: np.ndarray, direction: np.ndarray, level: float,
     return rects
 
 
-_BLENDS: dict[str, tuple[bool, float]] = {}
+_BLENDS: dict[str, tuple[tuple, bool]] = {}  # name -> (file identity, has a BLEND material)
 
 
 def _model_blends(name: str) -> bool:
-    """Whether the model has a BLEND material, from its check (cached on the file's identity, which
-    costs a stat: ~1 ms a frame over the demo's 22 entities, so the answer is kept a second)."""
-    now = time.monotonic()
-    held = _BLENDS.get(name)
-    if held is not None and now - held[1] < MODEL_RECHECK_S:
-        return held[0]
+    """Whether the model has a BLEND material, from its check, kept while its file's identity
+    (model_identity, read once a second) stays the same."""
     try:
+        identity = model_identity(name)
+        held = _BLENDS.get(name)
+        if held is not None and held[0] == identity:
+            return held[1]
         blends = check_model(name).blended
     except Exception:  # a model that cannot be read draws nothing (the surfaces pass reports it)
-        blends = False
+        return False
     if len(_BLENDS) > 256:
         _BLENDS.clear()
-    _BLENDS[name] = (blends, now)
+    _BLENDS[name] = (identity, blends)
     return blends
 
 

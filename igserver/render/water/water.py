@@ -33,7 +33,6 @@ from ..shaders import assemble, set_uniforms
 from . import lod
 
 MAX_WAVES = 64
-MAX_DETAIL = 48
 MAX_HULLS = 32  # a pier's piles count one each
 DETAIL_MAPS = 3
 # The detail band is split by wavelength into DETAIL_MAPS maps, each covering a ratio DETAIL_RATIO of
@@ -213,7 +212,7 @@ def detail_tiles(sea: SeaSurface, t: float) -> list[tuple[float, np.ndarray]]:
         k_snap = np.linalg.norm(cycles, axis=1) * 2.0 * math.pi / size
         omega = np.sqrt(9.80665 * k_snap)
         phase = np.mod(d.phase[pick] - np.mod(omega * t, 2.0 * math.pi), 2.0 * math.pi)
-        tiles.append((size, np.column_stack([cycles, d.amplitude[pick] * k_snap, phase])[:MAX_DETAIL]))
+        tiles.append((size, np.column_stack([cycles, d.amplitude[pick] * k_snap, phase])))
     return tiles
 
 
@@ -259,7 +258,7 @@ def detail_unresolved_var(sea: SeaSurface) -> float:
 
 def detail_means(tiles: list[tuple[float, np.ndarray]]) -> np.ndarray:
     """Per detail map, its average over the tile (sx, sy, sx², sy²): what the map's 1×1 mip level holds
-    (float64 here; the GPU's is the box-filtered float16 map, within its rounding). Over the texel
+    (float64 here; the map's is the float32 mean of its texels, within its rounding). Over the texel
     grid a lattice wave averages to zero, and a product of two averages to half the cosine of their
     phase difference when they share a lattice point (or of the phase sum for opposite points)."""
     means = np.zeros((DETAIL_MAPS, 4))
