@@ -5,6 +5,7 @@ readiness with precompute progress, and graceful shutdown with open streams."""
 from __future__ import annotations
 
 import io
+import json
 import os
 import signal
 import socket
@@ -350,6 +351,47 @@ def test_ready_only_after_the_first_frame_with_precompute_progress(tmp_path, mon
     finally:
         srv.stop()
         srv.service.stop()
+
+
+class _FirstFrameLandsMidRequest:
+    """A render service whose first frame completes between two reads of one /v1/ready request: the
+    first ``info()`` sees no frame yet, everything read after it sees the frame counted and warm."""
+
+    render_timeout_s = 10.0
+    alive = True
+    progress = None
+    last_progress = {"phase": "atmosphere tables", "elapsed_s": 1.0}
+
+    def __init__(self):
+        self.ig_frame, self.warm = 0, False
+
+    def info(self) -> dict:
+        frames = self.ig_frame
+        self.ig_frame, self.warm = 1, True  # the executor thread's frame lands here
+        return {"ready": True, "restarts": 0, "pid": 1, "frames": frames}
+
+    def unresponsive_reason(self):
+        return None
+
+    def set_state(self, scene):
+        pass
+
+
+def test_ready_never_reports_a_frame_count_older_than_its_answer():
+    # CI once read ready=true with frames=0: the report read the frame count before deciding readiness,
+    # and the first frame landed in between
+    import asyncio
+
+    from igserver.protocol.routers.health import ready
+    from igserver.protocol.runtime import IGRuntime
+
+    runtime = IGRuntime(_FirstFrameLandsMidRequest(), Scene(), ServerSettings())
+    try:
+        response = asyncio.run(ready(runtime))
+    finally:
+        runtime.gateway.executor.shutdown()
+    body = json.loads(response.body)
+    assert response.status_code == 200 and body["ready"] and body["frames"] >= 1
 
 
 def free_port() -> int:

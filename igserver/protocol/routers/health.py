@@ -37,10 +37,12 @@ async def health(runtime: Runtime) -> Health:
     responses={503: {"model": ReadyReport, "description": "not ready"}},
 )
 async def ready(runtime: Runtime):
-    # info() reads attributes only (no lock): answers at once even while a restart is in progress
+    # info() reads attributes only (no lock): answers at once even while a restart is in progress.
+    # Readiness is decided first: the first frame may land between two reads, and the service counts a
+    # frame before it marks itself warm, so figures read after a "ready" always include that frame.
     service = runtime.service
-    info = service.info()
     reason = runtime.not_ready_reason()
+    info = service.info()
     body = ReadyReport(
         ready=reason is None,
         renderer=info.get("renderer"),
