@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from igserver.render.camera import make_view
 from igserver.render.graph import plan_passes
 from igserver.render.water import lod
 from igserver.scene import apply_patch
@@ -39,18 +40,25 @@ def test_scenes_without_ocean_skip_the_water_pass():
     assert "water" in plan_passes(sea_scene())
 
 
-def _edge(positions: np.ndarray, node: np.ndarray, side: str) -> tuple[np.ndarray, np.ndarray]:
-    """Rest coordinates along a block side and the displaced vertices there."""
+SIDE_BITS = {"bottom": 1, "right": 2, "top": 4, "left": 8}  # lod.SIDES
+
+
+def _edge(positions: np.ndarray, node: np.ndarray, side: str, coarse: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Rest coordinates along a block side and the displaced vertices drawn there (its two corners
+    only where the side is one segment: ``coarse``, lod.SIDES bits)."""
     x0, y0, size = node[:3]
     g = lod.PATCH_QUADS
     t = np.arange(g + 1) / g * size
     if side == "left":
-        return np.column_stack([np.full(g + 1, x0), y0 + t]), positions[0, :, :]
-    if side == "right":
-        return np.column_stack([np.full(g + 1, x0 + size), y0 + t]), positions[g, :, :]
-    if side == "bottom":
-        return np.column_stack([x0 + t, np.full(g + 1, y0)]), positions[:, 0, :]
-    return np.column_stack([x0 + t, np.full(g + 1, y0 + size)]), positions[:, g, :]
+        rest, verts = np.column_stack([np.full(g + 1, x0), y0 + t]), positions[0, :, :]
+    elif side == "right":
+        rest, verts = np.column_stack([np.full(g + 1, x0 + size), y0 + t]), positions[g, :, :]
+    elif side == "bottom":
+        rest, verts = np.column_stack([x0 + t, np.full(g + 1, y0)]), positions[:, 0, :]
+    else:
+        rest, verts = np.column_stack([x0 + t, np.full(g + 1, y0 + size)]), positions[:, g, :]
+    drawn = [0, g] if coarse & SIDE_BITS[side] else slice(None)
+    return rest[drawn], verts[drawn]
 
 
 def _distance_to_polyline(points: np.ndarray, line: np.ndarray) -> np.ndarray:
@@ -62,22 +70,28 @@ def _distance_to_polyline(points: np.ndarray, line: np.ndarray) -> np.ndarray:
 
 
 @pytest.mark.parametrize("height,wind,mesh", [(2.0, 12.0, "default"), (300.0, 20.0, "default"),
-                                              (2.0, 12.0, "coarse"), (300.0, 20.0, "coarse")])
+                                              (2.0, 12.0, "coarse"), (300.0, 20.0, "coarse"),
+                                              (1000.0, 10.0, "default")])
 def test_lod_joins_are_watertight(renderer, height, wind, mesh):
+    # Each block side as drawn (a flat side shared with a flat block of the same size: its corners
+    # only) meets its neighbours' drawn sides: every drawn vertex lies on the other side's polyline.
     scene = sea_scene(camera={"position": [3.7, -8.2, height], "pitch": -20.0},
                       weather={"wind_speed": wind})
     selection, pos = renderer.graph.passes["water"].capture(scene, mesh)
     nodes = selection.nodes.astype(np.float64)
+    coarse = selection.coarse_sides
     assert len(np.unique(nodes[:, 3])) >= 3  # several levels meet
+    if height >= 1000.0:
+        assert np.count_nonzero(coarse) > len(nodes) // 4  # the one-segment sides are checked too
     opposite = {"left": "right", "right": "left", "bottom": "top", "top": "bottom"}
     checked, worst = 0, 0.0
     for a, na in enumerate(nodes):
         for side in ("left", "right", "bottom", "top"):
-            rest_a, verts_a = _edge(pos[a], na, side)
+            rest_a, verts_a = _edge(pos[a], na, side, int(coarse[a]))
             for b, nb in enumerate(nodes):
                 if b == a:
                     continue
-                rest_b, verts_b = _edge(pos[b], nb, opposite[side])
+                rest_b, verts_b = _edge(pos[b], nb, opposite[side], int(coarse[b]))
                 axis = 0 if side in ("left", "right") else 1
                 if abs(rest_a[0, axis] - rest_b[0, axis]) > 1e-3:
                     continue
@@ -286,6 +300,70 @@ def test_fan_patch_shares_the_full_patch_border():
     assert np.all(signed_areas(fan) > 0) and np.all(signed_areas(full) > 0)
     assert signed_areas(fan).sum() == pytest.approx(g * g) == signed_areas(full).sum()
     assert len(fan) // 3 == lod.FAN_TRIANGLES
+
+
+def test_fan_patch_with_one_segment_sides():
+    # Every side mask: a side in the mask is the single segment between its corners, every other side
+    # keeps the full patch's G segments; the square is covered once, counter-clockwise from above.
+    g = lod.PATCH_QUADS
+    grid = np.array([(a, b) for a in range(g + 1) for b in range(g + 1)], dtype=np.float64)
+    corner = {"bottom": (0, g * (g + 1)), "right": (g * (g + 1), g * (g + 1) + g),
+              "top": (g, g * (g + 1) + g), "left": (0, g)}
+    full_border = {tuple(sorted(e)) for e in _border_edges(lod.patch_indices())}
+    for mask in range(16):
+        fan = lod.fan_indices(mask)
+        p = grid[fan.reshape(-1, 3)]
+        a, b = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+        areas = 0.5 * (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+        assert np.all(areas > 0) and areas.sum() == pytest.approx(g * g)
+        assert len(fan) // 3 == lod.fan_triangles(mask) == sum(1 if mask & bit else g for bit in SIDE_BITS.values())
+        expected = set()
+        for side, bit in SIDE_BITS.items():
+            lo, hi = corner[side]
+            on_side = {e for e in full_border if _on_side(grid, e, side, g)}
+            expected |= {tuple(sorted((lo, hi)))} if mask & bit else on_side
+        assert _border_edges(fan) == expected
+
+
+def _border_edges(indices: np.ndarray) -> set:
+    edges: dict = {}
+    for t in indices.reshape(-1, 3):
+        for k in range(3):
+            e = tuple(sorted((int(t[k]), int(t[(k + 1) % 3]))))
+            edges[e] = edges.get(e, 0) + 1
+    return {e for e, n in edges.items() if n == 1}
+
+
+def _on_side(grid: np.ndarray, edge: tuple, side: str, g: int) -> bool:
+    p = grid[list(edge)]
+    axis, value = {"bottom": (1, 0), "top": (1, g), "left": (0, 0), "right": (0, g)}[side]
+    return bool(np.all(p[:, axis] == value))
+
+
+def test_one_segment_sides_are_shared_whole_with_a_flat_block():
+    # From 1 km most blocks are flat. A side is one segment exactly when a flat block of the same size
+    # lies across it, and then that block's facing side is one segment too (the join has the same two
+    # vertices on both sides); with the knob off every fan keeps its G segments a side.
+    scene = sea_scene(camera={"position": [0.0, 0.0, 1000.0], "pitch": -20.0}, weather={"wind_speed": 10.0})
+    view = make_view(scene.camera)
+    sea = sea_surface(scene.ocean, scene.weather)
+    args = (view, 1000.0, sea.waves.k, sea.waves.amplitude, scene.camera.fov_y, 1.0, view.far)
+    selection = lod.select(*args)
+    nodes = selection.nodes.astype(np.float64)
+    flat, coarse = selection.flat, selection.coarse_sides
+    where = {(n[2], round(n[0] / n[2]), round(n[1] / n[2])): i for i, n in enumerate(nodes)}
+    opposite = {1: 4, 4: 1, 2: 8, 8: 2}
+    for i, n in enumerate(nodes):
+        for bit, (dx, dy) in lod.SIDES:
+            j = where.get((n[2], round(n[0] / n[2]) + dx, round(n[1] / n[2]) + dy))
+            shared = j is not None and flat[i] and flat[j]
+            assert bool(coarse[i] & bit) == shared
+            if shared:
+                assert coarse[j] & opposite[bit]
+    assert np.count_nonzero(coarse) > len(nodes) // 2
+    plain = lod.select(*args, coarse_sides=False)
+    assert not plain.coarse_sides.any() and np.array_equal(plain.nodes, selection.nodes)
+    assert selection.triangles < 0.8 * plain.triangles
 
 
 def test_fan_blocks_carry_no_wave(renderer):

@@ -27,6 +27,13 @@ draw call and no stitching index buffers.
   vertices, same morph), so joins stay crack-free, and 4·G triangles replace 2·G² (128 → 32). From
   high cameras most blocks are flat (their rings lie near the horizon, where the G² grid made
   sub-pixel slivers: llvmpipe sets up and shades every one).
+- Shared flat sides as one segment: two flat blocks of the same level side by side have the same
+  corners and nothing between them to carry (no wave, no morph: corners and the fan's centre are even
+  grid vertices), so both draw that side as one triangle from the centre instead of G (``coarse``:
+  a 4-bit mask per block, ``fan_indices(mask)``). A side next to anything else (a finer or coarser
+  block, a block with waves, a block culled away) keeps its G segments, so every join is made of the
+  same vertices on both sides. From high cameras, where most blocks are flat, the fans' G-segment
+  slivers near the horizon were most of the triangles.
 """
 
 from __future__ import annotations
@@ -58,6 +65,7 @@ class LodSelection:
     error_sphere: float  # m, Σ A_i
     reach: float  # m, horizontal distance the sea is drawn to (the horizon and the crests beyond it)
     flat_level: int = MAX_LEVELS  # blocks of this level and coarser carry no wave (drawn as fans)
+    coarse: np.ndarray | None = None  # (N,) uint8: per flat block, sides drawn as one segment (SIDES bits)
 
     @property
     def flat(self) -> np.ndarray:
@@ -65,12 +73,27 @@ class LodSelection:
         return self.nodes[:, 3] >= self.flat_level - 0.5
 
     @property
+    def coarse_sides(self) -> np.ndarray:
+        """Per block, the mask of sides drawn as one segment (0 for blocks with waves)."""
+        return self.coarse if self.coarse is not None else np.zeros(len(self.nodes), dtype=np.uint8)
+
+    @property
     def triangles(self) -> int:
-        n_flat = int(np.count_nonzero(self.flat))
-        return (int(len(self.nodes)) - n_flat) * PATCH_QUADS * PATCH_QUADS * 2 + n_flat * FAN_TRIANGLES
+        flat = self.flat
+        n_flat = int(np.count_nonzero(flat))
+        fans = sum(fan_triangles(int(m)) for m in self.coarse_sides[flat])
+        return (int(len(self.nodes)) - n_flat) * PATCH_QUADS * PATCH_QUADS * 2 + fans
 
 
 FAN_TRIANGLES = 4 * PATCH_QUADS
+# The sides of a block in the fan's ring order, as (bit, neighbour offset in blocks): bottom (y0),
+# right (x0 + S), top (y0 + S), left (x0).
+SIDES = ((1, (0, -1)), (2, (1, 0)), (4, (0, 1)), (8, (-1, 0)))
+
+
+def fan_triangles(coarse: int = 0) -> int:
+    """Triangles of a flat block's fan whose sides in ``coarse`` are one segment."""
+    return sum(1 if coarse & bit else PATCH_QUADS for bit, _ in SIDES)
 
 
 def patch_indices() -> np.ndarray:
@@ -83,18 +106,42 @@ def patch_indices() -> np.ndarray:
     return np.column_stack([v00, v10, v11, v00, v11, v01]).astype(np.int32).ravel()
 
 
-def fan_indices() -> np.ndarray:
+def fan_indices(coarse: int = 0) -> np.ndarray:
     """Triangles of the fan patch of a flat block: the centre vertex (G/2, G/2) to each of the 4·G
-    border segments of the full patch, counter-clockwise seen from above."""
+    border segments of the full patch, or to the side's two corners for a side in ``coarse``
+    (``SIDES`` bits), counter-clockwise seen from above."""
     g = PATCH_QUADS
     t = np.arange(g)
-    ring = np.concatenate([np.column_stack([t, np.zeros(g, int)]),          # bottom, i rising
-                           np.column_stack([np.full(g, g), t]),            # right, j rising
-                           np.column_stack([g - t, np.full(g, g)]),        # top, i falling
-                           np.column_stack([np.zeros(g, int), g - t])])    # left, j falling
+    sides = [np.column_stack([t, np.zeros(g, int)]),          # bottom, i rising
+             np.column_stack([np.full(g, g), t]),            # right, j rising
+             np.column_stack([g - t, np.full(g, g)]),        # top, i falling
+             np.column_stack([np.zeros(g, int), g - t])]     # left, j falling
+    ring = np.concatenate([side[:1] if coarse & bit else side for side, (bit, _) in zip(sides, SIDES)])
     v = ring[:, 0] * (g + 1) + ring[:, 1]
     centre = (g // 2) * (g + 1) + g // 2
     return np.column_stack([np.full(len(v), centre), v, np.roll(v, -1)]).astype(np.int32).ravel()
+
+
+def shared_flat_sides(corners: np.ndarray, sizes: np.ndarray, flat: np.ndarray) -> np.ndarray:
+    """Per block (world lower-left ``corners``, ``sizes`` in m), the ``SIDES`` bits of the sides a
+    flat block shares whole with another flat block of the same size: the blocks the quadtree chose
+    tile the plane, so a same-size block one side away covers exactly that side."""
+    mask = np.zeros(len(corners), dtype=np.uint8)
+    if not np.any(flat):
+        return mask
+    # One integer key per (size, column, row): corners are exact multiples of their block's size
+    # (powers of two), and |column| < 2^27 for any camera the scene accepts (1e7 m, blocks >= 1 m).
+    cells = np.round(corners / sizes[:, None]).astype(np.int64) + (1 << 27)
+    size_id = np.unique(sizes, return_inverse=True)[1].astype(np.int64).reshape(-1)
+
+    def key(cx, cy):
+        return (size_id << 56) | (cx << 28) | cy
+
+    flat_keys = key(cells[:, 0], cells[:, 1])[flat]
+    for bit, (dx, dy) in SIDES:
+        shared = flat & np.isin(key(cells[:, 0] + dx, cells[:, 1] + dy), flat_keys)
+        mask[shared] |= np.uint8(bit)
+    return mask
 
 
 def first_flat_level(k: np.ndarray, spacing: float) -> int:
@@ -122,10 +169,12 @@ def horizon_distance(height: float) -> float:
 
 
 def select(view: CameraView, cam_height: float, k: np.ndarray, amplitude: np.ndarray, fov_y_deg: float,
-           lod_error_px: float, max_distance: float, mesh: str = "default", fans: bool = True) -> LodSelection:
+           lod_error_px: float, max_distance: float, mesh: str = "default", fans: bool = True,
+           coarse_sides: bool = True) -> LodSelection:
     """Blocks to draw this frame. ``cam_height``: camera height above the mean sea level (m);
     ``mesh``: the ring rule (``MESHES``); ``fans``: flat blocks drawn as fans (``flat_level``; off
-    where per-vertex attributes vary without waves, e.g. depth over a bathymetry field)."""
+    where per-vertex attributes vary without waves, e.g. depth over a bathymetry field);
+    ``coarse_sides``: the sides two flat blocks share drawn as one segment."""
     morph_start, morph_margin = MESHES[mesh]
     sphere = float(np.sum(amplitude))
     h_abs = abs(cam_height)
@@ -191,14 +240,15 @@ def select(view: CameraView, cam_height: float, k: np.ndarray, amplitude: np.nda
                   ).reshape(-1, 2)
     nodes = np.concatenate(chosen) if chosen else np.zeros((0, 4))
     arr = nodes.astype(np.float64).reshape(-1, 4)
+    flat_level = first_flat_level(k, spacing) if fans else MAX_LEVELS
+    coarse = shared_flat_sides(arr[:, :2], arr[:, 2], arr[:, 3] >= flat_level - 0.5) if coarse_sides else None
     arr[:, 0] -= cam[0]
     arr[:, 1] -= cam[1]
     # Near blocks first: the depth test then rejects hidden far fragments before they are shaded.
     centre = arr[:, :2] + arr[:, 2:3] / 2.0
-    arr = arr[np.argsort(np.hypot(centre[:, 0], centre[:, 1]) - arr[:, 2] * 0.7072, kind="stable")]
-    flat_level = first_flat_level(k, spacing) if fans else MAX_LEVELS
-    return LodSelection(arr.astype(np.float32), morph, np.asarray(ranges), spacing, lod_error_px, sphere, reach,
-                        flat_level)
+    order = np.argsort(np.hypot(centre[:, 0], centre[:, 1]) - arr[:, 2] * 0.7072, kind="stable")
+    return LodSelection(arr[order].astype(np.float32), morph, np.asarray(ranges), spacing, lod_error_px, sphere,
+                        reach, flat_level, coarse[order] if coarse is not None else None)
 
 
 def _frustum_planes(view: CameraView) -> list[tuple[float, ...]]:

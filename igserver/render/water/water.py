@@ -544,6 +544,7 @@ class WaterPass(RenderPass):
         self.exact_atmosphere = False  # the atmosphere per pixel/vertex instead of the tables (quality study)
         self.skip_minified_maps = True  # False: every block reads every detail map (tests' reference)
         self.skip_faded_streaks = True  # False: every block reads the foam's streak noise (tests' reference)
+        self.coarse_flat_sides = True  # False: every fan keeps its G segments a side (tests' reference)
         self.foam_threshold: float | None = None  # tests: a J threshold instead of the calibrated one
         self._foam_noise_tex: moderngl.Texture | None = None
         self.stats: dict = {}
@@ -576,16 +577,19 @@ class WaterPass(RenderPass):
                                           varyings=["v_rel"])
         return cache[key]
 
-    def _patch_buffer(self, fan: bool = False) -> tuple[moderngl.Buffer, moderngl.Buffer]:
-        """The patch's (G+1)² grid vertices and its index buffer: the full G×G patch, or the fan of a
-        flat block (lod.fan_indices: the same border vertices)."""
+    def _patch_buffer(self, fan: int = -1) -> tuple[moderngl.Buffer, moderngl.Buffer]:
+        """The patch's (G+1)² grid vertices and an index buffer: the full G×G patch (``fan`` -1), or
+        the fan of a flat block whose sides in the mask ``fan`` are one segment (lod.fan_indices: the
+        same border vertices as the full patch on every other side)."""
         if self._patch is None:
             g = lod.PATCH_QUADS
             i, j = np.meshgrid(np.arange(g + 1), np.arange(g + 1), indexing="ij")
             verts = np.column_stack([i.ravel(), j.ravel()]).astype(np.float32)
-            self._patch = (self.ctx.buffer(verts.tobytes()), self.ctx.buffer(lod.patch_indices().tobytes()),
-                           self.ctx.buffer(lod.fan_indices().tobytes()))
-        return self._patch[0], self._patch[2 if fan else 1]
+            self._patch = (self.ctx.buffer(verts.tobytes()), {-1: self.ctx.buffer(lod.patch_indices().tobytes())})
+        verts, indices = self._patch
+        if fan not in indices:
+            indices[fan] = self.ctx.buffer(lod.fan_indices(fan).tobytes())
+        return verts, indices[fan]
 
     def _upload_field(self, sea: SeaSurface) -> None:
         if self._field_key is sea:
@@ -694,13 +698,14 @@ class WaterPass(RenderPass):
         # igserver.water's cache) and the knobs, not on the time: a still camera selects once.
         key = (view.position.tobytes(), view.view_proj.tobytes(), int(view.height), view.far, id(sea),
                scene.ocean.level, fov, scene.ocean.lod_error * lod_error_scale, mesh, lod.PATCH_QUADS,
-               lod.SPACING_PER_WAVE)
+               lod.SPACING_PER_WAVE, self.coarse_flat_sides)
         if self._selection is not None and self._selection[0] == key and self._selection[1] is sea:
             return self._selection[2]
         selection = lod.select(view, float(view.position[2] - scene.ocean.level), sea.waves.k, sea.waves.amplitude
                                * (np.max(sea.field.factor, axis=(1, 2)) if sea.field is not None else 1.0),
                                fov, min(scene.ocean.lod_error * lod_error_scale, 16.0), view.far, mesh,
-                               fans=sea.field is None)  # a field's depth and surf vary per vertex even where flat
+                               fans=sea.field is None,  # a field's depth and surf vary per vertex even where flat
+                               coarse_sides=self.coarse_flat_sides)
         self._selection = (key, sea, selection)
         return selection
 
@@ -733,13 +738,19 @@ class WaterPass(RenderPass):
         # The foam's streak noise only where a pixel is small enough to show it.
         streaks = (foam_streaks_needed(selection, sea, view, -level_z) if self.skip_faded_streaks
                    else np.ones(len(selection.nodes), dtype=bool))
-        groups = [((with_hulls, m, streak), fan, selection.nodes[(near_hull == with_hulls) & (flat == fan)
-                                                                 & (maps == m) & (streaks == streak)])
-                  for with_hulls in (False, True) for fan in (False, True) for m in range(used_maps + 1)
-                  for streak in (False, True)]
+        # Draw groups: program (hull test, maps read, streaks) x index shape (the full patch, or a fan
+        # with its shared flat sides as one segment: lod.fan_indices), in the order hulls, shape (full
+        # patches first: the near blocks), maps, streaks; one instanced draw each.
+        shape = np.where(flat, selection.coarse_sides.astype(int), -1) + 1  # 0: full patch, 1 + mask: fan
+        group = ((near_hull.astype(int) * (len(lod.SIDES) ** 2 + 1) + shape) * (used_maps + 1) + maps) * 2 + streaks
+        groups = []
+        for g in np.unique(group):
+            first = int(np.argmax(group == g))
+            key = (bool(near_hull[first]), int(maps[first]), bool(streaks[first]))
+            groups.append((key, int(shape[first]) - 1, selection.nodes[group == g]))
         programs = {}
         for key, _, nodes in groups:
-            if len(nodes) and key not in programs:
+            if key not in programs:
                 with_hulls, m, streak = key
                 programs[key] = self._configured_program(frame, sea, waves, tiles, m, means, selection,
                                                          hulls, table_uniforms, with_hulls, streak)
@@ -748,6 +759,7 @@ class WaterPass(RenderPass):
                       "finest_spacing_m": selection.finest_spacing, "waves": sea.n,
                       "detail_resolution": resolution, "hull_blocks": int(np.count_nonzero(near_hull)),
                       "fan_blocks": int(np.count_nonzero(flat)),
+                      "one_segment_sides": int(np.unpackbits(selection.coarse_sides).sum()),
                       "blocks_by_detail_maps": np.bincount(maps, minlength=used_maps + 1).tolist(),
                       "foam_streak_blocks": int(np.count_nonzero(streaks))}
         if len(selection.nodes) == 0:
@@ -764,8 +776,7 @@ class WaterPass(RenderPass):
             self.ctx.enable(moderngl.CULL_FACE)
             self.ctx.front_face = "ccw"  # the patch's triangles wind counter-clockwise seen from above
         for slot, (key, fan, nodes) in enumerate(groups):
-            if len(nodes):
-                self._vao(programs[key], nodes, slot, fan).render(moderngl.TRIANGLES, instances=len(nodes))
+            self._vao(programs[key], nodes, slot, fan).render(moderngl.TRIANGLES, instances=len(nodes))
         self.ctx.disable(moderngl.CULL_FACE)
         self.stats["culled_back_faces"] = not under
         if under:
@@ -866,9 +877,9 @@ class WaterPass(RenderPass):
             obj.release()
         return selection, positions
 
-    def _vao(self, program, nodes: np.ndarray, slot: int = 0, fan: bool = False) -> moderngl.VertexArray:
-        """The patch (or the fan of flat blocks) drawn once per block of ``nodes``; each slot (block
-        group drawn in one frame) has its own instance buffer."""
+    def _vao(self, program, nodes: np.ndarray, slot: int = 0, fan: int = -1) -> moderngl.VertexArray:
+        """The patch (or a fan of flat blocks, ``_patch_buffer``) drawn once per block of ``nodes``;
+        each slot (block group drawn in one frame) has its own instance buffer."""
         verts, index = self._patch_buffer(fan)
         data = np.ascontiguousarray(nodes, dtype=np.float32).tobytes()
         buffers = self._instances if self._instances is not None else {}
@@ -879,7 +890,7 @@ class WaterPass(RenderPass):
             buffers[slot] = self.ctx.buffer(reserve=max(len(data), 4096), dynamic=True)
             self._vaos_water = {k: v for k, v in getattr(self, "_vaos_water", {}).items() if k[1] != slot}
         buffers[slot].write(data)
-        key = (id(program), slot)
+        key = (id(program), slot, fan)
         vaos = getattr(self, "_vaos_water", {})
         if key not in vaos:
             vaos[key] = self.ctx.vertex_array(program, [(verts, "2f", "in_grid"), (buffers[slot], "4f/i", "in_node")],
