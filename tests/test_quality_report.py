@@ -31,3 +31,26 @@ def test_quality_without_a_study_name_takes_report_flags(tmp_path, capsys):
     # --only with an unknown study: the run fails cleanly and says so in the report.
     assert main(["quality", "--only", "no_such_study", "--out", str(tmp_path)]) == 1
     assert "no_such_study" in (tmp_path / "report.md").read_text()
+
+
+def test_water_study_marks_the_presets_on_its_curves(monkeypatch):
+    # The sea's points for the combined report: one curve per knob and the three presets as the renderer
+    # runs them (tiny frames here). `medium` is the scene's own settings: the same picture as the
+    # default point; `low` draws the coarse mesh: fewer triangles, more error.
+    import math
+
+    from igserver.quality import water
+
+    parse = water.parse_args
+    monkeypatch.setattr(water, "parse_args", lambda argv: parse([*argv, "--size", "160x90", "--lod", "1",
+                                                               "--detail", "128", "--spacing", "8"]))
+    study = water.study(quick=True)
+    assert study.pipeline == "water" and study.device
+    by = {(p.knob, p.preset or p.setting): p for p in study.points}
+    assert {p.preset for p in study.points if p.preset} == {"low", "medium", "high"}
+    assert not any(p.knob == "wave_count" for p in study.points)
+    assert {"lod_error", "detail_resolution", "spacing", "mesh", "atmosphere"} <= {p.knob for p in study.points}
+    assert all(math.isfinite(p.error) and p.error >= 0 and p.ms > 0 for p in study.points)
+    medium, low = by[("preset", "medium")], by[("preset", "low")]
+    assert medium.error == by[("lod_error", "lod_error=1.0")].error
+    assert low.extra["triangles"] < medium.extra["triangles"] and low.error > medium.error

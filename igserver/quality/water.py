@@ -96,10 +96,7 @@ def statistics_of(scene) -> tuple[float, float]:
     return hs, mean_square_slope(sea.waves) + mean_square_slope(sea.detail)
 
 
-def run(argv: list[str]) -> int:
-    from ..render.renderer import Renderer
-    from ..water.spectrum import beaufort_hs, cox_munk_mss
-
+def parse_args(argv: list[str]) -> argparse.Namespace:
     ap = argparse.ArgumentParser(prog="igserver quality water")
     ap.add_argument("--out", default="out/quality_water.md")
     ap.add_argument("--size", default="640x360")
@@ -108,10 +105,55 @@ def run(argv: list[str]) -> int:
     ap.add_argument("--lod", default="0.5,1,2,4")
     ap.add_argument("--detail", default="64,128,256")
     ap.add_argument("--spacing", default="8,4,2", help="SPACING_PER_WAVE values (8 is the default)")
+    ap.add_argument("--presets", default="low,medium,high", help="quality presets, each as the renderer runs it")
     ap.add_argument("--wind", type=float, default=9.4)
     ap.add_argument("--camera", default="0,0,12", help="camera position x,y,z (m)")
     ap.add_argument("--pitch", type=float, default=-6.0)
-    args = ap.parse_args(argv)
+    return ap.parse_args(argv)
+
+
+def run(argv: list[str]) -> int:
+    args = parse_args(argv)
+    result = measure(args)
+    write_markdown(args, result)
+    return 0
+
+
+def study(quick: bool = False):
+    """The sea's curves for the combined report (igserver/quality/report.py): the picture's RMSE over
+    the sea against the same 24 waves at high LOD, detail and spacing, per knob, and the presets as the
+    renderer runs them. Wave counts are left out: a count is a different sea (another realisation),
+    not a cheaper picture of the same one (``igserver quality water`` shows them with the statistics)."""
+    from .report import Point, Study
+
+    argv = ["--waves", "", "--frames", "5"]  # timed frames a point (a median of fewer swings with the machine)
+    if quick:
+        argv += ["--lod", "1,4", "--detail", "64,128", "--spacing", "8,4"]
+    result = measure(parse_args(argv))
+    points = []
+    for r in result["rows"]:
+        if r["knob"] == "preset":
+            setting = f"{r['value']}: {result['preset_knobs'][r['value']]}"
+            points.append(Point("preset", setting, r["rmse"], r["ms"], r["value"], _extra(r)))
+        else:
+            points.append(Point(r["knob"], f"{r['knob']}={r['value']}", r["rmse"], r["ms"], None, _extra(r)))
+    notes = [f"Wind 9.4 m/s, camera 12 m, pitch -6°, 640x360. Error against the same 24 waves at high LOD "
+             f"and detail ({result['reference_ms']:.0f} ms: LOD error 0.25 px, 512² detail maps, finest "
+             "spacing 1/16, the atmosphere per pixel).",
+             "Surface errors (cm, against the float64 wave set) and Hs are in `igserver quality water`'s table."]
+    return Study("water", "RMSE over the sea, 8-bit sRGB", "ms, water pass at 640x360 (median)", points,
+                 notes, result["renderer"])
+
+
+def _extra(row: dict) -> dict:
+    return {"lowpass": row["lowpass"], "triangles": row["triangles"], "near max cm": row["near_max_cm"]}
+
+
+def measure(args: argparse.Namespace) -> dict:
+    """Every row of the study (one knob varied at a time, then each preset) and its references."""
+    from ..render import presets
+    from ..render.renderer import Renderer
+
     position = tuple(float(v) for v in args.camera.split(","))
     width, height = (int(v) for v in args.size.split("x"))
     renderer = Renderer()
@@ -121,11 +163,13 @@ def run(argv: list[str]) -> int:
 
     DEFAULT_SPACING = lod.SPACING_PER_WAVE
 
-    def render(settings: dict, exact: bool = False, mesh: str = "default", spacing: float = DEFAULT_SPACING):
+    def render(settings: dict, exact: bool = False, mesh: str = "default", spacing: float = DEFAULT_SPACING,
+               knobs=None):
         from ..render.water.water import WaterKnobs
 
         water.exact_atmosphere = exact
-        water.settings = WaterKnobs(detail_scale=1.0, lod_error_scale=1.0, mesh=mesh)  # the scene's own values
+        # the scene's own values, or a preset's knobs as the renderer applies them
+        water.settings = knobs or WaterKnobs(detail_scale=1.0, lod_error_scale=1.0, mesh=mesh)
         lod.SPACING_PER_WAVE = spacing
         scene = study_scene(width, height, args.wind, settings, position, args.pitch)
         times = []
@@ -154,21 +198,25 @@ def run(argv: list[str]) -> int:
     def values(text: str, kind):
         return [kind(v) for v in text.split(",") if v.strip()]
 
+    preset_knobs = {level: presets.knobs("water", level) for level in values(args.presets, str)}
     variants = ([("wave_count", v) for v in values(args.waves, int)]
                 + [("lod_error", v) for v in values(args.lod, float)]
                 + [("detail_resolution", v) for v in values(args.detail, int)]
                 + [("spacing", v) for v in values(args.spacing, float)]
-                + [("mesh", "coarse"), ("atmosphere", "exact"), ("atmosphere", "tables")])
+                + [("mesh", "coarse"), ("atmosphere", "exact"), ("atmosphere", "tables")]
+                + [("preset", level) for level in preset_knobs])
     for knob, value in variants:
-        settings = {**DEFAULTS, knob: value} if knob not in ("atmosphere", "mesh", "spacing") else dict(DEFAULTS)
-        scene, img, ms = render(settings, exact=value == "exact", mesh=value if knob == "mesh" else "default",
-                                spacing=value if knob == "spacing" else DEFAULT_SPACING)
+        settings = {**DEFAULTS, knob: value} if knob not in ("atmosphere", "mesh", "spacing", "preset") else dict(DEFAULTS)
+        knobs = preset_knobs.get(value) if knob == "preset" else None
+        mesh = value if knob == "mesh" else knobs.mesh if knobs else "default"
+        scene, img, ms = render(settings, exact=value == "exact", mesh=mesh,
+                                spacing=value if knob == "spacing" else DEFAULT_SPACING, knobs=knobs)
         finest = water.stats.get("finest_spacing_m")
         ref_img = ref_many if knob == "wave_count" else ref_same
         rmse = float(np.sqrt(np.mean((img - ref_img)[sea_mask] ** 2)))
         low = float(np.sqrt(np.mean((box_blur(img) - box_blur(ref_img))[sea_mask] ** 2)))
         lod.SPACING_PER_WAVE = value if knob == "spacing" else DEFAULT_SPACING
-        surf = surface_errors(renderer, scene, value if knob == "mesh" else "default")
+        surf = surface_errors(renderer, scene, mesh)
         lod.SPACING_PER_WAVE = DEFAULT_SPACING
         hs, mss = statistics_of(scene)
         row = {"knob": knob, "value": value, **settings, "ms": ms, "triangles": surf["triangles"],
@@ -179,26 +227,43 @@ def run(argv: list[str]) -> int:
         print(f"{knob} {value}: {ms:6.1f} ms {surf['triangles']:7d} tri  finest {finest} m  rmse {rmse:5.1f} lowpass {low:4.1f}  "
               f"near {surf['near'][0]:.3f}/{surf['near'][1]:.3f} cm  far {surf['far'][0]:.1f}/{surf['far'][1]:.1f} cm"
               f"  Hs {hs:.2f} m  mss {mss:.4f}", flush=True)
+    result = {"rows": rows, "reference_ms": ref_ms, "renderer": renderer.caps.renderer, "size": (width, height),
+              "position": position, "default_spacing": DEFAULT_SPACING,
+              "preset_knobs": {level: _knobs_text(k) for level, k in preset_knobs.items()}}
+    renderer.release()
+    return result
+
+
+def _knobs_text(knobs) -> str:
+    return f"detail ×{knobs.detail_scale:g}, LOD error ×{knobs.lod_error_scale:g}, mesh {knobs.mesh}"
+
+
+def write_markdown(args: argparse.Namespace, result: dict) -> None:
+    from ..water.spectrum import beaufort_hs, cox_munk_mss
+
+    rows, (width, height), position = result["rows"], result["size"], result["position"]
+    ref_ms, default_spacing = result["reference_ms"], result["default_spacing"]
     good = [r for r in rows if r["lowpass"] <= LOWPASS_LIMIT and r["near_max_cm"] <= SURFACE_LIMIT_CM]
     choice = min(good, key=lambda r: r["ms"]) if good else min(rows, key=lambda r: r["lowpass"])
     target_hs, target_mss = beaufort_hs(args.wind), cox_munk_mss(args.wind)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     lines = [
-        f"# Water quality ({width}x{height}, wind {args.wind} m/s, renderer {renderer.caps.renderer})",
+        f"# Water quality ({width}x{height}, wind {args.wind} m/s, renderer {result['renderer']})",
         "",
         f"Camera {list(position)}, pitch {args.pitch}. Reference: {REFERENCE}, finest spacing 1/"
         f"{REFERENCE_SPACING_PER_WAVE:g} of the shortest mesh wave ({ref_ms:.1f} ms). Targets: Hs {target_hs:.2f} m (WMO), "
         f"mean-square slope {target_mss:.4f} (Cox–Munk).",
         "Surface: GPU mesh vs float64 wave set at the same points, cm (near: within 200 m; far: all blocks).",
         "Picture: 8-bit sRGB over the sea; lowpass = after a 9x9 box blur.",
+        "Presets: " + "; ".join(f"{level} = {text}" for level, text in result["preset_knobs"].items()) + ".",
         "",
         "| knob | value | water ms | triangles | rmse | lowpass | near rms/max cm | far rms/max cm | Hs m | mss |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         mark = (" **(default)**" if all(r[k] == DEFAULTS[k] for k in DEFAULTS) and r["value"] not in ("exact", "coarse")
-                and (r["knob"] != "spacing" or r["value"] == DEFAULT_SPACING) else "")
+                and r["knob"] != "preset" and (r["knob"] != "spacing" or r["value"] == default_spacing) else "")
         value = f"{r['value']:g} ({r['finest_spacing_m']:g} m)" if r["knob"] == "spacing" else r["value"]
         lines.append(f"| {r['knob']} | {value}{mark} | {r['ms']:.1f} | {r['triangles']} | {r['rmse']:.1f} | "
                      f"{r['lowpass']:.1f} | {r['near_rms_cm']:.3f} / {r['near_max_cm']:.3f} | "
@@ -212,5 +277,3 @@ def run(argv: list[str]) -> int:
     out.write_text("\n".join(lines) + "\n")
     out.with_suffix(".json").write_text(json.dumps({"reference": REFERENCE, "rows": rows, "choice": choice}, indent=2))
     print(f"wrote {out}")
-    renderer.release()
-    return 0
