@@ -743,13 +743,13 @@ class WaterPass(RenderPass):
         # patches first: the near blocks), maps, streaks; one instanced draw each.
         shape = np.where(flat, selection.coarse_sides.astype(int), -1) + 1  # 0: full patch, 1 + mask: fan
         group = ((near_hull.astype(int) * (len(lod.SIDES) ** 2 + 1) + shape) * (used_maps + 1) + maps) * 2 + streaks
-        groups = []
+        groups = []  # (program key, fan mask or -1, blocks, slot: the group's id, so a slot keeps its shape)
         for g in np.unique(group):
             first = int(np.argmax(group == g))
             key = (bool(near_hull[first]), int(maps[first]), bool(streaks[first]))
-            groups.append((key, int(shape[first]) - 1, selection.nodes[group == g]))
+            groups.append((key, int(shape[first]) - 1, selection.nodes[group == g], int(g)))
         programs = {}
-        for key, _, nodes in groups:
+        for key, _, nodes, _ in groups:
             if key not in programs:
                 with_hulls, m, streak = key
                 programs[key] = self._configured_program(frame, sea, waves, tiles, m, means, selection,
@@ -775,7 +775,7 @@ class WaterPass(RenderPass):
             # field): back faces (the far slopes of waves) are always hidden, so they are not drawn.
             self.ctx.enable(moderngl.CULL_FACE)
             self.ctx.front_face = "ccw"  # the patch's triangles wind counter-clockwise seen from above
-        for slot, (key, fan, nodes) in enumerate(groups):
+        for key, fan, nodes, slot in groups:
             self._vao(programs[key], nodes, slot, fan).render(moderngl.TRIANGLES, instances=len(nodes))
         self.ctx.disable(moderngl.CULL_FACE)
         self.stats["culled_back_faces"] = not under
