@@ -105,5 +105,7 @@ def set_uniforms(program, values: dict[str, object]) -> None:
         if member is not None:
             if isinstance(value, bytes):
                 member.write(value)
-            elif hasattr(member, "value"):
+            elif isinstance(member, moderngl.Uniform):
+                member.value = value
+            elif hasattr(member, "value"):  # a block's binding (hasattr on a Uniform would read it from GL)
                 member.value = value

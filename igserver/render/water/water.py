@@ -748,12 +748,13 @@ class WaterPass(RenderPass):
             first = int(np.argmax(group == g))
             key = (bool(near_hull[first]), int(maps[first]), bool(streaks[first]))
             groups.append((key, int(shape[first]) - 1, selection.nodes[group == g], int(g)))
+        shared = self._frame_uniforms(frame, sea, waves, tiles, selection, hulls, table_uniforms) if groups else None
         programs = {}
         for key, _, nodes, _ in groups:
             if key not in programs:
                 with_hulls, m, streak = key
-                programs[key] = self._configured_program(frame, sea, waves, tiles, m, means, selection,
-                                                         hulls, table_uniforms, with_hulls, streak)
+                programs[key] = self._configured_program(frame, sea, shared, m, means, with_hulls and bool(hulls),
+                                                         streak)
         self.stats = {"blocks": int(len(selection.nodes)), "triangles": selection.triangles,
                       "lod_error_px": selection.error_bound_px, "error_sphere_m": selection.error_sphere,
                       "finest_spacing_m": selection.finest_spacing, "waves": sea.n,
@@ -782,41 +783,46 @@ class WaterPass(RenderPass):
         if under:
             self._fill_under_crests(frame, selection, table_uniforms)
 
-    def _configured_program(self, frame, sea, waves: dict, tiles, read_maps: int, means: np.ndarray, selection,
-                            hulls, table_uniforms, with_hulls: bool, foam_streaks: bool) -> moderngl.Program:
-        """The water program (with or without the hull test, reading the first ``read_maps`` detail
-        maps and the tile means of the others, with or without the foam's streak noise) with this
-        frame's uniforms set."""
+    def _frame_uniforms(self, frame, sea, waves: dict, tiles, selection, hulls, table_uniforms) -> dict:
+        """This frame's values for every water program (computed once, set on each program drawn), with
+        the detail maps, the foam noise and a field's textures bound to their units."""
         scene, view = frame.scene, frame.view
-        program = self._program(sea.field is not None, with_hulls and bool(hulls), read_maps, bool(frame.lights),
-                                foam_streaks)
-        set_uniforms(program, frame.uniforms)
-        set_uniforms(program, table_uniforms)
-        set_uniforms(program, glint_light(frame.uniforms))
-        self._bind_waves(program, sea, waves)
         morph = np.zeros((24, 2), dtype=np.float32)
         morph[:] = np.minimum(selection.morph, 1e30)
-        program["u_morph"].write(morph.tobytes())
         detail_map = np.zeros((3, 3), dtype=np.float32)
+        units = {}
         for c, (size, _) in enumerate(tiles):
             detail_map[c] = (1.0 / size, *(np.mod(view.position[:2], size) / size))
             self._detail[c].use(DETAIL_UNIT0 + c)
-            set_uniforms(program, {f"u_detail{c}": DETAIL_UNIT0 + c})
-        set_uniforms(program, {"u_detail_map": detail_map[: max(read_maps, 1)].tobytes(), "u_min_slope_var": 2e-4 + detail_unresolved_var(sea)})
-        if "u_detail_mean" in program:
-            mean = program["u_detail_mean"]
-            mean.write(means[read_maps:read_maps + mean.array_length].astype(np.float32).tobytes())
+            units[f"u_detail{c}"] = DETAIL_UNIT0 + c
         wind = scene.weather.wind_speed if scene.ocean.sea_state is None else sea.spectrum.wind
         threshold = drawn_foam_threshold(sea, wind) if self.foam_threshold is None else self.foam_threshold
         self._foam_noise().use(FOAM_NOISE_UNIT)
-        set_uniforms(program, {"u_foam_jacobian": threshold, "u_foam_edge": FOAM_EDGE,
-                               **foam_frame(scene, view)})
-        if "u_hull_count" in program:
-            program["u_hull_count"].value = len(hulls)
-            if hulls:
-                mats = np.zeros((MAX_HULLS, 4, 4), dtype=np.float32)
-                mats[: len(hulls)] = np.transpose(np.asarray(hulls), (0, 2, 1))
-                program["u_hull_inv"].write(mats.tobytes())
+        values = {**frame.uniforms, **table_uniforms, **glint_light(frame.uniforms), **waves["uniforms"],
+                  "u_wave": waves["table"], "u_wave_phase": waves["phases"], "u_morph": morph.tobytes(), **units,
+                  "u_min_slope_var": 2e-4 + detail_unresolved_var(sea), "u_foam_jacobian": threshold,
+                  "u_foam_edge": FOAM_EDGE, **foam_frame(scene, view), "u_hull_count": len(hulls)}
+        if hulls:
+            mats = np.zeros((MAX_HULLS, 4, 4), dtype=np.float32)
+            mats[: len(hulls)] = np.transpose(np.asarray(hulls), (0, 2, 1))
+            values["u_hull_inv"] = mats.tobytes()
+        if sea.field is not None:
+            self._upload_field(sea)
+            self._field_tex[0].use(FIELD_UNIT)
+            self._field_tex[1].use(FIELD_SCALAR_UNIT)
+        return {"values": values, "detail_map": detail_map}
+
+    def _configured_program(self, frame, sea, shared: dict, read_maps: int, means: np.ndarray, with_hulls: bool,
+                            foam_streaks: bool) -> moderngl.Program:
+        """The water program (with or without the hull test, reading the first ``read_maps`` detail
+        maps and the tile means of the others, with or without the foam's streak noise) with this
+        frame's uniforms (``_frame_uniforms``) set."""
+        program = self._program(sea.field is not None, with_hulls, read_maps, bool(frame.lights), foam_streaks)
+        set_uniforms(program, shared["values"])
+        set_uniforms(program, {"u_detail_map": shared["detail_map"][: max(read_maps, 1)].tobytes()})
+        if "u_detail_mean" in program:
+            mean = program["u_detail_mean"]
+            mean.write(means[read_maps:read_maps + mean.array_length].astype(np.float32).tobytes())
         return program
 
     @staticmethod
