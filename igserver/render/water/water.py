@@ -682,13 +682,15 @@ class WaterPass(RenderPass):
 
     def _bind_waves(self, program, sea, wu: dict) -> None:
         """The frame's wave set (``wave_uniforms``) and, over a bathymetry, its field textures."""
-        set_uniforms(program, wu["uniforms"])
-        program["u_wave"].write(wu["table"])
-        program["u_wave_phase"].write(wu["phases"])
+        set_uniforms(program, self._wave_values(sea, wu))
+
+    def _wave_values(self, sea, wu: dict) -> dict:
+        """The wave set's uniform values (``wave_uniforms``), with a bathymetry's field textures bound."""
         if sea.field is not None:
             self._upload_field(sea)
             self._field_tex[0].use(FIELD_UNIT)
             self._field_tex[1].use(FIELD_SCALAR_UNIT)
+        return {**wu["uniforms"], "u_wave": wu["table"], "u_wave_phase": wu["phases"]}
 
     def select(self, sea: SeaSurface, scene: Scene, view: CameraView, lod_error_scale: float = 1.0,
                mesh: str = "default") -> lod.LodSelection:
@@ -798,18 +800,14 @@ class WaterPass(RenderPass):
         wind = scene.weather.wind_speed if scene.ocean.sea_state is None else sea.spectrum.wind
         threshold = drawn_foam_threshold(sea, wind) if self.foam_threshold is None else self.foam_threshold
         self._foam_noise().use(FOAM_NOISE_UNIT)
-        values = {**frame.uniforms, **table_uniforms, **glint_light(frame.uniforms), **waves["uniforms"],
-                  "u_wave": waves["table"], "u_wave_phase": waves["phases"], "u_morph": morph.tobytes(), **units,
+        values = {**frame.uniforms, **table_uniforms, **glint_light(frame.uniforms), **self._wave_values(sea, waves),
+                  "u_morph": morph.tobytes(), **units,
                   "u_min_slope_var": 2e-4 + detail_unresolved_var(sea), "u_foam_jacobian": threshold,
                   "u_foam_edge": FOAM_EDGE, **foam_frame(scene, view), "u_hull_count": len(hulls)}
         if hulls:
             mats = np.zeros((MAX_HULLS, 4, 4), dtype=np.float32)
             mats[: len(hulls)] = np.transpose(np.asarray(hulls), (0, 2, 1))
             values["u_hull_inv"] = mats.tobytes()
-        if sea.field is not None:
-            self._upload_field(sea)
-            self._field_tex[0].use(FIELD_UNIT)
-            self._field_tex[1].use(FIELD_SCALAR_UNIT)
         return {"values": values, "detail_map": detail_map}
 
     def _configured_program(self, frame, sea, shared: dict, read_maps: int, means: np.ndarray, with_hulls: bool,
