@@ -10,7 +10,8 @@ import pytest
 
 from igserver.render.frame import build_frame
 from igserver.render.post import halos
-from igserver.render.post.post import HALO_SCALE, halo_uniforms
+from igserver.render.camera import cone_on_screen, make_view
+from igserver.render.post.post import DISPLAY_SLOPE, HALO_SCALE, halo_uniforms
 from igserver.scene import apply_patch, load_scene
 
 
@@ -106,3 +107,69 @@ def test_meter_holds_the_block_means_of_the_frame(renderer, size):
         for i in range(cells_w):
             expected = hdr[j * block:(j + 1) * block, i * block:(i + 1) * block].mean(axis=(0, 1))
             assert meter[j, i] == pytest.approx(expected, rel=2e-3, abs=1e-6)
+
+
+def test_bound_holds_for_every_surface_distance():
+    # halo_radius rests on halo_bound: the factor of any ray at that angle from the light, whatever
+    # surface ends it, is never above it.
+    for t0, h, D, beta, g in _configurations(300, seed=5):
+        d, angle = math.hypot(t0, h), math.atan2(h, t0)
+        assert halos.halo_from_table(t0, h, D, beta, g) <= float(halos.halo_bound(angle, d, beta, g)) * (1 + 1e-9)
+
+
+@pytest.mark.parametrize("d, beta, intensity", [(32.0, 7e-4, 3000.0), (80.0, 7e-4, 1.6e5), (500.0, 5e-3, 2e4)])
+def test_radius_bounds_where_a_halo_can_reach_the_threshold(d, beta, intensity):
+    omega, g, threshold = 0.93, 0.75, 0.5
+    radius = halos.halo_radius(d, beta, omega, g, intensity, threshold)
+    angles = np.linspace(1e-4, math.pi, 4001)
+    hh = np.maximum(d * np.sin(angles), 0.05)
+    radiance = omega * beta * intensity / hh * halos.halo_bound(angles, d, beta, g)
+    assert np.all(radiance[angles > radius] < threshold)
+    if radius < math.pi:
+        assert radiance.max() >= threshold and radius > 0.0
+
+
+def test_cone_on_screen():
+    view = make_view(load_scene("sky_only").camera)
+    left, right, bottom, top = view.tangents
+    right_edge = math.atan(right)  # rad from the forward direction (the frame is centred)
+    rot = np.asarray(view.rotation)
+
+    def towards(yaw):  # a direction in the camera's horizontal plane, yaw rad to the right
+        return math.cos(yaw) * rot[:, 1] + math.sin(yaw) * rot[:, 0]
+
+    assert cone_on_screen(view, towards(0.0), 1e-3)
+    assert not cone_on_screen(view, towards(right_edge + 0.1), 0.05)
+    assert cone_on_screen(view, towards(right_edge + 0.1), 0.15)
+    assert not cone_on_screen(view, -rot[:, 1], 0.3)  # behind the camera
+    assert cone_on_screen(view, -rot[:, 1], 2.0)  # reaches round to the frame
+
+
+def test_a_lamp_whose_halo_shows_is_drawn(renderer):
+    # The demo's lamp (3000 cd, 32 m from the camera, dusk haze): its halo a fraction of a degree
+    # off the lamp is worth several display levels, so it must be drawn. The criterion before stop
+    # 21 (one pixel off the light, 1 % of display white) dropped it: up to 6 levels were missing.
+    scene = load_scene("demo")
+    renderer.render(scene)
+    frame = build_frame(renderer.ctx, scene, None)
+    lamp = next(l for l in frame.lights if float(np.max(l.color)) == pytest.approx(3000.0))
+    uniforms = halo_uniforms(frame)
+    pos = np.frombuffer(uniforms["u_halo_pos"], np.float32).reshape(-1, 4)[:uniforms["u_halo_count"], :3]
+    rel = frame.view.relative(lamp.position)
+    assert np.any(np.all(np.abs(pos - rel) < 1e-3, axis=1)), "the lamp's halo is not drawn"
+    haze = frame.resources["haze"]
+    beta, d = uniforms["u_halo_beta"], float(np.linalg.norm(rel))
+    angle = math.radians(0.3)
+    t0, h = d * math.cos(angle), d * math.sin(angle)
+    radiance = haze.omega * beta * 3000.0 / h * halos.halo_from_table(t0, h, 1e6, beta, haze.g)
+    assert radiance * frame.exposure * DISPLAY_SLOPE > 2.0 / 255.0
+
+
+def test_an_invisible_halo_is_not_drawn(renderer):
+    # The same lamp by day: its halo is far under half a display level everywhere.
+    scene = apply_patch(load_scene("demo"), {"time": {"utc": "2026-06-21T10:00:00Z"}, "effects": [],
+                                             "atmosphere": {"visibility": 3000.0, "visibility_transition": 0.0}})
+    renderer.render(scene)
+    frame = build_frame(renderer.ctx, scene, None)
+    assert frame.lights, "the lamp must be there for this test to mean anything"
+    assert halo_uniforms(frame)["u_halo_count"] == 0

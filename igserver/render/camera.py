@@ -88,6 +88,38 @@ class CameraView:
         return not bool(np.any(normals @ c + offsets < -radius))
 
 
+# Directions around a cone's rim: the polygon they project to lies inside the rim's ellipse by at
+# most 1 - cos(pi / CONE_RIM_POINTS) of its size, made up by CONE_RIM_GROWTH on the angle.
+CONE_RIM_POINTS = 64
+CONE_RIM_GROWTH = 1.0 / math.cos(math.pi / CONE_RIM_POINTS)
+_RIM_COS = np.cos(np.linspace(0.0, 2.0 * math.pi, CONE_RIM_POINTS, endpoint=False))
+_RIM_SIN = np.sin(np.linspace(0.0, 2.0 * math.pi, CONE_RIM_POINTS, endpoint=False))
+
+
+def cone_on_screen(view: CameraView, direction: np.ndarray, half_angle: float) -> bool:
+    """Whether any view ray of the frame lies within ``half_angle`` (rad) of the unit
+    camera-relative ``direction``: the cone's rim projected on the image plane and its bounding box
+    met with the frame's (conservative: a cone that crosses the camera's side plane counts as on
+    screen; one wholly behind it does not)."""
+    rot = np.asarray(view.rotation, dtype=np.float64)  # columns right, forward, up
+    axis = rot.T @ np.asarray(direction, dtype=np.float64)  # (right, forward, up) components
+    angle = half_angle * CONE_RIM_GROWTH
+    off_axis = math.acos(min(max(axis[1], -1.0), 1.0))  # from the camera's forward direction
+    if off_axis - angle >= 0.5 * math.pi:
+        return False  # every ray of the cone points behind the camera
+    if off_axis + angle >= 0.5 * math.pi - 1e-6:
+        return True
+    # Two unit vectors across the axis, then the rim.
+    side = np.array([axis[1], -axis[0], 0.0]) if abs(axis[2]) < 0.9 else np.array([0.0, axis[2], -axis[1]])
+    side /= math.sqrt(float(side @ side))
+    other = np.array([axis[1] * side[2] - axis[2] * side[1], axis[2] * side[0] - axis[0] * side[2],
+                      axis[0] * side[1] - axis[1] * side[0]])
+    rim = math.cos(angle) * axis[None] + math.sin(angle) * (_RIM_COS[:, None] * side[None] + _RIM_SIN[:, None] * other[None])
+    tan_x, tan_y = rim[:, 0] / rim[:, 1], rim[:, 2] / rim[:, 1]  # on the image plane, as view.tangents
+    left, right, bottom, top = view.tangents
+    return bool(tan_x.max() >= left and tan_x.min() <= right and tan_y.max() >= bottom and tan_y.min() <= top)
+
+
 def gl_matrix(m: np.ndarray) -> bytes:
     """float32 column-major bytes for a GLSL mat4/mat3 uniform."""
     return np.ascontiguousarray(m.T, dtype=np.float32).tobytes()

@@ -18,6 +18,7 @@ d, at the surface D + r1. No term overflows, whatever side of the camera the lig
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import moderngl
 import numpy as np
@@ -76,13 +77,31 @@ def table() -> np.ndarray:
     return _TABLE
 
 
-def table_slice(g: float) -> np.ndarray:
-    """(N_A, N_PHI) float32: K at the frame's g, linear between the table's g nodes (as _lookup)."""
+@lru_cache(maxsize=8)
+def _slice64(g: float) -> np.ndarray:
+    """(N_A, N_PHI) float64, read-only: K at g, linear between the table's g nodes."""
     z = (min(max(g, G_MIN), G_MAX) - G_MIN) / (G_MAX - G_MIN) * (N_G - 1)
     i = min(int(z), N_G - 2)
-    f = z - i
-    t = table()
-    return np.ascontiguousarray(((1.0 - f) * t[i] + f * t[i + 1]).astype(np.float32))
+    k = (1.0 - (z - i)) * table()[i] + (z - i) * table()[i + 1]
+    k.setflags(write=False)
+    return k
+
+
+def lookup(phi: np.ndarray, a: np.ndarray, g: float) -> np.ndarray:
+    """K at arrays of (phi, a), as the GPU's lookup (clamped to the table's range): bilinear in the
+    slice at g, which is linear between the table's g nodes (trilinear in the table)."""
+    t = _slice64(g)
+    x = np.clip((phi + 0.5 * math.pi) / math.pi * (N_PHI - 1), 0.0, N_PHI - 1.0)
+    y = np.clip((np.log10(np.maximum(a, 1e-30)) - A_LOG_MIN) / (A_LOG_MAX - A_LOG_MIN) * (N_A - 1), 0.0, N_A - 1.0)
+    i, j = np.minimum(x.astype(np.int64), N_PHI - 2), np.minimum(y.astype(np.int64), N_A - 2)
+    fx, fy = x - i, y - j
+    return ((1.0 - fy) * ((1.0 - fx) * t[j, i] + fx * t[j, i + 1])
+            + fy * ((1.0 - fx) * t[j + 1, i] + fx * t[j + 1, i + 1]))
+
+
+def table_slice(g: float) -> np.ndarray:
+    """(N_A, N_PHI) float32: K at the frame's g (the texture HaloTable holds)."""
+    return np.ascontiguousarray(_slice64(g).astype(np.float32))
 
 
 class HaloTable:
@@ -106,22 +125,7 @@ class HaloTable:
 
 
 def _lookup(phi: float, a: float, g: float) -> float:
-    """Trilinear lookup of K, as the GPU's (clamped to the table's range)."""
-    t = table()
-    coords = [(g - G_MIN) / (G_MAX - G_MIN) * (N_G - 1),
-              (math.log10(max(a, 1e-30)) - A_LOG_MIN) / (A_LOG_MAX - A_LOG_MIN) * (N_A - 1),
-              (phi + 0.5 * math.pi) / math.pi * (N_PHI - 1)]
-    sizes = (N_G, N_A, N_PHI)
-    coords = [min(max(c, 0.0), n - 1.0) for c, n in zip(coords, sizes)]
-    base = [min(int(c), n - 2) for c, n in zip(coords, sizes)]
-    frac = [c - b for c, b in zip(coords, base)]
-    out = 0.0
-    for dz in (0, 1):
-        for dy in (0, 1):
-            for dx in (0, 1):
-                wgt = (frac[0] if dz else 1 - frac[0]) * (frac[1] if dy else 1 - frac[1]) * (frac[2] if dx else 1 - frac[2])
-                out += wgt * t[base[0] + dz, base[1] + dy, base[2] + dx]
-    return out
+    return float(lookup(np.asarray(phi, dtype=np.float64), np.asarray(a, dtype=np.float64), g))
 
 
 def halo_from_table(t0: float, h: float, D: float, beta: float, g: float) -> float:
@@ -134,6 +138,34 @@ def halo_from_table(t0: float, h: float, D: float, beta: float, g: float) -> flo
     d = math.hypot(t0, h)  # camera to light
     r1 = math.hypot(D - t0, h)  # surface point to light
     return max(math.exp(_lookup(phi0, a, g) - beta * d) - math.exp(_lookup(phi1, a, g) - beta * (D + r1)), 0.0)
+
+
+def halo_bound(angle: np.ndarray, d: float, beta: float, g: float) -> np.ndarray:
+    """An upper bound of halo_from_table's factor over every surface distance D, for a view ray at
+    ``angle`` (rad) from the direction of a light at distance d: the far end's term is never
+    negative, so the factor is at most exp(K(phi0, beta h) - beta d), which does not depend on D.
+    Times omega beta I / h it bounds the halo's radiance along every ray on the cone of that angle
+    (h = d sin angle, floored as the shader floors it)."""
+    angle = np.asarray(angle, dtype=np.float64)
+    t0 = d * np.cos(angle)
+    h = np.maximum(d * np.sin(angle), 0.05)
+    return np.exp(lookup(np.arctan2(-t0, h), beta * h, g) - beta * d)
+
+
+_ANGLES = np.linspace(0.0, math.pi, 181)[1:]  # 1 deg steps
+
+
+def halo_radius(d: float, beta: float, omega: float, g: float, intensity: float, threshold: float) -> float:
+    """The angle (rad) around a light's direction outside which its halo's radiance (intensity cd,
+    the brightest channel) stays under ``threshold`` (cd/m^2) on every view ray: the largest
+    angle of a 1 deg grid where halo_bound's radiance reaches it, plus one step (the bound is
+    smooth between nodes); 0 when it nowhere does, pi when the whole sphere may show the halo."""
+    h = np.maximum(d * np.sin(_ANGLES), 0.05)
+    radiance = omega * beta * intensity / h * halo_bound(_ANGLES, d, beta, g)
+    above = np.nonzero(radiance >= threshold)[0]
+    if len(above) == 0:
+        return 0.0
+    return float(min(_ANGLES[above[-1]] + (_ANGLES[1] - _ANGLES[0]), math.pi))
 
 
 _NODES: dict[int, tuple[np.ndarray, np.ndarray]] = {}

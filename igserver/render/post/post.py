@@ -18,8 +18,9 @@ import numpy as np
 
 from ..passes import RenderPass
 from ..shaders import set_uniforms
-from .exposure import display_metered_ev100, exposure_of_ev100
-from .halos import HaloTable, table_uniforms
+from ..camera import cone_on_screen
+from .exposure import display_metered_ev100, displayed, exposure_of_ev100
+from .halos import HaloTable, halo_radius, table_uniforms
 
 METER_CELLS = 32  # the meter works on at most this many cells across (32 x 18 at 16:9)
 MAX_HALOS = 8
@@ -28,8 +29,19 @@ HALO_SCALE = 2  # halos at half resolution, depth-aware upsampling (post/halos.f
 HALO_MIN_BETA = 1e-4  # 1/m (visibility < ~40 km): thinner air shows no halo worth 8 samples a pixel
 
 
-def halo_uniforms(frame) -> dict:
-    """The brightest lights for the fog halos of tonemap.glsl, with the fog at the camera."""
+# A light's halo is drawn when it can move a displayed pixel value by HALO_INVISIBLE (half an
+# 8-bit step) or more somewhere on screen: under DISPLAY_SLOPE, the steepest slope of the displayed
+# value in the exposed linear value (the ACES fit then sRGB), its radiance after exposure must stay
+# below HALO_INVISIBLE / DISPLAY_SLOPE.
+HALO_INVISIBLE = 0.5 / 255.0
+_LINEAR = np.geomspace(1e-7, 64.0, 20000)
+DISPLAY_SLOPE = float(np.max(np.diff(displayed(_LINEAR)) / np.diff(_LINEAR)))
+
+
+def halo_uniforms(frame, exposure_correction: float = 1.0) -> dict:
+    """The brightest lights whose fog halos can show (tonemap.glsl), with the fog at the camera.
+    ``exposure_correction``: the metered exposure over the frame's provisional one (the post pass
+    applies both)."""
     haze = frame.resources.get("haze")
     if haze is None or not frame.lights:
         return {"u_halo_count": 0}
@@ -37,27 +49,30 @@ def halo_uniforms(frame) -> dict:
     beta = float(haze.beta[1] * haze.density(h))
     if beta < HALO_MIN_BETA:
         return {"u_halo_count": 0}
-    # Only halos that can show: the glow one pixel off a light at distance D is about
-    # beta I exp(-beta D) / (10 D theta_px) cd/m^2 (the airlight integral near its peak, HG forward
-    # lobe ~0.1 sr^-1 at a few degrees); below 1 % of display white after exposure it is invisible
-    # (a fire by day, a lamp in clear air), and 64 samples a pixel are saved.
-    theta_px = max(float(frame.uniforms.get("u_view_pixel_angle", 1e-3)), 1e-5)
+    # A light shows a halo when the cone of view rays where its halo's radiance can reach the
+    # invisible threshold (halos.halo_radius: a bound over every surface distance) meets the frame:
+    # no halo for a fire by day or a lamp in clear air, none for a light whose glow lies off screen.
+    threshold = HALO_INVISIBLE / DISPLAY_SLOPE / max(frame.exposure * exposure_correction, 1e-30)
+    view = frame.view
     lights = []
     for light in frame.lights:
-        d = max(float(np.linalg.norm(frame.view.relative(light.position))), 1.0)
-        peak = beta * float(np.max(light.color)) * math.exp(-min(beta * d, 80.0)) / (10.0 * d * theta_px)
-        if peak * frame.exposure > 0.01:
+        rel = view.relative(light.position)
+        d = max(float(np.linalg.norm(rel)), 1e-3)
+        radius = halo_radius(d, beta, float(haze.omega), float(haze.g), float(np.max(light.color)), threshold)
+        if radius > 0.0 and cone_on_screen(view, rel / d, radius):
             lights.append(light)
-    lights = lights[:MAX_HALOS]
+            if len(lights) == MAX_HALOS:
+                break
     if not lights:
         return {"u_halo_count": 0}
     pos = np.zeros((MAX_HALOS, 4), np.float32)
     col = np.zeros((MAX_HALOS, 4), np.float32)
     for i, light in enumerate(lights):
-        pos[i, :3] = frame.view.relative(light.position)
+        pos[i, :3] = view.relative(light.position)
         col[i, :3] = light.color
     return {"u_halo_count": len(lights), "u_halo_pos": pos.tobytes(), "u_halo_intensity": col.tobytes(),
-            "u_halo_beta": beta, "u_halo_omega": float(haze.omega), "u_halo_g": float(haze.g), "u_halo_far": 20.0 / beta, **table_uniforms()}
+            "u_halo_beta": beta, "u_halo_omega": float(haze.omega), "u_halo_g": float(haze.g), "u_halo_far": 20.0 / beta,
+            **table_uniforms()}
 
 
 def rod_fraction(adaptation_luminance: float) -> float:
@@ -72,7 +87,7 @@ class PostPass(RenderPass):
 
     def execute(self, frame, targets) -> None:
         correction = self._meter(frame, targets)
-        halos = halo_uniforms(frame)
+        halos = halo_uniforms(frame, correction)
         defines = {}
         if halos["u_halo_count"] > 0:
             defines["HALOS"] = 1  # variants: the common frame compiles neither the lookup nor the pass
