@@ -47,6 +47,18 @@ def test_table_matches_the_quadrature():
     assert np.max(np.abs(errors * scale)) < 0.03 * scale.max()
 
 
+@pytest.mark.parametrize("d, beta", [(46.0, 1.1e-4), (20.0, 5e-3), (300.0, 1e-3)])
+def test_light_straight_behind_the_ray(d, beta):
+    # The table's last cell (phi near pi/2: the light on the ray's backward extension, a view ray
+    # near the light's antipode). A linear continuation of K there overshot the quadrature 6x within
+    # 0.1 deg of the antipode (a bright dot opposite a fire behind the camera); K ~ log(pi/2 - phi).
+    for angle_deg in (178.0, 179.0, 179.5, 179.9, 179.97, 180.0):
+        angle = math.radians(angle_deg)
+        t0, h = d * math.cos(angle), max(d * math.sin(angle), 0.05)
+        ref = halos.halo_reference(t0, h, 20.0 / beta, beta, 0.75)
+        assert halos.halo_from_table(t0, h, 20.0 / beta, beta, 0.75) == pytest.approx(ref, rel=0.08)
+
+
 def test_light_behind_the_camera_does_not_overflow():
     # The case that overflowed a table of H itself: exp(-beta t0) ~ e^134 times a tiny H.
     t0, h, D, beta, g = -1792.4, 491.7, 29.7, 0.0751, 0.83
@@ -166,9 +178,13 @@ def test_a_lamp_whose_halo_shows_is_drawn(renderer):
 
 
 def test_an_invisible_halo_is_not_drawn(renderer):
-    # The same lamp by day: its halo is far under half a display level everywhere.
+    # A dimmer lamp (300 cd) by day in clear air (visibility 20 km): its halo stays under half a
+    # display level everywhere, even in the lamp's own pixel. (The demo's 3000 cd lamp is not so
+    # faint by day: its pixel may gain ~2 levels over the dark sea.)
     scene = apply_patch(load_scene("demo"), {"time": {"utc": "2026-06-21T10:00:00Z"}, "effects": [],
-                                             "atmosphere": {"visibility": 3000.0, "visibility_transition": 0.0}})
+                                             "lights": [{"id": "quay_lamp", "position": [-30.0, -110.0, 8.0],
+                                                         "color": [1.0, 0.8, 0.55], "intensity": 300.0, "range": 80.0}],
+                                             "atmosphere": {"visibility": 20000.0, "visibility_transition": 0.0}})
     renderer.render(scene)
     frame = build_frame(renderer.ctx, scene, None)
     assert frame.lights, "the lamp must be there for this test to mean anything"

@@ -78,13 +78,15 @@ def test_pass_absent_costs_nothing(renderer):
         assert "volumes" not in result.passes
         assert work.calls == base.calls, (effect, work.counts, base.counts)
     # The counter does see the volume work when the fire shows: one depth copy, one draw per container
-    # (and, for a reduced-resolution march, its downsample and upsample draws).
+    # (and, for a reduced-resolution march, its downsample and upsample draws), and the fire light's
+    # fog halo, when it shows, its own draw.
     with GLWork() as fire:
         result = renderer.render(fire_scene())
     assert "volumes" in result.passes
     assert fire.counts["blit"] == base.counts["blit"] + 1
     reduced = 2 if presets.knobs("volumes", fire_scene().quality.preset).scale > 1 else 0
-    assert fire.counts["draw"] == base.counts["draw"] + renderer.graph.passes["volumes"].stats["drawn"] + reduced
+    halo = 1 if renderer.graph.passes["post"].stats["halos"] else 0
+    assert fire.counts["draw"] == base.counts["draw"] + renderer.graph.passes["volumes"].stats["drawn"] + reduced + halo
     assert renderer.graph.passes["volumes"].stats["drawn"] == 1
 
 

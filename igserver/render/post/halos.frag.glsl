@@ -20,9 +20,15 @@ uniform float u_halo_omega;
 uniform sampler2D u_halo_table;            // K(phi, log10 a) at the frame's g (post/halos.py), bilinear
 uniform vec4 u_halo_table_map;             // (phi, log10 a) -> texture coordinates: scale, offset, scale, offset
 
+uniform vec2 u_halo_tail;                   // the table's tail near phi = pi/2: its first phi, 1 / its width (halos.py)
+
+// In the tail (the light nearly straight behind the ray's start, eps = pi/2 - phi under TAIL)
+// K(phi, a) = K(tail's start, a TAIL / eps) + log(eps / TAIL) (halos.py: K ~ log eps + F(a / eps)).
 float halo_k(float phi, float log_a) {
-    return texture(u_halo_table, vec2(phi * u_halo_table_map.x + u_halo_table_map.y,
-                                      log_a * u_halo_table_map.z + u_halo_table_map.w)).r;
+    float ratio = clamp((0.5 * PI - phi) * u_halo_tail.y, 1e-30, 1.0);
+    float k = texture(u_halo_table, vec2(min(phi, u_halo_tail.x) * u_halo_table_map.x + u_halo_table_map.y,
+                                         (log_a - log2(ratio) * 0.30102999566) * u_halo_table_map.z + u_halo_table_map.w)).r;
+    return k + log(ratio);
 }
 
 // D: the surface distance, at most u_halo_far (past 20 optical depths nothing more is seen).

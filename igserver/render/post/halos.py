@@ -61,10 +61,26 @@ def build_table() -> np.ndarray:
     log_cells = peak[..., 0] + np.log(np.sum(np.exp(log_f - peak), axis=-1))  # (g, a, cells)
     log_h = np.logaddexp.accumulate(log_cells[..., ::-1], axis=-1)[..., ::-1]  # H at the nodes 0..N-2
     k = log_h + a[None, :, None] * path_factor(phi[:-1])[None, None, :]
-    # At phi = pi/2 H is 0 and T infinite: continue K linearly (only the last half cell reads it,
-    # where the light is straight behind the ray's start and its light is exp(-beta d) anyway).
-    last = 2.0 * k[..., -1:] - k[..., -2:-1]
-    return np.concatenate([k, last], axis=-1)
+    # At phi = pi/2 H is 0 and T infinite: the last node holds the one before it and is never read
+    # (lookups in the tail go through its first node: TAIL below).
+    return np.concatenate([k, k[..., -1:]], axis=-1)
+
+
+# The tail, phi in [PHI_TAIL, pi/2] (the light nearly straight behind the ray's start). With
+# eps = pi/2 - phi small, T(psi) ~ 2 / (pi/2 - psi) and p_g(sin psi) ~ p_g(1) there; with
+# psi = pi/2 - eps u:
+#   H(phi, a) ~ eps p_g(1) integral_0^1 exp(-(2 a / eps) / u) du,   K = log H + a T ~ log eps + F(a / eps),
+# so K(phi, a) = K(PHI_TAIL, a TAIL / eps) + log(eps / TAIL): the tail's first node at a scaled a.
+# K ~ log eps is far from linear there: linear interpolation was 9-13 % low one degree from the
+# light's antipode, and the linear continuation to pi/2 6x high within 0.1 deg of it (a bright dot
+# opposite a fire behind the camera). The tail's other nodes are not read.
+TAIL = 4.0 * math.pi / (N_PHI - 1)  # four cells: 2.8 deg
+PHI_TAIL = 0.5 * math.pi - TAIL
+
+
+def tail_ratio(phi: np.ndarray) -> np.ndarray:
+    """eps / TAIL in the tail, 1 before it (halos.frag.glsl halo_k)."""
+    return np.clip((0.5 * math.pi - phi) / TAIL, 1e-30, 1.0)
 
 
 _TABLE: np.ndarray | None = None
@@ -91,12 +107,13 @@ def lookup(phi: np.ndarray, a: np.ndarray, g: float) -> np.ndarray:
     """K at arrays of (phi, a), as the GPU's lookup (clamped to the table's range): bilinear in the
     slice at g, which is linear between the table's g nodes (trilinear in the table)."""
     t = _slice64(g)
-    x = np.clip((phi + 0.5 * math.pi) / math.pi * (N_PHI - 1), 0.0, N_PHI - 1.0)
-    y = np.clip((np.log10(np.maximum(a, 1e-30)) - A_LOG_MIN) / (A_LOG_MAX - A_LOG_MIN) * (N_A - 1), 0.0, N_A - 1.0)
+    ratio = tail_ratio(phi)
+    x = np.clip((np.minimum(phi, PHI_TAIL) + 0.5 * math.pi) / math.pi * (N_PHI - 1), 0.0, N_PHI - 2.0)
+    y = np.clip((np.log10(np.maximum(a, 1e-30) / ratio) - A_LOG_MIN) / (A_LOG_MAX - A_LOG_MIN) * (N_A - 1), 0.0, N_A - 1.0)
     i, j = np.minimum(x.astype(np.int64), N_PHI - 2), np.minimum(y.astype(np.int64), N_A - 2)
     fx, fy = x - i, y - j
     return ((1.0 - fy) * ((1.0 - fx) * t[j, i] + fx * t[j, i + 1])
-            + fy * ((1.0 - fx) * t[j + 1, i] + fx * t[j + 1, i + 1]))
+            + fy * ((1.0 - fx) * t[j + 1, i] + fx * t[j + 1, i + 1])) + np.log(ratio)
 
 
 def table_slice(g: float) -> np.ndarray:
@@ -152,20 +169,26 @@ def halo_bound(angle: np.ndarray, d: float, beta: float, g: float) -> np.ndarray
     return np.exp(lookup(np.arctan2(-t0, h), beta * h, g) - beta * d)
 
 
-_ANGLES = np.linspace(0.0, math.pi, 181)[1:]  # 1 deg steps
+# Angles from a light's direction where halo_radius evaluates the bound: 1 deg steps, and under
+# 1 deg geometric steps down to 1 microradian (a bright light's halo may be a sharp peak around it).
+_ANGLES = np.concatenate([np.geomspace(1e-6, math.radians(1.0), 48)[:-1], np.linspace(0.0, math.pi, 181)[1:]])
 
 
-def halo_radius(d: float, beta: float, omega: float, g: float, intensity: float, threshold: float) -> float:
+def halo_radius(d: float, beta: float, omega: float, g: float, intensity: float, threshold: float,
+                pixel_angle: float = 0.0) -> float:
     """The angle (rad) around a light's direction outside which its halo's radiance (intensity cd,
-    the brightest channel) stays under ``threshold`` (cd/m^2) on every view ray: the largest
-    angle of a 1 deg grid where halo_bound's radiance reaches it, plus one step (the bound is
-    smooth between nodes); 0 when it nowhere does, pi when the whole sphere may show the halo."""
-    h = np.maximum(d * np.sin(_ANGLES), 0.05)
-    radiance = omega * beta * intensity / h * halo_bound(_ANGLES, d, beta, g)
+    the brightest channel) stays under ``threshold`` (cd/m^2) on every view ray: the next node of
+    _ANGLES after the last one where halo_bound's radiance reaches it (the bound is smooth between
+    nodes); 0 when it nowhere does, pi when the whole sphere may show the halo. Nearer the light
+    than half a ``pixel_angle`` (rad) the halo is the light's own pixel: the bound is taken there
+    (about half the halo's mean over that pixel: its 1 / angle core averages to twice the rim's)."""
+    angles = np.maximum(_ANGLES, 0.5 * pixel_angle)
+    h = np.maximum(d * np.sin(angles), 0.05)
+    radiance = omega * beta * intensity / h * halo_bound(angles, d, beta, g)
     above = np.nonzero(radiance >= threshold)[0]
     if len(above) == 0:
         return 0.0
-    return float(min(_ANGLES[above[-1]] + (_ANGLES[1] - _ANGLES[0]), math.pi))
+    return float(_ANGLES[min(above[-1] + 1, len(_ANGLES) - 1)])
 
 
 _NODES: dict[int, tuple[np.ndarray, np.ndarray]] = {}
@@ -195,4 +218,5 @@ def table_uniforms() -> dict:
     texel centre (i + 0.5) / N)."""
     a_span = A_LOG_MAX - A_LOG_MIN
     return {"u_halo_table_map": ((N_PHI - 1) / (math.pi * N_PHI), 0.5,
-                                 (N_A - 1) / (a_span * N_A), (-A_LOG_MIN / a_span * (N_A - 1) + 0.5) / N_A)}
+                                 (N_A - 1) / (a_span * N_A), (-A_LOG_MIN / a_span * (N_A - 1) + 0.5) / N_A),
+            "u_halo_tail": (PHI_TAIL, 1.0 / TAIL)}

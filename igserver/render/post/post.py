@@ -54,11 +54,13 @@ def halo_uniforms(frame, exposure_correction: float = 1.0) -> dict:
     # no halo for a fire by day or a lamp in clear air, none for a light whose glow lies off screen.
     threshold = HALO_INVISIBLE / DISPLAY_SLOPE / max(frame.exposure * exposure_correction, 1e-30)
     view = frame.view
+    pixel_angle = float(frame.uniforms.get("u_view_pixel_angle", 0.0))
     lights = []
     for light in frame.lights:
         rel = view.relative(light.position)
         d = max(float(np.linalg.norm(rel)), 1e-3)
-        radius = halo_radius(d, beta, float(haze.omega), float(haze.g), float(np.max(light.color)), threshold)
+        radius = halo_radius(d, beta, float(haze.omega), float(haze.g), float(np.max(light.color)), threshold,
+                             pixel_angle)
         if radius > 0.0 and cone_on_screen(view, rel / d, radius):
             lights.append(light)
             if len(lights) == MAX_HALOS:
@@ -88,6 +90,7 @@ class PostPass(RenderPass):
     def execute(self, frame, targets) -> None:
         correction = self._meter(frame, targets)
         halos = halo_uniforms(frame, correction)
+        self.stats = {"halos": halos["u_halo_count"]}  # lights whose fog halo is drawn (bench rows)
         defines = {}
         if halos["u_halo_count"] > 0:
             defines["HALOS"] = 1  # variants: the common frame compiles neither the lookup nor the pass
