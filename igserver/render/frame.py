@@ -213,13 +213,19 @@ BODY_TERM_MIN_Z = -0.1
 
 def light_defines(celestial: SunMoon, lights: list) -> dict:
     """SUN_TERM / MOON_TERM for common/lights.glsl: 0 when that body's term would be skipped at run
-    time (same test, same float32 direction), so the frame's shaders do not carry its code; and
-    LOCAL_LIGHTS: 0 when the frame has no point or spot light. Passes that do not add these defines
-    compile every term and test at run time."""
+    time (same test, same float32 direction), so the frame's shaders do not carry its code;
+    LOCAL_LIGHTS: 0 when the frame has no point or spot light; SPOT_LIGHTS: 0 when none of them is
+    a spot. Passes that do not add these defines compile every term and test at run time."""
     sun_z = float(np.float32(celestial.sun_dir[2]))
     moon_z = float(np.float32(celestial.moon_dir[2]))
     return {"SUN_TERM": int(sun_z > BODY_TERM_MIN_Z), "MOON_TERM": int(moon_z > BODY_TERM_MIN_Z),
-            "LOCAL_LIGHTS": int(bool(lights))}
+            **local_light_defines(lights)}
+
+
+def local_light_defines(lights: list) -> dict:
+    """The part of light_defines for passes that read point and spot lights only (light_illuminance:
+    the sea, precipitation), so a sunset does not recompile them."""
+    return {"LOCAL_LIGHTS": int(bool(lights)), "SPOT_LIGHTS": int(any(l.spot_dir is not None for l in lights))}
 
 
 def pixel_angle(camera) -> float:

@@ -21,6 +21,12 @@
 #ifndef LOCAL_LIGHTS
 #define LOCAL_LIGHTS 1
 #endif
+// SPOT_LIGHTS 0: no light of the frame is a spot (frame.py local_light_defines): the cone test is
+// left out. Untaken, it still cost the demo's sea ~7 ms of workers' CPU a frame (its uniforms read
+// by the loop index and the smoothstep run masked for every point light).
+#ifndef SPOT_LIGHTS
+#define SPOT_LIGHTS 1
+#endif
 #ifndef SUN_TERM
 #define SUN_TERM 1
 #endif
@@ -63,10 +69,12 @@ vec3 light_illuminance(int i, vec3 p, out vec3 l) {
     float d = sqrt(d2);
     l = to_light / d;
     float factor = range_window(d, u_light_pos[i].w) / d2;  // cd -> lux
+#if SPOT_LIGHTS
     if (u_light_color[i].w > 0.5) {  // spot cone
         float c = dot(-l, u_light_dir[i].xyz);
         factor *= smoothstep(u_light_dir[i].w, u_light_cos_inner[i], c);
     }
+#endif
     return u_light_color[i].rgb * factor;
 }
 

@@ -19,6 +19,7 @@ import numpy as np
 from ...scene.model import Scene
 from ...weather import precipitation_falls
 from ..camera import CameraView
+from ..frame import local_light_defines
 from ..passes import RenderPass
 from ..shaders import set_uniforms
 from .particles import ParticleFrame, ParticlePool, particle_frame
@@ -39,6 +40,8 @@ class PrecipPass(RenderPass):
         self.stats = {"particles": 0, "tiles": 0, "streaks": 0, "drops_per_streak": 0.0}
         self._buffers: dict[str, moderngl.Buffer] = {}
         self._vao = None
+        self._vao_program = None
+        self._index_buffer = None
         self._quads = 0  # quads the index buffer holds
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
@@ -89,7 +92,7 @@ class PrecipPass(RenderPass):
         # Per level: its entries in radiance[] (one per streak) start at first_streak.
         first_streak = np.cumsum([0] + [level.streaks for level in particles.levels])[:-1]
 
-        light = self.programs.compute("precip/precip_light.comp.glsl")
+        light = self.programs.compute("precip/precip_light.comp.glsl", local_light_defines(frame.lights))
         set_uniforms(light, frame.uniforms)
         set_uniforms(light, OPTICS[kind])
         for level, base in zip(particles.levels, first_streak):
@@ -122,17 +125,21 @@ class PrecipPass(RenderPass):
                 "u_particles": level.particles, "u_first_streak": first_streak}
 
     def _quad_indices(self, program, quads: int) -> None:
-        """Index buffer of quads (0 1 2, 0 2 3) + 4 i, grown in powers of two."""
-        if self._vao is not None and self._quads >= quads:
+        """Index buffer of quads (0 1 2, 0 2 3) + 4 i, grown in powers of two, in a vertex array of
+        ``program`` (a vertex array draws with the program it was made for: remade when it changes)."""
+        if self._vao is not None and self._quads >= quads and self._vao_program is program:
             return
-        self._quads = 1 << max(quads - 1, 0).bit_length()
-        base = (np.arange(self._quads, dtype=np.uint32) * 4)[:, None]
-        indices = (base + np.array([0, 1, 2, 0, 2, 3], dtype=np.uint32)).ravel()
         if self._vao is not None:
             self._vao.release()
-            self._index_buffer.release()
-        self._index_buffer = self.ctx.buffer(indices.tobytes())
+        if self._quads < quads:
+            self._quads = 1 << max(quads - 1, 0).bit_length()
+            base = (np.arange(self._quads, dtype=np.uint32) * 4)[:, None]
+            indices = (base + np.array([0, 1, 2, 0, 2, 3], dtype=np.uint32)).ravel()
+            if self._index_buffer is not None:
+                self._index_buffer.release()
+            self._index_buffer = self.ctx.buffer(indices.tobytes())
         self._vao = self.ctx.vertex_array(program, [], index_buffer=self._index_buffer, index_element_size=4)
+        self._vao_program = program
 
 
 __all__ = ["PrecipPass", "OPTICS"]

@@ -27,6 +27,7 @@ from ...water import sea_surface
 from ...water.spectrum import WaveSet
 from ...water.surface import SeaSurface, whitecap_coverage
 from ..camera import CameraView, body_to_world
+from ..frame import local_light_defines
 from .. import presets
 from ..passes import RenderPass
 from ..shaders import assemble, set_uniforms
@@ -554,10 +555,10 @@ class WaterPass(RenderPass):
 
     # ---- resources ------------------------------------------------------------------------------
     def _program(self, field: bool, hulls: bool = False, detail_maps: int = DETAIL_MAPS,
-                 local_lights: bool = True, foam_streaks: bool = True) -> moderngl.Program:
+                 lights: dict | None = None, foam_streaks: bool = True) -> moderngl.Program:
+        """``lights``: frame.local_light_defines (None: every light term compiled)."""
         defines = {"MAX_WAVES": MAX_WAVES, "MAX_HULLS": MAX_HULLS, "WATER_DETAIL_MAPS": detail_maps,
-                   "LOCAL_LIGHTS": int(local_lights), "WATER_FOAM_STREAKS": int(foam_streaks),
-                   **self._atmosphere_define()}
+                   **(lights or {}), "WATER_FOAM_STREAKS": int(foam_streaks), **self._atmosphere_define()}
         if field:
             defines["WATER_FIELD"] = 1
         if hulls:
@@ -815,7 +816,7 @@ class WaterPass(RenderPass):
         """The water program (with or without the hull test, reading the first ``read_maps`` detail
         maps and the tile means of the others, with or without the foam's streak noise) with this
         frame's uniforms (``_frame_uniforms``) set."""
-        program = self._program(sea.field is not None, with_hulls, read_maps, bool(frame.lights), foam_streaks)
+        program = self._program(sea.field is not None, with_hulls, read_maps, local_light_defines(frame.lights), foam_streaks)
         set_uniforms(program, shared["values"])
         set_uniforms(program, {"u_detail_map": shared["detail_map"][: max(read_maps, 1)].tobytes()})
         if "u_detail_mean" in program:
@@ -848,7 +849,7 @@ class WaterPass(RenderPass):
         sphere = selection.error_sphere
         height = float(frame.view.position[2]) - frame.scene.ocean.level
         program = self.programs.program("common/fullscreen.vert.glsl", "water/body.frag.glsl",
-                                        {"LOCAL_LIGHTS": int(bool(frame.lights)), **self._atmosphere_define()})
+                                        {**local_light_defines(frame.lights), **self._atmosphere_define()})
         set_uniforms(program, frame.uniforms)
         set_uniforms(program, table_uniforms)
         set_uniforms(program, {"u_plane_height": -height - 1.05 * sphere})
