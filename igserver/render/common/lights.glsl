@@ -22,7 +22,7 @@
 #define LOCAL_LIGHTS 1
 #endif
 // SPOT_LIGHTS 0: no light of the frame is a spot (frame.py local_light_defines): the cone test is
-// left out. Untaken, it still cost the demo's sea ~7 ms of workers' CPU a frame (its uniforms read
+// left out. Untaken, it still cost the demo's sea 3-4 ms of workers' CPU a frame (its uniforms read
 // by the loop index and the smoothstep run masked for every point light).
 #ifndef SPOT_LIGHTS
 #define SPOT_LIGHTS 1

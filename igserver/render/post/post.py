@@ -16,9 +16,9 @@ import math
 import moderngl
 import numpy as np
 
+from ..camera import cone_on_screen
 from ..passes import RenderPass
 from ..shaders import set_uniforms
-from ..camera import cone_on_screen
 from .exposure import display_metered_ev100, displayed, exposure_of_ev100
 from .halos import HaloTable, halo_radius, table_uniforms
 
