@@ -681,10 +681,6 @@ class WaterPass(RenderPass):
                       "u_field": FIELD_UNIT, "u_field_scalar": FIELD_SCALAR_UNIT})
         return {"uniforms": u, "table": table.tobytes(), "phases": phases.tobytes()}
 
-    def _bind_waves(self, program, sea, wu: dict) -> None:
-        """The frame's wave set (``wave_uniforms``) and, over a bathymetry, its field textures."""
-        set_uniforms(program, self._wave_values(sea, wu))
-
     def _wave_values(self, sea, wu: dict) -> dict:
         """The wave set's uniform values (``wave_uniforms``), with a bathymetry's field textures bound."""
         if sea.field is not None:
@@ -864,7 +860,7 @@ class WaterPass(RenderPass):
         sea = sea_surface(scene.ocean, scene.weather)
         selection = self.select(sea, scene, view, mesh=mesh)
         program = self.capture_program(sea.field is not None)
-        self._bind_waves(program, sea, self.wave_uniforms(sea, scene, view))
+        set_uniforms(program, self._wave_values(sea, self.wave_uniforms(sea, scene, view)))
         morph = np.minimum(selection.morph, 1e30).astype(np.float32)
         program["u_morph"].write(morph.tobytes())
         verts, _ = self._patch_buffer()
