@@ -1,0 +1,179 @@
+"""Counting the GL work a block of code submits, at moderngl's boundary.
+
+``with GLCallCounter() as calls: renderer.render(scene)`` wraps, for the duration of the block,
+every moderngl entry point that reaches the driver: the methods of moderngl's object classes
+(``Texture.use``, ``Buffer.write``, ``VertexArray.render``, ``Context.texture``, ...), the property
+setters (``ctx.depth_func = ...``, ``fbo.viewport = ...``) and the writes to a program's uniforms and
+uniform-block bindings (``program["u_x"].value = ...``, ``.write(...)``), which moderngl implements in
+C and which are reached through proxies handed out by ``Program.get``/``__getitem__``.
+
+What is not counted, because it does not reach the driver: a program's member look-ups, property
+reads moderngl answers from Python (sizes, ``glo``), ``release`` and ``__del__`` (object lifetime).
+
+Besides the count, the wrappers add up the calling thread's CPU time spent inside the wrapped calls
+(``gl_cpu_s``). A frame's host time *outside* GL is then its calling-thread CPU time minus that, less
+the wrappers' own overhead (``overhead_s``: calls times the cost of one wrapper, calibrated on a
+no-op at entry), which is how ``igserver bench`` reports Python and numpy time per frame.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import Counter
+
+import moderngl
+
+# moderngl's Python object classes whose methods call into GL.
+_CLASSES = ("Context", "Program", "ComputeShader", "Texture", "Texture3D", "TextureArray", "TextureCube",
+            "Buffer", "VertexArray", "Framebuffer", "Sampler", "Renderbuffer", "Query", "Scope")
+# Methods answered in Python (member look-ups, iteration) or object lifetime: not GL work of a frame.
+_NOT_GL = {"get", "release", "__getitem__", "__iter__", "__init__", "__del__", "__repr__", "__eq__", "__hash__",
+           "__enter__", "__exit__", "__setitem__", "__init_subclass__", "detect_framebuffer"}
+
+
+class _MemberProxy:
+    """A program's uniform (or uniform block) as ``program[name]`` returns it, counting its writes.
+
+    ``isinstance(proxy, moderngl.Uniform)`` stays true (``__class__`` answers the real class), so the
+    renderer's own code takes the same branches with and without the counter.
+    """
+
+    __slots__ = ("_member", "_counter", "_name")
+
+    def __init__(self, member, counter: "GLCallCounter", name: str):
+        object.__setattr__(self, "_member", member)
+        object.__setattr__(self, "_counter", counter)
+        object.__setattr__(self, "_name", name)
+
+    @property
+    def __class__(self):
+        return type(self._member)
+
+    def __getattr__(self, attr):
+        return getattr(self._member, attr)
+
+    def __setattr__(self, attr, value):
+        if attr in ("value", "binding"):
+            self._counter._timed(self._name + "." + attr, setattr, self._member, attr, value)
+        else:
+            setattr(self._member, attr, value)
+
+    def write(self, data):
+        return self._counter._timed(self._name + ".write", self._member.write, data)
+
+    def read(self):
+        return self._counter._timed(self._name + ".read", self._member.read)
+
+
+class GLCallCounter:
+    """GL calls made in a block, by entry point (``by_name``), in total (``total``), and the calling
+    thread's CPU seconds spent inside them (``gl_cpu_s``)."""
+
+    def __init__(self):
+        self.by_name: Counter = Counter()
+        self.gl_cpu_s = 0.0
+        self._saved: list[tuple[type, str, object]] = []
+        self.wrapper_cost_s = 0.0
+
+    @property
+    def total(self) -> int:
+        return sum(self.by_name.values())
+
+    @property
+    def overhead_s(self) -> float:
+        """Estimated CPU seconds the wrappers themselves added to the calling thread."""
+        return self.total * self.wrapper_cost_s
+
+    def created(self) -> int:
+        """GL objects created in the block (Context factory methods: textures, buffers, programs...)."""
+        factories = ("texture", "texture3d", "texture_array", "texture_cube", "depth_texture", "buffer",
+                     "framebuffer", "simple_framebuffer", "renderbuffer", "depth_renderbuffer", "program",
+                     "compute_shader", "vertex_array", "simple_vertex_array", "sampler", "query", "scope")
+        return sum(n for name, n in self.by_name.items() if name in {f"Context.{f}" for f in factories})
+
+    def _timed(self, name: str, fn, *args, **kwargs):
+        self.by_name[name] += 1
+        t0 = time.thread_time()
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            self.gl_cpu_s += time.thread_time() - t0
+
+    def _wrap_method(self, cls: type, attr: str, original) -> None:
+        label = f"{cls.__name__}.{attr}"
+        counter = self
+
+        def counted(obj, *args, **kwargs):
+            return counter._timed(label, original, obj, *args, **kwargs)
+
+        counted.__name__ = attr
+        self._saved.append((cls, attr, original))
+        setattr(cls, attr, counted)
+
+    def _wrap_setter(self, cls: type, attr: str, prop: property) -> None:
+        label = f"{cls.__name__}.{attr}="
+        counter = self
+
+        def fset(obj, value):
+            counter._timed(label, prop.fset, obj, value)
+
+        self._saved.append((cls, attr, prop))
+        setattr(cls, attr, property(prop.fget, fset, prop.fdel, prop.__doc__))
+
+    def _wrap_members(self, cls: type) -> None:
+        counter = self
+        original_get, original_item = cls.get, cls.__getitem__
+
+        def proxied(member, name):
+            if isinstance(member, (moderngl.Uniform, moderngl.UniformBlock)):
+                return _MemberProxy(member, counter, f"{cls.__name__}[{name}]")
+            return member
+
+        def get(obj, key, default=None):
+            member = original_get(obj, key, default)
+            return member if member is default else proxied(member, key)
+
+        def getitem(obj, key):
+            return proxied(original_item(obj, key), key)
+
+        for attr, fn, original in (("get", get, original_get), ("__getitem__", getitem, original_item)):
+            self._saved.append((cls, attr, original))
+            setattr(cls, attr, fn)
+
+    def _calibrate(self) -> None:
+        """CPU seconds one wrapper adds around a call that does nothing."""
+        probe = GLCallCounter()
+        noop = lambda: None  # noqa: E731
+        n = 2000
+        t0 = time.thread_time()
+        for _ in range(n):
+            probe._timed("noop", noop)
+        wrapped = time.thread_time() - t0
+        t0 = time.thread_time()
+        for _ in range(n):
+            noop()
+        bare = time.thread_time() - t0
+        self.wrapper_cost_s = max(wrapped - bare, 0.0) / n
+
+    def __enter__(self) -> "GLCallCounter":
+        self._calibrate()
+        for cls_name in _CLASSES:
+            cls = getattr(moderngl, cls_name, None)
+            if cls is None:
+                continue
+            for attr, value in list(vars(cls).items()):
+                if attr in _NOT_GL or (attr.startswith("_") and not attr.startswith("__")):
+                    continue
+                if isinstance(value, property):
+                    if value.fset is not None:
+                        self._wrap_setter(cls, attr, value)
+                elif callable(value) and not isinstance(value, (staticmethod, classmethod, type)):
+                    self._wrap_method(cls, attr, value)
+            if cls_name in ("Program", "ComputeShader"):
+                self._wrap_members(cls)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for cls, attr, original in reversed(self._saved):
+            setattr(cls, attr, original)
+        self._saved.clear()
