@@ -8,6 +8,7 @@ contexts), so another context created or released in the same thread cannot take
 from __future__ import annotations
 
 import time
+from collections import deque
 from dataclasses import dataclass, field
 
 import moderngl
@@ -18,6 +19,7 @@ from . import depth, gl_calls, presets
 from .context import capabilities, create_context, make_current, release_context
 from .frame import FrameState, build_frame
 from .graph import FrameGraph
+from .readback import ReadbackRing
 from .shaders import ProgramCache
 from .targets import Targets
 
@@ -34,10 +36,26 @@ class RenderResult:
     # Only when timed: per pass, CPU ms of the calling thread (llvmpipe: vertex work, triangle setup,
     # binning, Python) and of all other threads (llvmpipe: rasterisation and fragment shading).
     pass_cpu_ms: dict[str, tuple[float, float]] = field(default_factory=dict)
+    host_frame: int = 0  # of the scene drawn: a frame returned later (frames in flight) names its own state
+    sim_time: float = 0.0  # s, of the scene drawn
+
+
+@dataclass
+class _Drawn:
+    """A frame whose passes are queued and whose pixels are not read yet."""
+
+    result: RenderResult  # rgba and total_ms filled in when the pixels are read
+    targets: Targets
+    start: float  # perf_counter s when the frame began
+    drawn_at: float  # perf_counter s when its last pass was queued
+    timed: bool
+    auto: bool  # auto quality: the frame's time feeds the controller
+    queue_ms: float = 0.0  # ms to queue the readback (frames in flight)
 
 
 class Renderer:
-    def __init__(self, ctx: moderngl.Context | None = None, device_index: int | None = None):
+    def __init__(self, ctx: moderngl.Context | None = None, device_index: int | None = None,
+                 frames_in_flight: int = 1):
         self._ctx = make_current(ctx) if ctx is not None else create_context(device_index)
         self.caps = capabilities(self._ctx)
         self.reversed_z = depth.enable_reversed_z(self._ctx)  # clip depth [0, 1]; else the fallback
@@ -47,6 +65,10 @@ class Renderer:
         self.frames_rendered = 0
         self.auto_quality: presets.AutoQuality | None = None
         self.frame_state = FrameState()  # eased fog, eye adaptation: carried between frames
+        # submit(): frames drawn whose pixels are still being copied out (pixel buffers of the ring)
+        self.frames_in_flight = frames_in_flight
+        self._in_flight: deque = deque()
+        self._readback: ReadbackRing | None = None
 
     def quality_for(self, scene: Scene):
         """The level of this frame: the scene's preset, or the auto controller's current rung."""
@@ -71,7 +93,64 @@ class Renderer:
         return self._targets
 
     def render(self, scene: Scene, timed: bool = False) -> RenderResult:
-        """Render ``scene``; with ``timed`` each pass is bracketed by ctx.finish() and a wall clock."""
+        """Render ``scene`` and return its frame; with ``timed`` each pass is bracketed by ctx.finish()
+        and a wall clock. Frames submitted before and not yet collected stay in flight."""
+        drawn = self._draw(scene, timed)
+        t0 = time.perf_counter()
+        data = drawn.targets.ldr_fbo.read(components=4, alignment=1)
+        width, height = drawn.targets.size
+        rgba = np.ascontiguousarray(np.frombuffer(data, dtype=np.uint8).reshape(height, width, 4)[::-1])
+        if timed:
+            drawn.result.pass_ms["readback"] = (time.perf_counter() - t0) * 1e3
+        return self._finished(drawn, rgba, time.perf_counter())
+
+    def submit(self, scene: Scene, timed: bool = False) -> RenderResult | None:
+        """Draw ``scene`` and queue its readback without waiting for it; return the oldest frame in
+        flight once ``frames_in_flight`` frames are queued (else None). A stream calls this once per
+        frame, so frame N's pixels are copied out while frame N+1 is drawn; ``collect`` takes the rest.
+        Each result carries the host_frame and sim_time of the scene it was drawn from."""
+        drawn = self._draw(scene, timed)
+        t0 = time.perf_counter()
+        ticket = self._readback_ring().start(drawn.targets.ldr_fbo, drawn.targets.size)
+        gl_calls.flush()  # hand the copy to the driver now, not at the next frame's first wait
+        drawn.queue_ms = (time.perf_counter() - t0) * 1e3
+        self._in_flight.append((drawn, ticket))
+        return self.collect() if len(self._in_flight) > self.frames_in_flight else None
+
+    def collect(self) -> RenderResult | None:
+        """The oldest submitted frame not yet returned (waiting for its copy if needed), or None."""
+        if not self._in_flight:
+            return None
+        make_current(self._ctx)
+        drawn, ticket = self._in_flight.popleft()
+        t0 = time.perf_counter()
+        rgba = self._readback.take(ticket)
+        end = time.perf_counter()
+        if drawn.timed:  # queueing the copy plus taking it: the readback's cost to the calling thread
+            drawn.result.pass_ms["readback"] = drawn.queue_ms + (end - t0) * 1e3
+        # the frame's time: its draw plus taking its pixels, not the wait while it was in flight
+        return self._finished(drawn, rgba, drawn.drawn_at + (end - t0))
+
+    @property
+    def in_flight(self) -> int:
+        """Frames submitted and not yet collected."""
+        return len(self._in_flight)
+
+    def _readback_ring(self) -> ReadbackRing:
+        if self._readback is None:
+            self._readback = ReadbackRing(self._ctx, self.frames_in_flight + 1)
+        return self._readback
+
+    def _finished(self, drawn: "_Drawn", rgba: np.ndarray, end: float) -> RenderResult:
+        result = drawn.result
+        result.rgba = rgba
+        result.total_ms = (end - drawn.start) * 1e3
+        if drawn.auto:
+            self.auto_quality.observe(result.total_ms)
+        return result
+
+    def _draw(self, scene: Scene, timed: bool) -> "_Drawn":
+        """Every pass of ``scene`` queued into the LDR target; the frame's result without its pixels."""
         start = time.perf_counter()
         make_current(self._ctx)
         frame = build_frame(self.ctx, scene, self.frame_state)
@@ -97,18 +176,12 @@ class Renderer:
                 pass_ms[name] = (time.perf_counter() - t0) * 1e3
                 own = (time.thread_time() - own0) * 1e3
                 pass_cpu[name] = (own, (time.process_time() - cpu0) * 1e3 - own)
-        t0 = time.perf_counter()
-        data = targets.ldr_fbo.read(components=4, alignment=1)
-        rgba = np.frombuffer(data, dtype=np.uint8).reshape(targets.size[1], targets.size[0], 4)[::-1]
-        if timed:
-            pass_ms["readback"] = (time.perf_counter() - t0) * 1e3
         self.frames_rendered += 1
-        total_ms = (time.perf_counter() - start) * 1e3
-        if scene.quality.preset == "auto":
-            self.auto_quality.observe(total_ms)
         quality = frame.quality.name if isinstance(frame.quality, presets.Rung) else frame.quality
-        return RenderResult(np.ascontiguousarray(rgba), names, pass_ms, total_ms, quality,
-                            ev100=frame.ev100, illuminance_lux=frame.illuminance_lux, pass_cpu_ms=pass_cpu)
+        result = RenderResult(None, names, pass_ms, 0.0, quality, ev100=frame.ev100,
+                              illuminance_lux=frame.illuminance_lux, pass_cpu_ms=pass_cpu,
+                              host_frame=scene.host_frame, sim_time=scene.time.sim_time)
+        return _Drawn(result, targets, start, time.perf_counter(), timed, scene.quality.preset == "auto")
 
     def read_hdr(self) -> np.ndarray:
         """The last frame's pre-exposed linear HDR colour (float32, top row first), for quality tools."""
@@ -126,4 +199,6 @@ class Renderer:
         make_current(self._ctx)
         if self._targets is not None:
             self._targets.release()
+        if self._readback is not None:
+            self._readback.release()
         release_context(self._ctx)

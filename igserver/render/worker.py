@@ -24,6 +24,9 @@ import numpy as np
 from ..scene.model import Scene
 
 RING_SLOTS = 3
+# submit(): frames drawn and not yet returned. One lets the render process read frame N while it draws
+# N+1 and the server encode N meanwhile, for one frame interval more from a state to its frame.
+FRAMES_IN_FLIGHT = 1
 START_TIMEOUT_S = 300.0  # first start compiles shaders (tables are built by the first render, with progress)
 RENDER_TIMEOUT_S = 30.0  # a frame silent for this long (no frame, no progress message) is abandoned
 HEARTBEAT_S = 0.25  # the render process stamps a shared clock this often while it waits for work
@@ -51,6 +54,7 @@ class Frame:
     sim_time: float = 0.0
     ev100: float = 0.0  # exposure used (photometric read-out)
     illuminance_lux: float = 0.0  # natural horizontal illuminance at the camera
+    tag: object = None  # what the submitter passed with the scene (frames in flight come back later)
 
     @property
     def width(self) -> int:
@@ -135,7 +139,7 @@ def _render_process_main(conn, device_index: int | None, stamp=None) -> None:
     from .renderer import Renderer
 
     try:
-        renderer = Renderer(device_index=device_index)
+        renderer = Renderer(device_index=device_index, frames_in_flight=FRAMES_IN_FLIGHT)
     except Exception as exc:
         conn.send(("error", f"{type(exc).__name__}: {exc}", traceback.format_exc(limit=8)))
         return
@@ -150,23 +154,33 @@ def _render_process_main(conn, device_index: int | None, stamp=None) -> None:
         kind = message[0]
         if kind == "stop":
             break
-        if kind != "render":
+        if kind not in ("render", "submit", "collect"):
             conn.send(("error", f"unknown command {kind!r}", ""))
             continue
-        _, scene, timed, shm_name, ring_names = message
+        # render: (scene, timed, slot, ring) -> that scene's frame. submit: (scene, timed, slot, ring) -> the
+        # frame in flight before it, or none yet (slot: where that frame goes). collect: (slot, ring) -> the
+        # frame in flight, or none.
+        *args, shm_name, ring_names = message[1:]
         # the parent replaced its ring (frame size changed): unmap the slots it has unlinked
         stale = [n for n in attached if n not in ring_names]
         for name in stale:
             attached.pop(name).close()
         try:
-            result = renderer.render(scene, timed=timed)
+            if kind == "render":
+                result = renderer.render(*args)
+            elif kind == "submit":
+                result = renderer.submit(*args)
+            else:
+                result = renderer.collect()
+            if result is None:
+                conn.send(("none",))
+                continue
             if shm_name not in attached:
                 attached[shm_name] = _attach(shm_name)
-            buf = attached[shm_name].buf
-            flat = result.rgba.reshape(-1)
-            buf[: flat.size] = flat.data
+            np.ndarray(result.rgba.shape, np.uint8, buffer=attached[shm_name].buf)[...] = result.rgba
+            # host_frame and sim_time from the scene the frame was drawn from: exact with frames in flight
             conn.send(("frame", result.rgba.shape, result.total_ms, result.pass_ms, result.passes,
-                       result.ev100, result.illuminance_lux))
+                       result.ev100, result.illuminance_lux, result.host_frame, result.sim_time))
             if stale:  # the frame size changed: the old ring and render targets are free now, after the frame
                 release_free_memory()
         except Exception as exc:
@@ -199,6 +213,8 @@ class RenderService:
         self._caps: dict = {}
         self._ring: list[shared_memory.SharedMemory] = []
         self._next_slot = 0
+        self._in_flight: list[tuple[Scene, object]] = []  # submitted to the render process, oldest first
+        self._collected: list[Frame] = []  # frames in flight taken out before a render(); returned next
         self._heartbeat = self._mp.Value("d", 0.0, lock=False)
         self.ig_frame = 0
         self.restarts = 0
@@ -274,6 +290,7 @@ class RenderService:
     def _terminate(self) -> None:
         self.ready = False
         self.progress = None
+        self._in_flight.clear()  # they went with the process
         if self._process is not None and self._process.is_alive():
             self._process.kill()
             self._process.join(5)
@@ -350,22 +367,70 @@ class RenderService:
         return slot
 
     def render(self, scene: Scene | None = None, timed: bool = False) -> Frame:
-        """Render ``scene`` (default: the current state). A crashed render process is restarted once and
-        the scene re-sent; a render that timed out is not re-sent (``RenderTimeout``)."""
+        """Render ``scene`` (default: the current state) and return its frame. A crashed render process is
+        restarted once and the scene re-sent; a render that timed out is not re-sent (``RenderTimeout``).
+        Frames in flight are taken out first, so frame numbers follow the order frames were drawn in;
+        the next ``submit``/``collect`` returns them."""
         with self._lock:
             scene = scene or self._state
-            try:
-                return self._render_once(scene, timed)
-            except (EOFError, BrokenPipeError, ConnectionResetError, OSError, _Dead):
-                self.restart()
-                return self._render_once(scene, timed)
+            return self._with_restart(self._render_once, scene, timed)
+
+    def submit(self, scene: Scene | None = None, timed: bool = False, tag=None) -> Frame | None:
+        """Draw ``scene`` (default: the current state) and return the frame drawn before it, if any: its
+        pixels were copied out while this one was drawn. ``tag`` comes back on this scene's frame. A crashed
+        render process is restarted and the scene re-sent; the frames it had in flight are lost."""
+        with self._lock:
+            scene = scene or self._state
+            if self._collected:  # taken out by a render() meanwhile: nothing is in flight, deliver it now
+                self._with_restart(self._exchange, "submit", scene, timed, tag)
+                return self._collected.pop(0)
+            return self._with_restart(self._exchange, "submit", scene, timed, tag)
+
+    def collect(self) -> Frame | None:
+        """The oldest frame in flight (None if none): a stream takes it when no new state is due."""
+        with self._lock:
+            if self._collected:
+                return self._collected.pop(0)
+            if not self._in_flight:
+                return None
+            return self._with_restart(self._exchange, "collect", None, False, None)
+
+    @property
+    def in_flight(self) -> int:
+        """Frames submitted and not yet returned."""
+        return len(self._in_flight) + len(self._collected)
+
+    def _with_restart(self, fn, *args):
+        try:
+            return fn(*args)
+        except (EOFError, BrokenPipeError, ConnectionResetError, OSError, _Dead):
+            self.restart()
+            return fn(*args)
 
     def _render_once(self, scene: Scene, timed: bool) -> Frame:
+        while self._in_flight:
+            frame = self._exchange("collect", None, False, None)
+            if frame is not None:
+                self._collected.append(frame)
+        return self._exchange("render", scene, timed, None)
+
+    def _exchange(self, kind: str, scene: Scene | None, timed: bool, tag) -> Frame | None:
+        """One command to the render process and its frame: render (``scene``'s), submit (the one in flight
+        before ``scene``, or None), collect (the one in flight)."""
         if not self.alive:
             raise _Dead()
-        cam = scene.camera
-        slot = self._slot_for(cam.width * cam.height * 4)
-        self._conn.send(("render", scene, timed, slot.name, [shm.name for shm in self._ring]))
+        if kind == "render":
+            delivered = scene
+        elif kind == "submit" and len(self._in_flight) < FRAMES_IN_FLIGHT:
+            delivered = None
+        else:
+            delivered = self._in_flight[0][0]
+        cam = delivered.camera if delivered is not None else None
+        slot = self._slot_for(cam.width * cam.height * 4) if cam is not None else None
+        ring = [shm.name for shm in self._ring]
+        slot_name = slot.name if slot is not None else None
+        args = (scene, timed) if kind != "collect" else ()
+        self._conn.send((kind, *args, slot_name, ring))
         self.rendering_since = time.monotonic()
         try:
             reply = self._await_reply()
@@ -376,12 +441,19 @@ class RenderService:
             if len(reply) > 2 and reply[2]:
                 log.error("render failed:\n%s", reply[2])
             raise RenderError(reply[1])
-        _, shape, total_ms, pass_ms, passes, ev100, illuminance = reply
+        if kind == "submit":
+            self._in_flight.append((scene, tag))
+        if reply[0] == "none":
+            if kind == "collect":
+                self._in_flight.clear()  # the process had nothing in flight (it was restarted)
+            return None
+        taken_tag = self._in_flight.pop(0)[1] if kind != "render" else tag
+        _, shape, total_ms, pass_ms, passes, ev100, illuminance, host_frame, sim_time = reply
         rgba = np.ndarray(shape, dtype=np.uint8, buffer=slot.buf).copy()
         self.ig_frame += 1
         self.warm = True  # after the count: /v1/ready (another thread) never sees warm with no frame counted
-        return Frame(rgba, self.ig_frame, scene.host_frame, total_ms, pass_ms, passes, scene.time.sim_time, ev100,
-                     illuminance)
+        return Frame(rgba, self.ig_frame, host_frame, total_ms, pass_ms, passes, sim_time, ev100, illuminance,
+                     taken_tag)
 
     def _await_reply(self):
         """The render's reply; progress messages on the way extend the deadline (the process is alive)."""
