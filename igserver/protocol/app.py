@@ -152,10 +152,14 @@ def uvicorn_config(app: FastAPI, host: str, port: int, **kwargs):
     from .flow import TransportInScope
 
     # image frames do not compress: per-message deflate would only cost CPU and latency (DESIGN §8);
-    # the HTTP protocol puts the connection's transport in the scope for the MJPEG flow control (flow.py)
+    # the HTTP protocol puts the connection's transport in the scope for the MJPEG flow control, and
+    # bounds how long a client may take to send a request (flow.py)
+    settings = app.state.runtime.settings
     return uvicorn.Config(
         app, host=host, port=port, ws_per_message_deflate=False, log_level=kwargs.pop("log_level", "warning"),
-        lifespan="on", http=TransportInScope, **kwargs,
+        lifespan="on", http=TransportInScope, timeout_keep_alive=settings.idle_timeout_s,
+        limit_concurrency=settings.max_connections, h11_max_incomplete_event_size=settings.max_header_bytes,
+        **kwargs,
     )
 
 

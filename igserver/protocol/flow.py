@@ -20,6 +20,7 @@ import fcntl
 import struct
 from typing import Any
 
+import h11
 from uvicorn.protocols.http.h11_impl import H11Protocol
 
 SCOPE_KEY = "igserver.transport"
@@ -28,7 +29,18 @@ POLL_S = (0.001, 0.02)  # the wait polls from 1 ms, doubling up to 20 ms (a drai
 
 
 class TransportInScope(H11Protocol):
-    """uvicorn's h11 protocol, with the connection's transport in every request's scope extensions."""
+    """uvicorn's h11 protocol, with the connection's transport in every request's scope extensions, and a
+    deadline on the client's side of each request.
+
+    uvicorn times out only a kept-alive connection that stays silent, and any byte restarts that wait: a
+    connection that never sends, or sends a request head a byte at a time, or stops in the middle of a body,
+    is held for ever (a descriptor and a task each). Here the request head must be complete within
+    ``timeout_keep_alive`` (the ``idle_timeout_s`` setting) of the connection's start or of the previous
+    response's end, whatever trickles in meanwhile, and a body may not stall longer than that between two
+    reads. A response being sent (an MJPEG stream) is not the client's to hurry: no deadline then.
+    """
+
+    _deadline: asyncio.TimerHandle | None = None
 
     def connection_made(self, transport: asyncio.Transport) -> None:  # type: ignore[override]
         super().connection_made(transport)
@@ -39,6 +51,39 @@ class TransportInScope(H11Protocol):
             return await app(scope, receive, send)
 
         self.app = app_with_transport
+        self._arm_deadline()
+
+    def data_received(self, data: bytes) -> None:
+        head_pending = self.conn.their_state is h11.IDLE
+        super().data_received(data)
+        # a head still incomplete keeps its deadline; a body's restarts with each piece
+        if not (head_pending and self.conn.their_state is h11.IDLE):
+            self._arm_deadline()
+
+    def on_response_complete(self) -> None:
+        super().on_response_complete()
+        self._arm_deadline()
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        self._disarm_deadline()
+        super().connection_lost(exc)
+
+    def _disarm_deadline(self) -> None:
+        if self._deadline is not None:
+            self._deadline.cancel()
+            self._deadline = None
+
+    def _arm_deadline(self) -> None:
+        self._disarm_deadline()
+        if self.transport.is_closing() or self.transport.get_protocol() is not self:
+            return  # closed, or upgraded to a WebSocket (its own protocol and pings)
+        if self.conn.their_state in (h11.IDLE, h11.SEND_BODY):
+            self._deadline = self.loop.call_later(self.timeout_keep_alive, self._deadline_passed)
+
+    def _deadline_passed(self) -> None:
+        self._deadline = None
+        if self.conn.their_state in (h11.IDLE, h11.SEND_BODY) and not self.transport.is_closing():
+            self.transport.close()
 
 
 def transport_of(scope: dict[str, Any]) -> asyncio.Transport | None:

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import asyncio
+import concurrent.futures
 import logging
 import signal
 import threading
 import time
 
+from ..render.worker import release_free_memory
 from ..scene.model import Scene
 from .frames import FramePump, RenderGateway
+from .limits import Gate, guard_accept_loop
 from .metrics import ServiceMetrics
 from .settings import ServerSettings  # noqa: F401  (re-exported: settings live in settings.py)
 from .state import StateStore
@@ -49,7 +52,21 @@ class IGRuntime:
         self.unresponsive: str | None = None  # the watchdog's finding, None while the render process answers
         self._watchdog_task: asyncio.Task | None = None
         self.stopping = asyncio.Event()  # set at shutdown: open streams end so the server can exit
+        self.queries = Gate(self.settings.max_concurrent_queries, "water-height queries")
+        # queries run on threads of their own, as many as may run at once: each thread that allocates
+        # gets a malloc arena of its own, which keeps what it freed; a bounded pool bounds the arenas
+        self._query_executor = concurrent.futures.ThreadPoolExecutor(
+            max_workers=self.settings.max_concurrent_queries, thread_name_prefix="igserver-query")
         self._register_gauges()
+
+    async def run_query(self, fn, *args):
+        """``fn(*args)`` on a query thread. When the last query in progress ends, freed heap goes back to
+        the OS: a burst of big queries leaves no lasting growth."""
+        try:
+            return await asyncio.get_running_loop().run_in_executor(self._query_executor, fn, *args)
+        finally:
+            if self.queries.held <= 1:
+                self._query_executor.submit(release_free_memory)
 
     def _register_gauges(self) -> None:
         m = self.metrics
@@ -106,6 +123,7 @@ class IGRuntime:
 
         _ensure_log_output()
         loop = asyncio.get_running_loop()
+        guard_accept_loop(loop)  # the lifespan starts before uvicorn listens: the accept loop is the guarded one
         self._end_streams_on_exit_signal(loop)
         loop.create_task(start_render_process())
         self._watchdog_task = loop.create_task(self._watchdog(), name="igserver-watchdog")
@@ -156,3 +174,4 @@ class IGRuntime:
         await self.pump.stop()
         await asyncio.to_thread(self.service.stop)
         self.gateway.shutdown()
+        self._query_executor.shutdown(wait=False, cancel_futures=True)

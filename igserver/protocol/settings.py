@@ -65,6 +65,22 @@ class ServerSettings(BaseSettings):
     watchdog_interval_s: float = Field(0.5, gt=0, le=60, description="how often the render process's liveness is checked (s)")
     max_raw_frame_bytes: int = Field(
         32 * 2**20, ge=0, description="raw (RGBA) frames above this are refused (413): ask for jpeg or png")
+    idle_timeout_s: float = Field(
+        10.0, gt=0, le=3600,
+        description="a connection is closed when its request headers are not complete this long (s) after it "
+        "opened or its last response ended, or when its request body stalls this long")
+    max_connections: int = Field(
+        512, ge=1, le=100_000,
+        description="open connections (streams included) above which requests are answered 503")
+    max_header_bytes: int = Field(16384, ge=1024, le=2**20, description="largest request head (line and headers)")
+    max_ws_clients: int = Field(
+        32, ge=0, le=10_000, description="WebSocket clients at once; one more is closed with code 1013 (try again later)")
+    max_concurrent_queries: int = Field(
+        4, ge=1, le=1024,
+        description="water-height queries answered at once (REST and WebSocket); more are answered 503 with Retry-After")
+    max_profile_pixels: int = Field(
+        1024 * 1024, ge=1, le=4096 * 4096,
+        description="pixels of a profile image (width x height, read from its header): a larger one is refused (422)")
 
     @field_validator("allowed_hosts", "allowed_origins", mode="before")
     @classmethod

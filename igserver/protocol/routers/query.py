@@ -13,7 +13,6 @@ from typing import Annotated
 
 import numpy as np
 from fastapi import APIRouter, Depends, Request
-from starlette.concurrency import run_in_threadpool
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ...scene.model import WORLD_LIMIT_M, Scene
@@ -47,6 +46,16 @@ async def query_body(request: Request, runtime: Runtime):
 
 
 QueryMessage = Annotated[object, Depends(query_body)]
+
+
+async def query_slot(runtime: Runtime):
+    """One of the ``max_concurrent_queries`` slots, taken before the body is read: a query over the bound
+    is refused without its body being held and decoded."""
+    with runtime.queries.enter():
+        yield
+
+
+QuerySlot = Annotated[None, Depends(query_slot)]
 
 
 class WaterHeightReply(BaseModel):
@@ -84,6 +93,14 @@ def water_height(scene: Scene, tree, prefix: tuple = ()) -> dict:
     openapi_extra=body_doc(WaterHeightQuery.model_json_schema(), "points and optional sim_time"),
     responses={200: {"content": MSGPACK_ALSO}, **PROBLEM_RESPONSES},
 )
-async def query_water_height(runtime: Runtime, message: QueryMessage, fmt: ReplyFormat):
-    # numpy work off the event loop: streams keep flowing while a big query is answered
-    return reply(await run_in_threadpool(water_height, runtime.store.scene, message), fmt)
+async def query_water_height(runtime: Runtime, slot: QuerySlot, message: QueryMessage, fmt: ReplyFormat):
+    return reply(await runtime.run_query(water_height, runtime.store.scene, message), fmt)
+
+
+async def answer_water_height(runtime, tree, prefix: tuple = ()) -> dict:
+    """``water_height`` on the runtime's query threads, at most ``max_concurrent_queries`` at once (more:
+    ``overloaded``, 503 with Retry-After). The numpy work is off the event loop, so streams keep flowing;
+    the bound keeps many big queries from taking the CPU from the render loop and their temporaries from
+    piling up in memory."""
+    with runtime.queries.enter():
+        return await runtime.run_query(water_height, runtime.store.scene, tree, prefix)

@@ -121,14 +121,12 @@ class Session:
                 self.greeted.set()
 
     async def answer_query(self, tree: dict) -> dict:
-        from starlette.concurrency import run_in_threadpool
-
-        from .query import water_height
+        from .query import answer_water_height
 
         if tree.get("query") != "water-height":
             raise ProblemError("validation", "unknown query", [{"pointer": "#/query", "detail": "expected water-height"}])
         body = {k: v for k, v in tree.items() if k not in ("type", "query", "id")}
-        result = await run_in_threadpool(water_height, self.runtime.store.scene, body)
+        result = await answer_water_height(self.runtime, body)
         answer = {"type": "query_result", "query": "water-height", **result}
         if isinstance(tree.get("id"), (int, str)):
             answer["id"] = tree["id"]

@@ -1,0 +1,303 @@
+"""The service's resource limits, through a real uvicorn server on loopback with a GL-free render service:
+connection deadlines and counts, concurrent queries, WebSocket clients and what each may hold, and
+profile images. Every limit is a setting; hitting it gives a problem answer or a close code."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import socket
+import threading
+import time
+
+import httpx
+import msgpack
+import numpy as np
+import pytest
+import uvicorn
+from websockets.exceptions import ConnectionClosed
+from websockets.sync.client import connect
+
+from igserver.protocol.app import create_app, uvicorn_config
+from igserver.protocol.settings import ServerSettings
+from igserver.render.worker import Frame
+from igserver.scene import Scene
+
+W, H = 64, 36
+SCENE = {"camera": {"width": W, "height": H}, "atmosphere": {"model": "gradient"}}
+
+
+class FakeRenderService:
+    """``RenderService``'s face to the protocol, without a process or GL: a frame is the camera's size in
+    one grey; ``delay_s`` makes each render take that long."""
+
+    def __init__(self, scene: Scene):
+        self.state = scene
+        self.render_timeout_s = 30.0
+        self.restarts = 0
+        self.ready = self.alive = self.warm = False
+        self.progress = self.last_progress = None
+        self.ig_frame = 0
+        self.delay_s = 0.0
+        self._lock = threading.Lock()
+
+    def start(self):
+        self.ready = self.alive = True
+        return self
+
+    def stop(self):
+        self.ready = self.alive = False
+
+    def ensure_started(self):
+        self.start()
+
+    def kill_for_test(self):
+        self.alive = False
+
+    def set_state(self, scene):
+        self.state = scene
+
+    def unresponsive_reason(self):
+        return None if self.alive else "render process is not running"
+
+    def info(self):
+        return {"ready": self.ready and self.alive, "restarts": self.restarts, "pid": 1, "frames": self.ig_frame}
+
+    def render(self, scene=None, timed=False):
+        scene = scene or self.state
+        time.sleep(self.delay_s)
+        with self._lock:
+            self.ig_frame += 1
+            frame = self.ig_frame
+        self.warm = True
+        rgba = np.full((scene.camera.height, scene.camera.width, 4), 128, np.uint8)
+        return Frame(rgba, frame, scene.host_frame, 1.0, sim_time=scene.time.sim_time)
+
+
+class FakeServer:
+    """uvicorn in a thread around the real app and a ``FakeRenderService``."""
+
+    def __init__(self, settings: ServerSettings, scene: dict = SCENE):
+        self.service = FakeRenderService(Scene.model_validate(scene))
+        self.app = create_app(self.service, self.service.state, settings)
+        self.runtime = self.app.state.runtime
+        self.socket = socket.socket(socket.AF_INET, socket.SOCK_STREAM, socket.IPPROTO_TCP)
+        self.socket.bind(("127.0.0.1", 0))
+        self.port = self.socket.getsockname()[1]
+        self.url = f"http://127.0.0.1:{self.port}"
+        self.server = uvicorn.Server(uvicorn_config(self.app, "127.0.0.1", self.port))
+        self.thread = threading.Thread(target=self.server.run, kwargs={"sockets": [self.socket]}, daemon=True)
+
+    def __enter__(self) -> "FakeServer":
+        self.thread.start()
+        deadline = time.monotonic() + 30
+        while not (self.server.started and self.runtime.ready()):
+            assert time.monotonic() < deadline, "fake server not ready"
+            time.sleep(0.02)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.server.should_exit = True
+        self.thread.join(30)
+        self.socket.close()
+
+
+def raw_connection(port: int) -> socket.socket:
+    sock = socket.create_connection(("127.0.0.1", port), timeout=5)
+    return sock
+
+
+def closed_by_server(sock: socket.socket, within_s: float) -> bool:
+    """True once the server closes ``sock`` (EOF or reset) within ``within_s``."""
+    sock.settimeout(within_s)
+    try:
+        while True:
+            data = sock.recv(4096)
+            if not data:
+                return True
+    except (ConnectionResetError, BrokenPipeError):
+        return True
+    except socket.timeout:
+        return False
+
+
+# --------------------------------------------------------------------------- connections
+
+
+def test_silent_trickling_and_stalled_connections_are_closed_after_the_idle_timeout():
+    with FakeServer(ServerSettings(idle_timeout_s=0.5)) as srv:
+        silent = raw_connection(srv.port)
+        trickle = raw_connection(srv.port)
+        stalled = raw_connection(srv.port)
+        stalled.sendall(b"PUT /v1/state HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n"
+                        b"Content-Length: 1000\r\n\r\n{")
+        t0 = time.monotonic()
+        # a head sent a byte every 0.2 s never completes: the deadline counts from the connection's start
+        head = b"GET /v1/health HTTP/1.1\r\nHost: 127.0.0.1\r\n"
+        trickle.settimeout(0.2)
+        closed = False
+        for byte in head:
+            try:
+                trickle.sendall(bytes([byte]))
+                if trickle.recv(1) == b"":
+                    closed = True
+                    break
+            except socket.timeout:
+                continue
+            except OSError:
+                closed = True
+                break
+            if time.monotonic() - t0 > 5:
+                break
+        assert closed and time.monotonic() - t0 < 3.0
+        assert closed_by_server(silent, 3.0)
+        assert closed_by_server(stalled, 3.0)
+        # a kept-alive connection is closed after the same silence; a normal request is unaffected
+        with httpx.Client(base_url=srv.url) as http:
+            assert http.get("/v1/health").status_code == 200
+        for sock in (silent, trickle, stalled):
+            sock.close()
+
+
+def test_a_long_response_stream_is_not_cut_by_the_idle_timeout():
+    with FakeServer(ServerSettings(idle_timeout_s=0.3, keepalive_s=0.1)) as srv:
+        with httpx.Client(timeout=10) as http, http.stream("GET", srv.url + "/v1/stream.mjpg") as stream:
+            t0, parts = time.monotonic(), 0
+            for chunk in stream.iter_bytes():
+                parts += chunk.count(b"--")
+                if time.monotonic() - t0 > 1.2:
+                    break
+            assert time.monotonic() - t0 > 1.2 and parts >= 3
+
+
+def test_connections_over_the_bound_are_answered_503():
+    with FakeServer(ServerSettings(max_connections=4, idle_timeout_s=30)) as srv:
+        held = [raw_connection(srv.port) for _ in range(4)]
+        time.sleep(0.2)
+        try:
+            answer = httpx.get(srv.url + "/v1/health", timeout=5)
+            assert answer.status_code == 503
+        finally:
+            for sock in held:
+                sock.close()
+        deadline = time.monotonic() + 5
+        while httpx.get(srv.url + "/v1/health", timeout=5).status_code != 200:
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+
+
+FD_STARVED_SERVER = """
+import logging, resource, sys, time
+sys.path.insert(0, {tests!r})
+resource.setrlimit(resource.RLIMIT_NOFILE, (96, 96))
+logging.basicConfig(level=logging.WARNING, format="%(name)s %(message)s")
+from test_service_limits import FakeServer
+from igserver.protocol.settings import ServerSettings
+with FakeServer(ServerSettings(idle_timeout_s=1.0)) as srv:
+    print(srv.port, flush=True)
+    sys.stdin.readline()
+"""
+
+
+def test_running_out_of_descriptors_logs_one_line_and_recovers(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    log_path = tmp_path / "server.log"
+    with open(log_path, "w") as log_file:
+        server = subprocess.Popen([sys.executable, "-c", FD_STARVED_SERVER.format(tests=os.path.dirname(__file__))],
+                                  stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=log_file, text=True)
+    try:
+        port = int(server.stdout.readline())
+        held = []
+        for _ in range(200):  # far more than the server's 96 descriptors
+            with contextlib.suppress(OSError):
+                held.append(socket.create_connection(("127.0.0.1", port), timeout=2))
+        time.sleep(1.5)
+        # the idle ones are closed after 1 s; the server accepts again
+        deadline = time.monotonic() + 10
+        while True:
+            with contextlib.suppress(httpx.TransportError):
+                if httpx.get(f"http://127.0.0.1:{port}/v1/health", timeout=2).status_code == 200:
+                    break
+            assert time.monotonic() < deadline, "the server did not recover"
+        for sock in held:
+            sock.close()
+    finally:
+        server.stdin.close()
+        server.wait(30)
+    text = log_path.read_text()
+    assert "Traceback" not in text and text.count("\n") < 10, text[:2000]
+    assert "cannot accept connections" in text
+
+
+# --------------------------------------------------------------------------- water-height queries
+
+SEA = {**SCENE, "ocean": {"enabled": True}, "weather": {"wind_speed": 11.0}}
+
+
+def test_queries_over_the_bound_are_refused_503_with_retry_after_over_rest_and_websocket():
+    with FakeServer(ServerSettings(max_concurrent_queries=2), SEA) as srv:
+        gate = srv.runtime.queries
+        body = {"points": [[0.0, 0.0]]}
+        assert httpx.post(srv.url + "/v1/query/water-height", json=body).status_code == 200
+        gate.held = 2  # two queries in progress
+        try:
+            answer = httpx.post(srv.url + "/v1/query/water-height", json=body)
+            assert answer.status_code == 503 and answer.headers["retry-after"] == "1"
+            assert answer.json()["kind"] == "overloaded"
+            with connect(f"ws://127.0.0.1:{srv.port}/v1/ws", compression=None) as ws:
+                ws.send(msgpack.packb({"type": "hello", "credits": 0}))
+                ws.send(msgpack.packb({"type": "query", "query": "water-height", "id": 5, **body}))
+                reply = msgpack.unpackb(ws.recv(5))
+                assert reply["type"] == "error" and reply["id"] == 5 and reply["problem"]["kind"] == "overloaded"
+        finally:
+            gate.held = 0
+        assert httpx.post(srv.url + "/v1/query/water-height", json=body).status_code == 200
+        assert gate.refused == 2
+
+
+QUERY_SERVER = """
+import sys
+sys.path.insert(0, {tests!r})
+from test_service_limits import SEA, FakeServer
+from igserver.protocol.settings import ServerSettings
+with FakeServer(ServerSettings(max_concurrent_queries=2), SEA) as srv:
+    print(srv.port, flush=True)
+    sys.stdin.readline()
+"""
+
+
+def test_bursts_of_big_queries_leave_no_lasting_memory_growth():
+    import os
+    import subprocess
+    import sys
+    from concurrent.futures import ThreadPoolExecutor
+
+    server = subprocess.Popen([sys.executable, "-c", QUERY_SERVER.format(tests=os.path.dirname(__file__))],
+                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+
+    def rss_mb() -> float:
+        with open(f"/proc/{server.pid}/status") as f:
+            return next(int(line.split()[1]) for line in f if line.startswith("VmRSS")) / 1024
+
+    try:
+        url = f"http://127.0.0.1:{int(server.stdout.readline())}/v1/query/water-height"
+        body = {"points": np.random.default_rng(1).uniform(-1e3, 1e3, (10_000, 2)).tolist()}
+
+        def query(_):
+            with httpx.Client(timeout=120) as http:
+                return http.post(url, json=body).status_code
+
+        after = []
+        with ThreadPoolExecutor(24) as pool:
+            for _ in range(3):
+                codes = list(pool.map(query, range(24)))
+                assert set(codes) <= {200, 503} and 200 in codes and 503 in codes
+                after.append(rss_mb())
+        print("server RSS after each burst (MB):", [round(a) for a in after])
+        assert after[2] < after[0] + 12
+    finally:
+        server.stdin.close()
+        server.wait(30)
