@@ -127,7 +127,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("serve", help="start the IG service (REST, WebSocket, MJPEG, viewer page)",
-                       description="Every setting is also an IGSERVER_* environment variable (README: settings).")
+                       description="Every setting is also an IGSERVER_* environment variable (docs/operations.md: Settings).")
     add_serve_arguments(p, "demo")
     p.set_defaults(func=cmd_serve)
 
@@ -151,7 +151,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--resolutions", default="640x360")
     p.add_argument("--frames", type=int, default=30)
     p.add_argument("--json", help="also write the report as JSON")
-    p.add_argument("--markdown", help="also write the performance table (README form) to this file")
+    p.add_argument("--markdown", help="also write the performance table (the README's form) to this file")
     p.add_argument("--presets", help="comma-separated quality presets, one run each (e.g. low,medium,high)")
     p.add_argument("--preset", choices=PRESET_CHOICES, help="one quality preset (default: the scene's)")
     p.add_argument("--set", action="append", metavar="PATH=VALUE")

@@ -1,7 +1,7 @@
 """Server settings: one pydantic-settings model, filled from CLI flags, ``IGSERVER_*`` variables and defaults.
 
 Precedence: ``igserver serve --flag`` > environment (``IGSERVER_MAX_FPS=30``; nested limits as
-``IGSERVER_LIMITS__MAX_BODY_BYTES``) > the defaults below. The README's settings table is this model
+``IGSERVER_LIMITS__MAX_BODY_BYTES``) > the defaults below. The settings table of docs/operations.md is this model
 (``settings_table()`` writes it; a test keeps the two in step).
 """
 
@@ -106,7 +106,7 @@ class ServerSettings(BaseSettings):
 
 
 def settings_table() -> str:
-    """The README table: variable, CLI flag, default, meaning."""
+    """The settings table of docs/operations.md: variable, CLI flag, default, meaning."""
     rows = ["| environment variable | `igserver serve` flag | default | meaning |", "| --- | --- | --- | --- |"]
     for name, field in ServerSettings.model_fields.items():
         default = field.get_default(call_default_factory=True)
