@@ -4,12 +4,21 @@ Each frame must be the one the synchronous path draws, bit for bit, and carry th
 sim_time of the scene it was drawn from, also when the host changes the state every frame.
 """
 
+import threading
+import time
+
+import httpx
+import msgpack
 import numpy as np
 import pytest
+from websockets.sync.client import connect
 
+from igserver.client.core import IGClient
+from igserver.protocol.runtime import ServerSettings
+from igserver.protocol.testing import LoopbackServer
 from igserver.render.frame import FrameState
 from igserver.render.worker import RenderService
-from igserver.scene import apply_patch, load_scene
+from igserver.scene import Scene, apply_patch, load_scene
 
 from helpers import tiny
 
@@ -105,3 +114,65 @@ def test_a_killed_render_process_loses_only_its_frames_in_flight(service):
     service.kill_for_test()
     assert service.submit(b) is None  # restarted: a went with the process, b is in flight
     assert service.collect().host_frame == b.host_frame and service.in_flight == 0
+
+
+# --------------------------------------------------------------------------- through a real server
+
+PITCHES = (55.0, 0.0, -55.0)  # sky, horizon, ground: a frame tagged one or two states off looks clearly wrong
+
+
+def _look(host_frame: int) -> dict:
+    return {"host_frame": host_frame, "camera": {"pitch": PITCHES[host_frame % 3]}}
+
+
+def _stream_host(url: str, stop: threading.Event, rate_hz: float, start_frame: int) -> None:
+    """A host that sends new states without waiting for frames (at 1000 Hz: as fast as HTTP goes, faster
+    than the IG draws, so frames are in flight)."""
+    with IGClient(url) as ig:
+        n, period, t0 = 0, 1.0 / rate_hz, time.perf_counter()
+        while not stop.is_set():
+            ig.patch_state(_look(start_frame + n), minimal=True)
+            n += 1
+            time.sleep(max(0.0, t0 + n * period - time.perf_counter()))
+
+
+def test_a_stream_in_flight_tags_every_frame_with_its_own_state_when_the_host_changes_it_every_frame():
+    scene = Scene.model_validate({"camera": {"width": 64, "height": 36}, "atmosphere": {"model": "gradient"}})
+    with LoopbackServer(scene, ServerSettings(max_fps=1000.0)) as srv:
+        httpx.patch(srv.url + "/v1/clock", json={"paused": True}).raise_for_status()
+        assert srv.runtime.gateway.pipelined
+        with IGClient(srv.url) as ig:  # each look's picture, one frame at a time
+            for _ in range(3):  # the eye settles on each look
+                references = [_raw(ig.render(_look(3_000 + k), format="raw")) for k in range(3)]
+        gateway, overlapped = srv.runtime.gateway, []
+        submit = gateway.submit
+
+        async def counted(*args):  # a frame a submit returns was read while the next one was drawn
+            encoded = await submit(*args)
+            overlapped.append(encoded is not None)
+            return encoded
+
+        gateway.submit = counted
+        stop = threading.Event()
+        host = threading.Thread(target=_stream_host, args=(srv.url, stop, 1000.0, 40_000))
+        frames = []
+        with connect(srv.url.replace("http", "ws") + "/v1/ws", compression=None) as ws:
+            ws.send(msgpack.packb({"type": "hello", "credits": 4, "format": "raw"}))
+            host.start()
+            deadline = time.monotonic() + 3.0
+            while time.monotonic() < deadline:
+                message = msgpack.unpackb(ws.recv(10), raw=False)
+                ws.send(msgpack.packb({"type": "ack", "frame": message["frame"]}))
+                if message["host_frame"] >= 40_000:
+                    rgba = np.frombuffer(message["data"], np.uint8).reshape(message["height"], message["width"], 4)
+                    frames.append((message["host_frame"], rgba))
+        stop.set()
+        host.join(10)
+    assert len(frames) >= 5 and sum(overlapped) >= 3, (len(frames), overlapped)
+    for host_frame, rgba in frames:
+        distance = [np.abs(rgba.astype(int) - ref.astype(int)).mean() for ref in references]
+        assert int(np.argmin(distance)) == host_frame % 3, (host_frame, distance)
+
+
+def _raw(frame) -> np.ndarray:
+    return np.frombuffer(frame.data, np.uint8).reshape(frame.height, frame.width, 4)

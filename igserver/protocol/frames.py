@@ -7,6 +7,12 @@ a slow client skips frames instead of building a backlog, and never slows the ot
 
 All calls into ``RenderService`` go through one executor thread: they are blocking, and one thread
 keeps their order (set_state before the render that follows it) without extra locking.
+
+Frames in flight: the pump submits a state and gets the frame drawn before it back (``submit``), so
+the render process draws frame N+1 while frame N's pixels are copied out and the server encodes and
+sends N; the stream's rate is set by the slowest of those, not by their sum. When no new frame is due
+the pump takes the frame in flight at once (``collect``): a host that waits for each frame sees the
+same latency as before, and a saturated stream at most one frame interval more.
 """
 
 from __future__ import annotations
@@ -103,6 +109,8 @@ class RenderGateway:
         self.store: StateStore | None = None  # set by the runtime: falls back on a failed render
         self.fault: dict | None = None  # the last abandoned state: {"revision", "detail", "fallback_revision"}
         self.recovering = False  # restarting the render process after an abandoned render
+        # frames in flight when the service has them (the render process's does; test doubles may not)
+        self.pipelined = callable(getattr(service, "submit", None))
 
     async def call(self, fn, *args):
         return await asyncio.get_running_loop().run_in_executor(self.executor, fn, *args)
@@ -134,6 +142,50 @@ class RenderGateway:
         except Exception:
             self.metrics.render_errors.inc()
             raise
+        return self._delivered(frame, revision, accepted_at, t0)
+
+    @property
+    def in_flight(self) -> int:
+        """Frames submitted whose pixels have not come back yet."""
+        return self.service.in_flight if self.pipelined else 0
+
+    async def submit(self, scene: Scene, revision: int, accepted_at: float) -> EncodedFrame | None:
+        """Draw ``scene`` and return the frame submitted before it (None when none was in flight). Each
+        frame keeps the revision and host_frame of its own state, whatever was submitted after it."""
+        reason = self.service.unresponsive_reason() if self.service.alive else None
+        if reason is not None:
+            raise RenderError(reason)
+        frame = await self._pipelined_call(self.service.submit, scene, self.timed,
+                                           (revision, accepted_at, time.perf_counter()))
+        return None if frame is None else self._delivered(frame, *frame.tag)
+
+    async def collect(self) -> EncodedFrame | None:
+        """The frame in flight (None if none): taken when no new state is due."""
+        frame = await self._pipelined_call(self.service.collect)
+        return None if frame is None or frame.tag is None else self._delivered(frame, *frame.tag)
+
+    async def _pipelined_call(self, fn, *args):
+        def blocking():
+            self.busy_since = time.perf_counter()
+            try:
+                return fn(*args)
+            finally:
+                self.busy_since = None
+
+        try:
+            return await self.call(blocking)
+        except RenderError as exc:
+            self.metrics.render_errors.inc()
+            if args:  # the submitted state failed to draw
+                self._abandon(args[2][0], exc)
+            raise
+        except Exception:
+            self.metrics.render_errors.inc()
+            raise
+
+    def _delivered(self, frame, revision: int, accepted_at: float, t0: float) -> EncodedFrame:
+        """Metrics of a frame that came back, the store told its revision rendered. ``t0``: perf_counter s
+        when it was asked for (its render_call_ms includes the time it spent in flight)."""
         call_ms = (time.perf_counter() - t0) * 1e3
         self.metrics.frames_rendered.inc()
         self.metrics.frame_ms.observe(frame.render_ms)
@@ -201,12 +253,16 @@ class FramePump:
         self._published = asyncio.Event()
         self._wake = asyncio.Event()
         self._task: asyncio.Task | None = None
+        self._submitted_revision: int | None = None  # the state of the newest frame submitted
+        self._encodes: set[asyncio.Task] = set()  # stream encodings running beside the next draw
 
     # -- lifecycle
     def start(self) -> None:
         self._task = asyncio.get_running_loop().create_task(self._run(), name="igserver-frame-pump")
 
     async def stop(self) -> None:
+        for task in list(self._encodes):
+            task.cancel()
         if self._task is not None:
             self._task.cancel()
             with contextlib.suppress(asyncio.CancelledError):
@@ -257,16 +313,25 @@ class FramePump:
     async def _run(self) -> None:
         last_render = 0.0
         while True:
+            gateway = self.gateway
             if self.subscribers == 0:
+                if gateway.in_flight:  # nobody waits for it, but /v1/frame may: finish it before sleeping
+                    await self._take(gateway.collect())
+                    continue
                 self._wake.clear()
                 await self._wake.wait()
                 continue
             latest = self.latest
-            stale = latest is None or latest.revision != self.store.revision
+            # the newest state drawn: the one in flight, else the one shown
+            shown = self._submitted_revision if gateway.in_flight else (latest.revision if latest else None)
+            stale = shown is None or shown != self.store.revision
             since = time.perf_counter() - last_render
             # a running clock animates the scene (fades, flicker, waves): render at the animation rate
             wait = self.animation_interval if self.store.clock.running else self.keepalive_s
             if not stale and since < wait:
+                if gateway.in_flight:  # nothing new to draw: show the frame in flight now, not a frame later
+                    await self._take(gateway.collect())
+                    continue
                 # nothing new to show: sleep until the state changes or the next frame is due
                 await self.store.wait_for_change(latest.revision, wait - since)
                 continue
@@ -274,16 +339,30 @@ class FramePump:
                 await asyncio.sleep(self.min_interval - since)
             scene, revision, accepted_at = self.store.scene, self.store.revision, self.store.accepted_at
             last_render = time.perf_counter()
-            try:
-                encoded = await self.gateway.render(scene, revision, accepted_at)
-                # the stream format is known: encode once here, off the event loop
-                await encoded.encoded_async("jpeg", self.jpeg_quality, self.metrics)
-                self.last_error = None
-            except asyncio.CancelledError:
-                raise
-            except Exception as exc:  # render process failed twice in a row: keep the loop, retry soon
-                self.last_error = f"{type(exc).__name__}: {exc}"
-                log.warning("render failed: %s", self.last_error)
-                await asyncio.sleep(0.5)
-                continue
+            if gateway.pipelined:
+                if await self._take(gateway.submit(scene, revision, accepted_at)):
+                    self._submitted_revision = revision
+            else:
+                await self._take(gateway.render(scene, revision, accepted_at))
+
+    async def _take(self, call) -> bool:
+        """Await a gateway call; publish the frame it returns and encode it for the streams beside the next
+        draw. False when it failed (the loop goes on after a pause)."""
+        try:
+            encoded = await call
+            self.last_error = None
+        except asyncio.CancelledError:
+            raise
+        except Exception as exc:  # render process failed twice in a row: keep the loop, retry soon
+            self.last_error = f"{type(exc).__name__}: {exc}"
+            log.warning("render failed: %s", self.last_error)
+            await asyncio.sleep(0.5)
+            return False
+        if encoded is not None:
+            # the stream format is known: encode once, off the event loop and off the render thread; a
+            # client that asks for it meanwhile waits on the same encoding (EncodedFrame's lock)
+            task = asyncio.get_running_loop().create_task(encoded.encoded_async("jpeg", self.jpeg_quality, self.metrics))
+            self._encodes.add(task)
+            task.add_done_callback(self._encodes.discard)
             self.publish(encoded)
+        return True

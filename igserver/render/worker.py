@@ -419,6 +419,8 @@ class RenderService:
         before ``scene``, or None), collect (the one in flight)."""
         if not self.alive:
             raise _Dead()
+        if kind == "collect" and not self._in_flight:  # e.g. lost with a process restarted meanwhile
+            return None
         if kind == "render":
             delivered = scene
         elif kind == "submit" and len(self._in_flight) < FRAMES_IN_FLIGHT:
