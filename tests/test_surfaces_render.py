@@ -315,3 +315,57 @@ def test_ground_shadow_footprints_give_up_for_a_grazing_light():
     assert ground_shadow_rects(bounds, low, 0.0, 0.5, view, (640, 360)) is None
     rects = ground_shadow_rects(bounds, high, 0.0, 0.5, view, (640, 360))
     assert rects is not None and len(rects) == 1 and rects[0][2] * rects[0][3] < 0.5 * 640 * 360
+
+
+def _box_scene(sun_azimuth: float | None = None, light: dict | None = None) -> Scene:
+    """A grey dielectric 2 m box at the origin, seen face-on from the south (its -y face)."""
+    data = {"camera": {"position": [0.0, -8.0, 1.0], "heading": 0.0, "pitch": 0.0, "fov_y": 40.0,
+                       "width": 64, "height": 36, "exposure_ev": 12.0 if light is None else 2.0},
+            "ground": {"enabled": True, "level": 0.0},
+            "shadows": {"enabled": False},
+            "entities": [{"id": "b", "model": "box", "scale": [2.0, 2.0, 2.0], "color": [0.5, 0.5, 0.5],
+                          "metallic": 0.0, "roughness": 0.9}]}
+    if sun_azimuth is not None:
+        data["time"] = {"sun_override": {"elevation": 30.0, "azimuth": sun_azimuth}}
+    else:
+        data["time"] = {"utc": "2026-01-15T22:00:00Z"}  # moonless night
+        data["lights"] = [light]
+    return _scene(data)
+
+
+def test_builtin_box_is_lit_like_any_model(renderer):
+    # The box's south face (normal -y) under a sun 30 deg up in the south (azimuth 180: the sun's
+    # direction is (0, -cos 30, sin 30), cos i = cos 30) against the same sun in the north (the
+    # face in its own shade). Reference: the Lambert term of the one BRDF, L = rho/pi E cos i, with
+    # E the frame's own sun illuminance; tolerance: the face also gets sky and ground light (adds at
+    # most the sky's irradiance, bounded above by pi L_sky) and a roughness-0.9 GGX lobe plus
+    # Fresnel (F0 = 0.04) takes up to ~10 % of the diffuse at this view: lower bound 0.8 x.
+    from igserver.render.frame import build_frame
+
+    lit_scene = _box_scene(180.0)
+    renderer.render(lit_scene)
+    lit = _lum(renderer.read_hdr(), *_pixel(lit_scene, [0.0, -1.0, 1.0]))
+    shade_scene = _box_scene(0.0)
+    renderer.render(shade_scene)
+    shade = _lum(renderer.read_hdr(), *_pixel(shade_scene, [0.0, -1.0, 1.0]))
+    frame = build_frame(renderer.ctx, lit_scene)
+    e_sun = float(LUMA @ frame.light.sun_illuminance)
+    l_sky = float(LUMA @ frame.light.sky_ambient)
+    direct = 0.5 / math.pi * e_sun * math.cos(math.radians(30.0)) * frame.exposure
+    upper = direct + 0.5 * (l_sky + 0.1 * e_sun / math.pi) * frame.exposure  # sky + ground bounce
+    assert 0.8 * direct < lit < 1.2 * upper, (lit, direct, upper)
+    assert lit > 3.0 * shade, (lit, shade)
+    # At night: a 2000 cd lamp 4 m in front of the face at its centre height, on the camera's side
+    # of it: E = I / d^2 = 125 lx on the face, L = rho/pi E = 19.9 cd/m^2 (inverse square; the lamp's
+    # range is far beyond); a lamp behind the box leaves the face dark.
+    front = _box_scene(light={"id": "lamp", "position": [0.0, -5.0, 1.0], "intensity": 2000.0,
+                              "color": [1.0, 1.0, 1.0], "range": 50.0})
+    renderer.render(front)
+    lamp_lit = _lum(renderer.read_hdr(), *_pixel(front, [0.0, -1.0, 1.0]))
+    behind = _box_scene(light={"id": "lamp", "position": [0.0, 5.0, 1.0], "intensity": 2000.0,
+                               "color": [1.0, 1.0, 1.0], "range": 50.0})
+    renderer.render(behind)
+    dark = _lum(renderer.read_hdr(), *_pixel(behind, [0.0, -1.0, 1.0]))
+    expected = 0.5 / math.pi * 2000.0 / 16.0 * build_frame(renderer.ctx, front).exposure
+    assert 0.8 * expected < lamp_lit < 1.25 * expected, (lamp_lit, expected)
+    assert lamp_lit > 20.0 * dark, (lamp_lit, dark)

@@ -12,14 +12,18 @@ BUILTIN = ("box",)
 
 
 def unit_cube() -> np.ndarray:
-    """36 vertices of a cube [-1,1]^3: interleaved position(3), normal(3), float32."""
+    """36 vertices of a cube [-1,1]^3: interleaved position(3), normal(3), float32; every triangle
+    counter-clockwise seen from outside (glTF's front faces)."""
     faces = []
     for axis in range(3):
         for sign in (-1.0, 1.0):
             n = np.zeros(3)
             n[axis] = sign
             u, v = np.roll(np.eye(3), 1, axis=0)[axis], np.roll(np.eye(3), 2, axis=0)[axis]
-            if sign < 0:
+            # Counter-clockwise seen from outside: the triangles' edges (2u, 2u + 2v) have
+            # u x v = n. Wound the other way, every face the camera sees is a back face, and the
+            # shader (double-sided: a back face turns its normal toward the eye) lit the inside.
+            if sign > 0:
                 u, v = v, u
             corners = [n + a * u + b * v for a, b in ((-1, -1), (1, -1), (1, 1), (-1, -1), (1, 1), (-1, 1))]
             faces += [np.concatenate([c, n]) for c in corners]
