@@ -1,4 +1,4 @@
-"""Weather physics without GL: the one wind, rain and snow (DESIGN §4.5).
+"""Weather physics without GL: the one wind, rain and snow (docs/design.md#precipitation).
 
 Everything that moves with the air reads :func:`wind_vector` (smoke drift and the fire's tilt in
 render/volumes, rain/snow slant in render/precip, cirrus drift in render/sky; the sea reads
@@ -40,7 +40,7 @@ import numpy as np
 from .scene.model import Scene
 
 KOSCHMIEDER = 3.912  # -ln(0.02): contrast threshold 2 %
-MIN_VISIBILITY = 50.0  # m, the lowest visibility the atmosphere supports (DESIGN §4.1)
+MIN_VISIBILITY = 50.0  # m, the lowest visibility the atmosphere supports (docs/design.md#atmosphere)
 
 # Drop-size distributions: N0 (m^-3 mm^-1) and Lambda (mm^-1) as functions of R (mm/h).
 MP_N0 = 8000.0

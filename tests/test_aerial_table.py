@@ -92,7 +92,7 @@ def off_horizon(frame, pts, table) -> np.ndarray:
     """Points more than one table row (in elevation) from the geometric horizon. The per-pixel
     function changes steeply across the horizon (sky-bound and ground-bound rays share out their
     in-scattering differently) within less than a row of the table, which interpolates across it:
-    there the table is off by up to the change across one row (README: a line of pixels, up to 5
+    there the table is off by up to the change across one row (docs/quality.md: a line of pixels, up to 5
     levels from 30 m with a low sun behind); these tests bound the rest."""
     l, r, b, t = table.uniforms()["u_aerial_tangents"]
     row = np.arctan((t - b) / (table.size[1] - 1))  # rad, a row's height at the centre (the largest)

@@ -58,7 +58,7 @@ def _tolerance(frequency: float, seconds: float) -> float:
 
 @pytest.mark.parametrize("diameter, seed", [(0.3, 1), (1.0, 17), (3.0, 5)])
 def test_fire_light_spectrum_peaks_at_puffing_frequency(diameter, seed):
-    expected = 1.5 / math.sqrt(diameter)  # pool-fire puffing (DESIGN 4.3), written out independently
+    expected = 1.5 / math.sqrt(diameter)  # pool-fire puffing (docs/design.md#fire-and-smoke), written out independently
     assert puffing_frequency(diameter) == pytest.approx(expected)
     peak = _peak_frequency(_intensity_series(diameter, seed), LIGHT_RATE)
     assert abs(math.log(peak / expected)) <= _tolerance(expected, 60.0), (diameter, seed, peak, expected)

@@ -2,7 +2,7 @@
 
 In the suite: 12 cases per operation (capped at 20 s), the operations that do not wait for a render (a frame of a fuzzed state can take a
 table precompute of tens of seconds on llvmpipe: that is the render budget's business, not the edge's).
-The longer run, over every operation (README, "Fuzzing"):
+The longer run, over every operation (docs/operations.md, "Fuzzing"):
 
     .venv/bin/igserver serve --scene sky_only --port 8711 --width 64 --height 36 &
     .venv/bin/st run http://127.0.0.1:8711/openapi.json --checks all --exclude-checks positive_data_acceptance,use_after_free \\

@@ -1,5 +1,5 @@
 """Property-based test (hypothesis): scene states drawn over the whole valid range and the extreme
-corners of DESIGN §7 render finite, are not black where lit, and a small change of any input gives
+corners of docs/design.md#stability render finite, are not black where lit, and a small change of any input gives
 a small change of the picture (no jumps at the horizon, at sunset, at the sea surface's horizon or
 at a volume's texture LOD switch).
 
@@ -33,7 +33,7 @@ def log_uniform(lo: float, hi: float):
 
 @st.composite
 def scene_states(draw):
-    """A scene anywhere in the valid range; corners (DESIGN §7) are drawn with extra weight."""
+    """A scene anywhere in the valid range; corners (docs/design.md#stability) are drawn with extra weight."""
     corner = lambda values, general: st.one_of(st.sampled_from(values), general)  # noqa: E731
     sun_elevation = draw(corner([90.0, 0.0, -0.5, -18.0], st.floats(-18.0, 90.0)))
     height = draw(corner([0.001, 2.0, 10_000.0, 100_000.0], log_uniform(1e-3, 1e5)))

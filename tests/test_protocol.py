@@ -289,7 +289,7 @@ def test_mjpeg_stream_decodes_with_pillow(http):
         assert image.format == "JPEG" and image.size == (W, H)
 
 
-@pytest.mark.skipif(shutil.which("ffmpeg") is None, reason="ffmpeg not installed (documented check in the README)")
+@pytest.mark.skipif(shutil.which("ffmpeg") is None, reason="ffmpeg not installed (the recording recipe of docs/protocol.md)")
 def test_mjpeg_stream_read_by_ffmpeg(server, tmp_path):
     """A tool nobody here wrote demuxes and decodes the stream."""
     result = subprocess.run(

@@ -108,7 +108,7 @@ def test_sky_colour_noon_sunset_night(renderer):
     # from air that is still sunlit beyond the earth's shadow, so it fades more slowly than the directly
     # lit part. Single scattering vanishes below -10 deg (the shadow rises above the atmosphere), so the
     # bound applies from 0 to -10. The 10 % slack is the tables' interpolation error on each of the two
-    # radiances of a ratio (2.6 % mean at zenith angle 65 deg, more toward the terminator: README).
+    # radiances of a ratio (2.6 % mean at zenith angle 65 deg, more toward the terminator: igserver quality sky).
     ratios = [a / b for a, b in zip(zen, zen[1:])]
     single = _reference_single_scattering_zenith(range(0, -11, -1))
     bound = [a / b for a, b in zip(single, single[1:])]

@@ -328,7 +328,7 @@ def test_upsampling_with_one_filtered_fetch_blends_the_matching_texels(renderer)
 def test_march_reads_the_frames_aerial_table(renderer):
     # Where the surfaces filled the frame's aerial-perspective table (a frame of at least the table's
     # 115,200 nodes), the march reads it once a pixel instead of evaluating the atmosphere per pixel:
-    # night_fire within 1 level of the per-pixel function (the table's own bound on surfaces, README).
+    # night_fire within 1 level of the per-pixel function (the table's own bound on surfaces, docs/quality.md).
     from igserver.render.volumes import volumes as vmod
 
     scene = apply_patch(load_scene("night_fire"), {"camera": {"width": 480, "height": 270}})

@@ -41,7 +41,7 @@ def test_generated_demo_models_check_and_load(name):
     assert model.primitives and info.vertices > 0
     for prim in model.primitives:
         mat = prim.material
-        # the generator gives every material all four textures of DESIGN 4.4 (base, MR, normal, AO)
+        # the generator gives every material all four textures of docs/design.md#surfaces (base, MR, normal, AO)
         assert mat.base_image is not None and mat.mr_image is not None and mat.normal_image is not None
         assert np.all(np.isfinite(prim.vertices))
     if name == "patrol_boat":

@@ -133,7 +133,7 @@ def test_query_inverts_horizontal_displacement():
     assert np.max(np.abs(q["height"] - e["position"][:, 2])) < 1e-3
     assert np.allclose(q["normal"], e["normal"], atol=1e-4)
     assert np.all(q["normal"][:, 2] > 0)
-    # Its speed is a benchmark, not a test: scripts/bench_water_query.py (README, Water: host queries).
+    # Its speed is a benchmark, not a test: scripts/bench_water_query.py (docs/water.md, Host queries).
 
 
 def test_velocity_is_time_derivative():

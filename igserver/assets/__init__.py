@@ -1,6 +1,6 @@
 """Named assets: the host names an asset, the server decides where its file is.
 
-The host never sends a file-system path (DESIGN §7b). An asset is ``(kind, name)``: ``kind`` is a
+The host never sends a file-system path (docs/design.md#service). An asset is ``(kind, name)``: ``kind`` is a
 folder (``models``, ``profiles``), ``name`` a plain file name matching ``ASSET_NAME_PATTERN``.
 Files are looked up first in the configured asset directory (``IGSERVER_ASSETS``, else none),
 then in the assets shipped with the package (this folder). A name resolves only to a regular

@@ -151,7 +151,7 @@ def uvicorn_config(app: FastAPI, host: str, port: int, **kwargs):
 
     from .flow import TransportInScope
 
-    # image frames do not compress: per-message deflate would only cost CPU and latency (DESIGN §8);
+    # image frames do not compress: per-message deflate would only cost CPU and latency (docs/design.md#performance);
     # the HTTP protocol puts the connection's transport in the scope for the MJPEG flow control, and
     # bounds how long a client may take to send a request (flow.py)
     settings = app.state.runtime.settings

@@ -1,4 +1,4 @@
-"""The IG clock: the ``sim_time`` every frame is rendered at (DESIGN §7b).
+"""The IG clock: the ``sim_time`` every frame is rendered at (docs/design.md#service).
 
 Two modes:
   ``free``  sim_time runs by itself: ``sim_time = base + rate * (now - started)`` on a monotonic clock,

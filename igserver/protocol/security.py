@@ -1,4 +1,4 @@
-"""The edge guard: what a request must show before any route sees it (DESIGN §7b, safe by default).
+"""The edge guard: what a request must show before any route sees it (docs/design.md#service: safe by default).
 
 Threats, and the rule that stops each:
 - A web page the operator opens POSTs to the IG (cross-site request forgery). Browsers send such "simple"

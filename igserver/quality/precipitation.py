@@ -1,5 +1,5 @@
 """``igserver quality weather`` (the particle part; quality/weather.py is the study's entry): error of
-the rain/snow particles against run time (DESIGN §6).
+the rain/snow particles against run time (docs/design.md#quality).
 
 Knobs: drops per streak m (the particle count per cube is the visible drops in it over m, so the
 drawn count goes like 1/m) x cube (tile) size L. Reference: the same frame with m = 8 and 8 m cubes

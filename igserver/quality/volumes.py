@@ -1,4 +1,4 @@
-"""``igserver quality volumes``: error of the fire/smoke ray-march against run time (DESIGN §6).
+"""``igserver quality volumes``: error of the fire/smoke ray-march against run time (docs/design.md#quality).
 
 Knobs: march steps (along the container's diagonal, at most one voxel per step) x turbulence
 octaves x 3D-texture resolution x march resolution (``scale``: 1 full, 2 half, 4 quarter, with

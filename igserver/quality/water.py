@@ -1,4 +1,4 @@
-"""``igserver quality water``: error of the sea against run time (DESIGN §6, issue 8).
+"""``igserver quality water``: error of the sea against run time (docs/design.md#quality).
 
 Two errors per setting, next to the water pass's median ms and the triangles drawn:
 

@@ -1,4 +1,4 @@
-"""``igserver quality weather``: error against run time of the weather (DESIGN §6).
+"""``igserver quality weather``: error against run time of the weather (docs/design.md#quality).
 
 The particle part (rain and snow: particle count and cube size against a dense reference) lives in
 quality/precipitation.py (a library module, so the combined ``igserver quality`` runs it once, here);

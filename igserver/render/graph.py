@@ -1,4 +1,4 @@
-"""FrameGraph: per frame, the list of passes this scene needs, in order (DESIGN §5).
+"""FrameGraph: per frame, the list of passes this scene needs, in order (docs/design.md#frame-graph).
 
 Order: opaque surfaces (ground/entities), water, sky (fills what nothing covered), blended surfaces
 (glTF alphaMode BLEND, over all of those), depth copy (only when a later pass reads scene distance),

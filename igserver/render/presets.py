@@ -1,5 +1,5 @@
 """Quality presets: ``low``, ``medium``, ``high`` map to every pipeline's knobs; ``auto`` picks
-the highest level whose measured frame time fits a target, at run time (DESIGN §6).
+the highest level whose measured frame time fits a target, at run time (docs/design.md#quality).
 
 Each pipeline registers its knobs per level (``register``), chosen from its error-vs-time curve in
 ``igserver quality`` (the report marks the points). A pass reads its knobs with

@@ -1,4 +1,4 @@
-"""What one state may cost to render: an upper estimate, checked when the state is accepted (DESIGN §7b).
+"""What one state may cost to render: an upper estimate, checked when the state is accepted (docs/design.md#service).
 
 Every range in the scene model is reasonable alone, but products of them are not: 64 fires of 500 m
 with smoke at the high preset, a 7680x4320 frame, 32 scattering orders at high table quality. The

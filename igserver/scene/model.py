@@ -4,7 +4,7 @@ The same model is the protocol's message schema, the scene-file format and the r
 Every field has a unit, a default and a valid range; NaN, Inf, unknown fields and out-of-range
 values are rejected with a message naming the field (pydantic's error ``loc``).
 
-Conventions (DESIGN §3): world frame is local ENU at the scene origin (x east, y north, z up,
+Conventions (docs/design.md#conventions): world frame is local ENU at the scene origin (x east, y north, z up,
 metres, float64); angles on the wire are degrees (heading clockwise from north, pitch nose-up,
 roll right-wing-down); ``time.utc`` drives sun/moon/stars, ``time.sim_time`` drives animation.
 """
@@ -157,7 +157,7 @@ class Atmosphere(Strict):
 
 
 class Precipitation(Strict):
-    """Rain or snow (DESIGN §4.5; drawn by render/precip, physics in igserver/weather.py)."""
+    """Rain or snow (docs/design.md#precipitation; drawn by render/precip, physics in igserver/weather.py)."""
 
     type: Literal["none", "rain", "snow"] = Field("none", description="what falls; none = no particle pass")
     rate: float = Field(
@@ -187,7 +187,7 @@ class Weather(Strict):
 
 
 class Bathymetry(Strict):
-    """Sea floor under the water (DESIGN §4.2): depth shortens, refracts, shoals and breaks waves."""
+    """Sea floor under the water (docs/design.md#water): depth shortens, refracts, shoals and breaks waves."""
 
     type: Literal["uniform", "slope", "map"] = Field(
         "uniform", description="uniform depth; a plane beach (slope); a height-map image asset (map)")
@@ -241,7 +241,7 @@ class Ocean(Strict):
 
 
 class Effect(Strict):
-    """A volumetric effect in its bounding container (DESIGN §4.3)."""
+    """A volumetric effect in its bounding container (docs/design.md#fire-and-smoke)."""
 
     id: EntityId
     type: Literal["fire", "smoke", "gas_burner"] = "fire"
@@ -255,7 +255,7 @@ class Effect(Strict):
     seed: int = Field(1, ge=0, le=2**31 - 1, description="random seed of noise and flicker")
     profile: str | None = Field(
         None, pattern=ASSET_NAME_PATTERN, description="optional profile: the name of a `profiles` asset (PNG; "
-        "a name, never a path: see README, Assets)"
+        "a name, never a path: see docs/operations.md, Assets)"
     )
     changed_at: float | None = Field(
         None, ge=0.0, le=1e12, description="s, sim_time of the last activate/deactivate (set by the IG)"
@@ -265,7 +265,7 @@ class Effect(Strict):
     @field_validator("profile")
     @classmethod
     def _profile_asset(cls, value: str | None) -> str | None:
-        # the host names an asset; the server's asset directory decides which file (DESIGN §7b)
+        # the host names an asset; the server's asset directory decides which file (docs/design.md#service)
         if value is not None:
             try:
                 resolve_asset("profiles", value, (".png",))
@@ -370,7 +370,7 @@ class Entity(Strict):
 
 
 class Shadows(Strict):
-    """Shadow maps and the paper's shadow terms (DESIGN 4.4): in shadow the diffuse light is scaled
+    """Shadow maps and the paper's shadow terms (docs/design.md#surfaces): in shadow the diffuse light is scaled
     by (1 - d + d * colour) and the specular light is removed."""
 
     enabled: bool = Field(True, description="sun/moon and spot-light shadow maps (skipped when nothing casts)")

@@ -4,7 +4,7 @@ Dimensionless form: with x = k₀h = ω²h/g (the deep-water wavenumber times de
 solve  f(y) = y tanh(y) − x = 0.  Start: Fenton & McKee's explicit approximation
 y₀ = x / tanh(x^¾)^(⅔) (within 1.5 % for all x); Newton then converges quadratically, three steps
 give float64 round-off. f'(y) = tanh y + y sech² y, with sech² y written as 4e/(1+e)², e = exp(−2y),
-which underflows gracefully to 0 for large y instead of overflowing cosh (DESIGN §7). Everything
+which underflows gracefully to 0 for large y instead of overflowing cosh (docs/design.md#stability). Everything
 stays finite from x = 1e-12 (a 1 mm puddle under a long swell) to x = 1e7 (11 km under a ripple).
 """
 

@@ -1,6 +1,6 @@
 """Wind (or WMO sea state) → a deterministic set of Gerstner waves.
 
-Calibration (DESIGN §4.2). The target significant wave height Hs = 4σ is the WMO "probable wave
+Calibration (docs/design.md#water). The target significant wave height Hs = 4σ is the WMO "probable wave
 height" of the Beaufort scale (WMO-No. 558), interpolated linearly in wind speed between the
 classes' mid-range winds; above Beaufort 12 (32.7 m/s, "14 m and over") it grows as U² (the
 fully-developed Pierson–Moskowitz law) and is capped by the PM fully developed sea. When the host

@@ -33,7 +33,7 @@ from ..sky.frame_sky import _haze_tables
 
 AERIAL_UNITS = {"u_aerial_tau": 18, "u_aerial_source": 19}
 # (screen x nodes, screen y nodes, distance slices) over the view widened by AERIAL_GUARD on each
-# side: from the error-vs-time check in the README ("Aerial-perspective table"); presets do not
+# side: from the error-vs-time check in docs/quality.md ("Aerial-perspective table"); presets do not
 # change it (the fill runs only when the view leaves the table or the light or fog change).
 AERIAL_SIZE = (80, 45, 32)
 AERIAL_GUARD = 0.1  # of the frustum's width (tangent) added on each side: a turning camera refills less often

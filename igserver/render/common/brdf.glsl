@@ -1,4 +1,4 @@
-// The one BRDF of the project (DESIGN 4.4, seed 002): metallic-roughness Cook-Torrance.
+// The one BRDF of the project (docs/design.md#surfaces): metallic-roughness Cook-Torrance.
 //   Rs = D G F / (4 (N.V)(N.L)),  D = GGX/Trowbridge-Reitz,  G = height-correlated Smith,
 //   F = Schlick with F0 = 0.04 for dielectrics and base colour for metals.
 //   Rd = (1 - E_s(N.V)) (1 - E_s(N.L)) / (1 - E_avg) (1 - metallic) base / pi  (Kelemen and

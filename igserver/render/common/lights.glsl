@@ -1,5 +1,5 @@
 // Light loop shared by every lit surface: sky ambient, sun, moon, point and spot lights, with the
-// paper's shadow terms (DESIGN 4.4, seed 002):
+// paper's shadow terms (docs/design.md#surfaces):
 //   I = Ra*Ia + sum_j E_j * ( Rd_j * ((1 - k_j) + k_j * c_sh) + (1 - f_j) * Rs_j ),   k_j = d_sh * f_j
 // where Rd_j, Rs_j are the diffuse and specular BRDF lobes times N.L (common/brdf.glsl), f_j in
 // [0,1] is how much light j is blocked at the point (soft shadow maps), d_sh the shadow density

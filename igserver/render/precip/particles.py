@@ -1,4 +1,4 @@
-"""The precipitation particles on the CPU (seed 003, DESIGN §4.5), no GL.
+"""The precipitation particles on the CPU (docs/design.md#precipitation), no GL.
 
 The paper's method: particles fill a cube of side L that travels with the camera; a particle that
 leaves the cube re-enters on the opposite face; the cube is repeated (tiled) to fill the visible

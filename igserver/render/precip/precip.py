@@ -1,4 +1,4 @@
-"""Precipitation pass: rain and snow streaks (seed 003, DESIGN §4.5).
+"""Precipitation pass: rain and snow streaks (docs/design.md#precipitation).
 
 Absent from the frame graph when nothing falls (``weather.precipitation.type == "none"`` or rate 0).
 Otherwise, per frame: the CPU moves the particles of one wrapped cube in float64 and lists the

@@ -23,7 +23,7 @@ CIRRUS_HIDE_UNIT = 6    # (alpha x T): how much of the sky behind the layer it h
 SKY_HAZY_UNIT = 5       # the sky through the haze layer on the sky-view map (sky_hazy.glsl)
 SKY_HAZY_MOON_UNIT = 4  # its moon term, one column
 # Its size (azimuth from the sun, elevation): the clear sky-view table's, whose texel centres it
-# reads exactly; against haze_sky() per pixel within 1 level where it is used (hazy_table_holds, README).
+# reads exactly; against haze_sky() per pixel within 1 level where it is used (hazy_table_holds).
 SKY_HAZY_SIZE = SKY_VIEW_SIZE
 
 # Texels outside the polygon hold zero, as the shader would compute there, so the sky pass's

@@ -32,7 +32,7 @@ from .shadow_fit import ShadowProjection, fit_directional, fit_spot
 SHADOW_UNIT_KEY = 16   # texture units of the shadow maps: above the frame-wide 8..15 (haze, sky view, tables)
 SHADOW_UNIT_SPOT = 17
 SPOT_SHADOW_RESOLUTION = 1024
-DEFAULT_SHADOW_TAPS = 4  # from `igserver quality surfaces`: 8 and 16 taps lower the error by < 1 % (README)
+DEFAULT_SHADOW_TAPS = 4  # from `igserver quality surfaces`: 8 and 16 taps lower the error by < 1 % (docs/quality.md)
 SUN_LIGHT, MOON_LIGHT = -1, -2
 # Slope-scaled depth offset in the shadow pass (factor x max depth slope + units x depth ulp):
 # removes acne on surfaces at a grazing light without a large constant bias (peter-panning).

@@ -1,4 +1,4 @@
-"""Effect state without GL: fade, container size, wind lean, noise time, visibility (DESIGN §4.3).
+"""Effect state without GL: fade, container size, wind lean, noise time, visibility (docs/design.md#fire-and-smoke).
 
 Everything here is a pure function of the scene, so the FrameGraph's ``needed()`` (no GL state),
 the fire lights and the volume pass all agree on which volumes exist and how big they are.

@@ -1,4 +1,4 @@
-"""Flicker lights of fires (DESIGN §4.3): one point light per burning fire or gas burner.
+"""Flicker lights of fires (docs/design.md#fire-and-smoke): one point light per burning fire or gas burner.
 
 Intensity I (cd) ~ mean flame luminance x projected flame area: 0.3 x the core luminance over
 0.5 D L (a tapered flame of diameter D, visible height L). Colour: blackbody at 1350 K

@@ -1,4 +1,4 @@
-// Rendering stage (DESIGN §4.3): march the effect's 3D texture along the view ray.
+// Rendering stage (docs/design.md#fire-and-smoke): march the effect's 3D texture along the view ray.
 //
 // Ray t in [t0, t1]: t0 = box entry (0 when the camera is inside), t1 = min(box exit, scene
 // distance) so ships, the pier and the water clip the effect. The start is shifted by a fraction

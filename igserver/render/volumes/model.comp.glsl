@@ -1,4 +1,4 @@
-// Modelling stage (DESIGN §4.3): one voxel per invocation of an effect's 3D texture.
+// Modelling stage (docs/design.md#fire-and-smoke): one voxel per invocation of an effect's 3D texture.
 //
 // Normalised container: (x, y) in [-1,1] (units of the container radius), z in [0,1] (height).
 //   P = (q_m / lambda) - (0, 0, tau)          q_m: metres from the base centre at nominal size

@@ -1,4 +1,4 @@
-"""2D profiles (a vertical slice through the effect's axis, revolved about it; DESIGN §4.3).
+"""2D profiles (a vertical slice through the effect's axis, revolved about it; docs/design.md#fire-and-smoke).
 
 A profile is float32 (V, U, 4): row j is the height v = (j + 0.5) / V in [0,1] of the container,
 column i the distance from the axis u = (i + 0.5) / U in [0,1] of the container's radius.

@@ -1,4 +1,4 @@
-"""Volumes pass: fire and smoke effects, modelled into 3D textures and ray-marched (DESIGN §4.3).
+"""Volumes pass: fire and smoke effects, modelled into 3D textures and ray-marched (docs/design.md#fire-and-smoke).
 
 Per visible volume (effects.visible_volumes: active or fading, non-zero size, in the frustum):
   1. modelling: a compute shader writes the effect's 3D texture (rgba16f, colour + density) from

@@ -1,5 +1,5 @@
 """Sea mesh level of detail: CDLOD (Strugar 2009), the camera-centred form of the paper's
-geomipmapping (DESIGN §4.2 allows it), chosen because it meets the same requirements with one
+geomipmapping (docs/design.md#water allows it), chosen because it meets the same requirements with one
 draw call and no stitching index buffers.
 
 - A quadtree of square blocks anchored to the world (a block of level l has side S·2^l; every block

@@ -1,4 +1,4 @@
-// Sea surface shading (DESIGN §4.2): sky reflection through Schlick's Fresnel (R0 = 0.02037), sun
+// Sea surface shading (docs/design.md#water): sky reflection through Schlick's Fresnel (R0 = 0.02037), sun
 // and moon glitter and local lights through the project's GGX lobe, detail slopes from the summed
 // normal maps, depth-dependent colour in the shallows, foam where the surface is compressed, aerial
 // perspective; no water inside hulls.

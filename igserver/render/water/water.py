@@ -1,4 +1,4 @@
-"""Water pass (DESIGN §4.2): the wind-driven Gerstner sea on a CDLOD mesh, shaded with the sky.
+"""Water pass (docs/design.md#water): the wind-driven Gerstner sea on a CDLOD mesh, shaded with the sky.
 
 CPU side per frame: the wave set and its bathymetry field come from igserver.water (cached per
 state: integrated once per bathymetry + wave set); phases are reduced in float64 (sim_time 1e9 s is
