@@ -88,14 +88,15 @@ def test_jonswap_is_pierson_moskowitz_times_the_peak_enhancement():
 def test_beaufort_heights_and_their_inverse():
     """WMO-No. 558 probable heights at the class mid-winds (Bf 4: 5.5–7.9 m/s → 1.0 m; Bf 8: 17.2–20.7 →
     5.5 m; Bf 12 starts at 32.7: 14 m); past Bf 12 U² growth capped by the fully developed
-    Pierson–Moskowitz sea 0.21 (1.075 U)²/g (both grow as U², 0.0131 U² < 0.0248 U²: the cap never
+    Pierson–Moskowitz sea 0.21 U19.5²/g, U19.5 = 1.026 U (Stewart 2008: drag coefficient 1.3e-3; the
+    figures 6.5 m at 17 m/s and 10.9 m at 22 m/s) (both grow as U², 0.0131 U² < 0.0225 U²: the cap never
     binds); wind_for_hs inverts it."""
     assert beaufort_hs(6.7) == pytest.approx(1.0) and beaufort_hs(18.95) == pytest.approx(5.5)
     assert beaufort_hs(32.7) == pytest.approx(14.0)
     assert beaufort_hs(31.6) == pytest.approx(11.5 + (14.0 - 11.5) * (31.6 - 30.55) / (32.7 - 30.55))  # Bf 11..12
     for wind in (36.0, 60.0):  # U² from Bf 12 on, below the fully developed sea (both grow as U²)
         assert beaufort_hs(wind) == pytest.approx(14.0 * (wind / 32.7) ** 2)
-        assert pm_fully_developed_hs(wind) == pytest.approx(0.21 * (1.075 * wind) ** 2 / G)
+        assert pm_fully_developed_hs(wind) == pytest.approx(0.21 * (1.026 * wind) ** 2 / G)
         assert beaufort_hs(wind) < pm_fully_developed_hs(wind)
     for hs in (0.05, 0.4, 1.0, 3.7, 9.0, 12.5, 14.0, 17.5):
         assert beaufort_hs(wind_for_hs(hs)) == pytest.approx(hs, rel=1e-12), hs
@@ -109,11 +110,11 @@ def test_peak_frequency_from_the_fetch_laws():
         fetch_limited = 2 * math.pi * 3.5 * G / wind * chi ** -0.33
         assert fetch_limited > 0.855 * G / wind
         assert peak_omega(hs, wind) == pytest.approx(fetch_limited, rel=1e-12)
-    # A sea higher than its wind can raise (PM fully developed Hs = 0.21 (1.075 U)²/g: 2.48 m at 10 m/s)
+    # A sea higher than its wind can raise (PM fully developed Hs = 0.21 (1.026 U)²/g: 2.25 m at 10 m/s)
     # is older than the wind: it peaks at the PM frequency of the wind that does raise it fully developed.
-    u_dev = math.sqrt(20.0 * G / 0.21) / 1.075
-    assert peak_omega(20.0, 10.0) == pytest.approx(0.855 * G / u_dev)
-    assert peak_omega(0.0, 0.0) == pytest.approx(0.855 * G / 1.0)  # no sea: the 1 m/s shape
+    u_dev = math.sqrt(20.0 * G / 0.21) / 1.026
+    assert peak_omega(20.0, 10.0) == pytest.approx(0.877 * G / (1.026 * u_dev))  # 0.855 g/U10
+    assert peak_omega(0.0, 0.0) == pytest.approx(0.877 * G / 1.026)  # no sea: the 1 m/s shape
 
 
 @pytest.mark.parametrize("wind", [0.5, 1.0, 2.0, 3.0, 5.0])
@@ -165,12 +166,12 @@ def test_slopes_match_cox_munk_after_calibration():
 
 
 def test_detail_band_keeps_a_floor_of_capillary_roughness():
-    """Where the mesh band alone is steeper than Cox–Munk (a 0.5 m/s sea here: the table's 0.05 m on the
+    """Where the mesh band alone is steeper than Cox–Munk (a 0.4 m/s sea here: the table's 0.04 m on the
     peak of the wind that raises it), the detail band keeps a quarter of the calm-sea slope (0.25 × 0.003)
     rather than vanishing: the sea is never a mirror."""
-    mesh, detail = wave_bands(sea_spectrum(0.5, 0.0, None), 24, 36)
-    assert _mss(mesh) > 0.003 + 5.12e-3 * 0.5
-    assert _mss(calibrate_detail(mesh, detail, 0.5)) == pytest.approx(0.25 * 0.003, rel=1e-12)
+    mesh, detail = wave_bands(sea_spectrum(0.4, 0.0, None), 24, 36)
+    assert _mss(mesh) > 0.003 + 5.12e-3 * 0.4
+    assert _mss(calibrate_detail(mesh, detail, 0.4)) == pytest.approx(0.25 * 0.003, rel=1e-12)
     empty = WaveSet(*(np.zeros(0) for _ in range(2)), np.zeros((0, 2)), np.zeros(0), np.zeros(0))
     assert calibrate_detail(mesh, empty, 1.0).n == 0
 

@@ -6,6 +6,20 @@ classes' mid-range winds; above Beaufort 12 (32.7 m/s, "14 m and over") it grows
 fully-developed Pierson–Moskowitz law) and is capped by the PM fully developed sea. When the host
 sets ``ocean.sea_state`` the target is the midpoint of that WMO sea-state code's Hs range instead.
 
+Growth (``ocean.fetch_km``, ``ocean.duration_h``). The WMO probable heights are those of the seas
+sailors meet, limited by fetch and duration. A host that knows how far (X) and how long (t) the wind
+U (10 m) has blown gets the JONSWAP growth laws instead (Hasselmann et al. 1973; the Shore Protection
+Manual 1984, eqs 3-33..3-35, in the 10 m wind), with χ = g·X/U² and τ = g·t/U:
+    g·Hs/U² = 1.6e-3·χ^½,    g·T_p/U = 0.2857·χ^⅓ (U·f_p/g = 3.5·χ^−0.33),    τ = 68.8·χ^⅔.
+The last is the time the peak's energy takes to cross the fetch at the JONSWAP peak's group velocity
+g/(2ω_p) (integrating dX/c_g gives 65.6·χ^0.67: within 5 %); a duration-limited sea is the sea of the
+fetch it has crossed, χ_t = (τ/68.8)^{3/2}, and the sea is limited by the shorter of the two. Both cap
+at the Pierson–Moskowitz fully developed sea (Pierson & Moskowitz 1964, wind at 19.5 m):
+    Hs = 0.21·U19.5²/g,    ω_p = 0.877·g/U19.5,    U19.5 = 1.026·U10
+(Stewart 2008, §16: the neutral log profile with drag coefficient 1.3e-3), i.e. Hs = 0.2211·U10²/g
+and ω_p = 0.855·g/U10: 6.5 m and 12.7 s at 17 m/s, 10.9 m and 16.5 s at 22 m/s. The JONSWAP laws meet
+that cap at χ = 1.91e4 (563 km and 23.6 h at 17 m/s), where their T_p is within 0.5 % of PM's.
+
 Shape. A JONSWAP spectrum (γ = 3.3). Its peak follows from (Hs, U) through the fetch-limited
 JONSWAP laws g·Hs/U² = 1.6e-3·χ^½ and U·f_p/g = 3.5·χ^−0.33 (χ = g·X/U², X the fetch): the table's
 Hs at wind U implies an effective fetch, and the fetch the peak; never below the fully developed
@@ -47,9 +61,38 @@ SEED = 20260421  # fixed: the sea is the same for the same state on every run an
 GOLDEN = 0.6180339887498949
 
 
+U195_PER_U10 = 1.026  # U(19.5 m) / U(10 m): neutral log profile, drag coefficient 1.3e-3 (Stewart 2008)
+PM_HS = 0.21  # g·Hs/U19.5² of the Pierson–Moskowitz fully developed sea
+PM_OMEGA = 0.877  # ω_p·U19.5/g of the same sea: (4β/5)^¼ with β = 0.74
+# JONSWAP growth in the 10 m wind (module docstring): g·Hs/U² = JS_HS·χ^½, U·f_p/g = JS_FP·χ^JS_FP_POW,
+# τ = g·t/U = JS_DURATION·χ^⅔.
+JS_HS, JS_FP, JS_FP_POW, JS_DURATION = 1.6e-3, 3.5, -0.33, 68.8
+
+
 def pm_fully_developed_hs(wind: float) -> float:
-    """Pierson–Moskowitz fully developed Hs = 0.21 U19.5²/g with U19.5 ≈ 1.075 U10 (m)."""
-    return 0.21 * (1.075 * wind) ** 2 / G
+    """Pierson–Moskowitz fully developed Hs = 0.21 U19.5²/g, U19.5 = 1.026 U10 (m; U10 in m/s)."""
+    return PM_HS * (U195_PER_U10 * wind) ** 2 / G
+
+
+def pm_peak_omega(wind: float) -> float:
+    """Pierson–Moskowitz fully developed peak ω_p = 0.877 g/U19.5 = 0.855 g/U10 (rad/s)."""
+    return PM_OMEGA * G / (U195_PER_U10 * max(wind, 1e-9))
+
+
+def growth(wind: float, fetch_m: float | None, duration_s: float | None) -> tuple[float, float]:
+    """(Hs m, ω_p rad/s) of a wind sea grown over fetch ``fetch_m`` for ``duration_s`` (None: not
+    limiting) by the JONSWAP laws, capped at the Pierson–Moskowitz fully developed sea (module
+    docstring). Wind 0 raises no sea (Hs 0; the peak is then only the ripples' shape)."""
+    wind = max(wind, 0.0)
+    u = max(wind, SHAPE_MIN_WIND)
+    chi = math.inf
+    if fetch_m is not None:
+        chi = G * fetch_m / u**2
+    if duration_s is not None:
+        chi = min(chi, (G * duration_s / u / JS_DURATION) ** 1.5)
+    hs = min(JS_HS * math.sqrt(chi) * wind**2 / G, pm_fully_developed_hs(wind))
+    omega_p = max(2.0 * math.pi * JS_FP * G / u * chi**JS_FP_POW, pm_peak_omega(u))
+    return hs, omega_p
 
 
 def beaufort_hs(wind: float) -> float:
@@ -79,19 +122,19 @@ SHAPE_MIN_WIND = 1.0  # m/s: the spectrum's shape (for the ripples of a glassy s
 def peak_omega(hs: float, wind: float) -> float:
     """JONSWAP fetch-limited peak (rad/s) implied by (Hs, U), not below the fully developed PM peak.
 
-    Below about 5.5 m/s the WMO probable height exceeds what the wind itself can raise (PM fully
-    developed Hs = 0.0248 U²: 0.025 m at 1 m/s against the table's 0.1 m): such a sea is older than the
+    Below about 9.7 m/s the WMO probable height exceeds what the wind itself can raise (PM fully
+    developed Hs = 0.0225 U²: 0.023 m at 1 m/s against the table's 0.1 m): such a sea is older than the
     local wind, and a peak at the wind's own PM frequency would carry that height on 0.8 m waves (mean
     square slope 0.12 at 1 m/s, 15× Cox–Munk's 0.008). Its peak is then the PM peak of the wind that
     does raise that height fully developed."""
     wind = max(wind, SHAPE_MIN_WIND)
     if hs > pm_fully_developed_hs(wind):
-        wind = math.sqrt(hs * G / 0.21) / 1.075  # inverse of pm_fully_developed_hs
-    pm = 0.855 * G / wind
+        wind = math.sqrt(hs * G / PM_HS) / U195_PER_U10  # inverse of pm_fully_developed_hs
+    pm = pm_peak_omega(wind)
     if hs <= 0.0:
         return pm
-    chi = (G * hs / wind**2 / 1.6e-3) ** 2
-    return max(2.0 * math.pi * 3.5 * G / wind * chi ** -0.33, pm)
+    chi = (G * hs / wind**2 / JS_HS) ** 2
+    return max(2.0 * math.pi * JS_FP * G / wind * chi**JS_FP_POW, pm)
 
 
 def jonswap(omega: np.ndarray, omega_p: float) -> np.ndarray:
@@ -133,13 +176,21 @@ class SeaSpectrum:
     omega_p: float  # rad/s
 
 
-def sea_spectrum(wind_speed: float, wind_from: float, sea_state: int | None) -> SeaSpectrum:
+def sea_spectrum(wind_speed: float, wind_from: float, sea_state: int | None, fetch_km: float | None = None,
+                 duration_h: float | None = None) -> SeaSpectrum:
+    """The wind sea: a WMO sea-state code's height; else the JONSWAP growth over a fetch and/or a
+    duration when either is given; else the WMO/Beaufort calibration of the wind."""
+    to = (wind_from + 180.0) % 360.0
     if sea_state is not None:
         hs = sea_state_hs(sea_state)
         wind = wind_for_hs(hs) if hs > 0 else 0.0
+    elif fetch_km is not None or duration_h is not None:
+        hs, omega_p = growth(wind_speed, None if fetch_km is None else 1e3 * fetch_km,
+                             None if duration_h is None else 3600.0 * duration_h)
+        return SeaSpectrum(wind_speed, to, hs, omega_p)
     else:
         wind, hs = wind_speed, beaufort_hs(wind_speed)
-    return SeaSpectrum(wind, (wind_from + 180.0) % 360.0, hs, peak_omega(hs, wind))
+    return SeaSpectrum(wind, to, hs, peak_omega(hs, wind))
 
 
 def _quantiles(cdf_x: np.ndarray, cdf: np.ndarray, q: np.ndarray) -> np.ndarray:

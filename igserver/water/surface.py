@@ -442,7 +442,7 @@ def sea_surface(ocean: Ocean, weather: Weather, wave_count: int | None = None) -
 def _sea_surface_cached(key: str, wave_count: int) -> SeaSurface:
     o, wind_speed, wind_direction = json.loads(key)
     ocean = Ocean.model_validate(o)
-    spectrum = sea_spectrum(wind_speed, wind_direction, ocean.sea_state)
+    spectrum = sea_spectrum(wind_speed, wind_direction, ocean.sea_state, ocean.fetch_km, ocean.duration_h)
     swell = ocean.swell
     mesh, detail = wave_bands(spectrum, wave_count, DETAIL_WAVES, swell.height, swell.period, swell.direction)
     detail = calibrate_detail(mesh, detail, spectrum.wind)
