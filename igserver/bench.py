@@ -3,6 +3,22 @@
 Each pass is bracketed by ``ctx.finish()`` and a wall clock (llvmpipe has no usable timer queries);
 ``frame`` is the same frame rendered without the per-pass synchronisation, i.e. what a client sees.
 Animation advances by 1/30 s per frame so time-dependent work (noise, flicker) is really done.
+
+Besides, per scene, after those frames:
+
+- **Python ms** (``python_ms``): the frame's host time outside GL calls (Python and numpy), from a
+  separate instrumented pass of as many frames, each counted with ``render.gl_count.GLCallCounter``:
+  the calling thread's CPU time for the frame (``time.thread_time``) minus the CPU time spent inside
+  moderngl calls (which on llvmpipe includes its vertex work and binning) minus the counting wrappers'
+  own overhead (calls x one wrapper's cost, calibrated on a no-op). CPU time, not wall time: waiting
+  for the driver is not counted, on either side.
+- **GL calls** (``gl_calls``) and **GL objects created** (``gl_objects_created``) per frame, counted
+  at moderngl's boundary in the same instrumented frames; objects created must be 0 in steady state.
+- **fps in flight** (``fps_in_flight``): a loop of ``frames`` frames through ``Renderer.submit``
+  (each frame's pixels are copied out while the next is drawn), frames / wall s, readback included.
+- **GPU ms per pass** (``gpu_pass_ms``), where GL timer queries work: each pass bracketed by a
+  ``ctx.query(time=True)`` in one more pass of frames. llvmpipe has no GPU clock (its queries read 0):
+  there the row says why not (``gpu_timer``).
 """
 
 from __future__ import annotations
@@ -14,6 +30,7 @@ import time
 import numpy as np
 from pydantic import ValidationError
 
+from .render.gl_count import GLCallCounter
 from .scene import apply_patch, load_scene
 from .scene.patch import patch_from_assignments
 
@@ -24,7 +41,91 @@ def percentile(values: list[float], q: float) -> float:
     return float(np.percentile(np.asarray(values), q)) if values else float("nan")
 
 
-def bench_scene(renderer, scene, frames: int, warmup: int = 3) -> dict:
+def timer_queries_unusable(renderer) -> str | None:
+    """Why GL timer queries cannot time passes on this renderer, or None when they can."""
+    if "llvmpipe" in renderer.caps.renderer.lower():
+        return "llvmpipe has no GPU clock"
+    ctx = renderer.ctx
+    try:  # a query around a clear must read some nanoseconds where the driver implements them
+        texture = ctx.texture((64, 64), 4)
+        fbo = ctx.framebuffer([texture])
+        query = ctx.query(time=True)
+        with query:
+            fbo.use()
+            fbo.clear(0.5, 0.5, 0.5, 1.0)
+        elapsed = query.elapsed
+        for obj in (fbo, texture):  # moderngl 5's Query has no release: it lives with the context
+            obj.release()
+    except Exception as exc:  # no timer query extension
+        return f"timer queries failed ({type(exc).__name__})"
+    return None if elapsed > 0 else "timer queries read 0"
+
+
+class PassTimers:
+    """Each pass's ``execute`` bracketed by a GL timer query while the block runs (one query per pass,
+    made once and kept: moderngl 5 cannot release a query); ``read()`` after a frame gives GPU ms per
+    pass (waits for the GPU to finish them)."""
+
+    def __init__(self, renderer):
+        self.renderer = renderer
+        self.queries: dict = {}
+        self._ran: list[str] = []
+
+    def __enter__(self) -> "PassTimers":
+        for name, p in self.renderer.graph.passes.items():
+            p.execute = self._timed(name, p.execute)  # instance attribute: shadows the class's method
+        return self
+
+    def _timed(self, name: str, execute):
+        def timed(*args, **kwargs):
+            query = self.queries.get(name) or self.queries.setdefault(name, self.renderer.ctx.query(time=True))
+            with query:
+                result = execute(*args, **kwargs)
+            self._ran.append(name)
+            return result
+
+        return timed
+
+    def read(self) -> dict[str, float]:
+        ran, self._ran = self._ran, []
+        return {name: self.queries[name].elapsed / 1e6 for name in ran}  # ns -> ms
+
+    def __exit__(self, *exc) -> None:
+        for p in self.renderer.graph.passes.values():
+            p.__dict__.pop("execute", None)
+
+
+def _instrumented(renderer, scenes) -> dict:
+    """Python ms, GL calls and GL objects created per frame: one counted frame per scene."""
+    python_ms, calls, created = [], [], []
+    with GLCallCounter() as counter:
+        for s in scenes:
+            total, gl_cpu, made = counter.total, counter.gl_cpu_s, counter.created()
+            cpu0 = time.thread_time()
+            renderer.render(s)
+            cpu = time.thread_time() - cpu0
+            n = counter.total - total
+            python_ms.append((cpu - (counter.gl_cpu_s - gl_cpu) - n * counter.wrapper_cost_s) * 1e3)
+            calls.append(n)
+            created.append(counter.created() - made)
+    return {"python_ms": {"median": statistics.median(python_ms), "p99": percentile(python_ms, 99)},
+            "gl_calls": int(statistics.median(calls)), "gl_objects_created": max(created)}
+
+
+def _in_flight_fps(renderer, scenes) -> float:
+    """Frames per second through ``Renderer.submit``: each frame read while the next is drawn."""
+    renderer.submit(scenes[0])  # the readback ring's buffers are made here, not in the timed loop
+    renderer.collect()
+    start = time.perf_counter()
+    for s in scenes:
+        renderer.submit(s)
+    while renderer.in_flight:
+        renderer.collect()
+    return len(scenes) / (time.perf_counter() - start)
+
+
+def bench_scene(renderer, scene, frames: int, warmup: int = 3, gpu_timer: str | None = "not asked") -> dict:
+    """One scene's row. ``gpu_timer``: None to time passes with GL timer queries, else why not."""
     per_pass: dict[str, list[float]] = {}
     per_pass_cpu: dict[str, list[tuple[float, float]]] = {}
     totals, frame_ms = [], []
@@ -48,7 +149,22 @@ def bench_scene(renderer, scene, frames: int, warmup: int = 3) -> dict:
     # Passes that report geometry (e.g. water: triangles drawn, LOD error bound) add it to the row.
     stats = {name: dict(p.stats) for name, p in renderer.graph.passes.items()
              if name in result.passes and getattr(p, "stats", None)}
+    # The same clock steps again, after the frames above: the world is as warm as in a stream.
+    later = [apply_patch(scene, {"time": {"sim_time": t0 + (warmup + frames + i) / 30.0}}) for i in range(frames)]
+    extra = _instrumented(renderer, later)
+    extra["fps_in_flight"] = _in_flight_fps(renderer, later)
+    if gpu_timer is None:
+        gpu: dict[str, list[float]] = {}
+        with PassTimers(renderer) as timers:
+            for s in later:
+                renderer.render(s)
+                for name, ms in timers.read().items():
+                    gpu.setdefault(name, []).append(ms)
+        extra["gpu_pass_ms"] = {k: statistics.median(v) for k, v in gpu.items()}
+    else:
+        extra["gpu_timer"] = gpu_timer
     return {
+        **extra,
         "passes": result.passes,
         "stats": stats,
         "pass_ms": {k: {"median": statistics.median(v), "p99": percentile(v, 99)} for k, v in per_pass.items()},
@@ -70,17 +186,29 @@ def markdown_table(report: dict) -> str:
     per-pass medians (ms)."""
     runs = [r for r in report["runs"] if "skipped" not in r]
     passes = [p for p in TABLE_PASSES if any(p in r["pass_ms"] for r in runs)]
-    head = ["scene", "resolution", "preset", "frame median (p99)", *passes]
+    head = ["scene", "resolution", "preset", "frame median (p99)", "fps in flight", "Python ms", "GL calls",
+            "GL objects made", *passes]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in report["runs"]:
         if "skipped" in r:
             lines.append(f"| `{r['scene']}` | {r['resolution']} | {r['preset']} | refused (over the render budget) |"
-                         + " |" * len(passes))
+                         + " |" * (len(passes) + 4))
             continue
         cells = [f"`{r['scene']}`", r["resolution"], r["preset"],
-                 f"{r['frame_ms']['median']:.1f} ({r['frame_ms']['p99']:.1f})",
+                 f"{r['frame_ms']['median']:.1f} ({r['frame_ms']['p99']:.1f})", f"{r['fps_in_flight']:.1f}",
+                 f"{r['python_ms']['median']:.1f}", str(r["gl_calls"]), str(r["gl_objects_created"]),
                  *(f"{r['pass_ms'][p]['median']:.1f}" if p in r["pass_ms"] else "–" for p in passes)]
         lines.append("| " + " | ".join(cells) + " |")
+    gpu_runs = [r for r in runs if "gpu_pass_ms" in r]
+    if gpu_runs:  # GPU time per pass from timer queries: only where the driver has them
+        gpu_passes = [p for p in TABLE_PASSES if any(p in r["gpu_pass_ms"] for r in gpu_runs)]
+        head = ["scene", "resolution", "preset", "GPU ms (sum of passes)", *(f"{p} GPU ms" for p in gpu_passes)]
+        lines += ["", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        for r in gpu_runs:
+            g = r["gpu_pass_ms"]
+            cells = [f"`{r['scene']}`", r["resolution"], r["preset"], f"{sum(g.values()):.2f}",
+                     *(f"{g[p]:.2f}" if p in g else "–" for p in gpu_passes)]
+            lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
@@ -89,8 +217,11 @@ def run(scenes: list[str], resolutions: list[tuple[int, int]], frames: int, assi
     from .render.renderer import Renderer
 
     renderer = Renderer()
-    report = {"renderer": renderer.caps.renderer, "gl_version": renderer.caps.version, "frames": frames, "runs": []}
-    print(f"renderer: {renderer.caps.renderer} | GL {renderer.caps.version} | {frames} frames, medians (p99) in ms")
+    gpu_timer = timer_queries_unusable(renderer)
+    report = {"renderer": renderer.caps.renderer, "gl_version": renderer.caps.version, "frames": frames,
+              "gpu_timer": gpu_timer or "timer queries", "runs": []}
+    print(f"renderer: {renderer.caps.renderer} | GL {renderer.caps.version} | {frames} frames, medians (p99) in ms"
+          f" | GPU ms per pass: {gpu_timer or 'timer queries'}")
     patch = patch_from_assignments(assignments)
     for name in scenes:
         base = apply_patch(load_scene(name), patch)
@@ -105,16 +236,20 @@ def run(scenes: list[str], resolutions: list[tuple[int, int]], frames: int, assi
                     report["runs"].append({"scene": name, "resolution": f"{width}x{height}", "preset": preset,
                                            "skipped": reason})
                     continue
-                row = bench_scene(renderer, scene, frames)
+                row = bench_scene(renderer, scene, frames, gpu_timer=gpu_timer)
                 row.update(scene=name, resolution=f"{width}x{height}", preset=preset)
                 report["runs"].append(row)
                 passes = "  ".join(f"{k} {v['median']:.2f} ({v['p99']:.2f})" for k, v in row["pass_ms"].items())
                 extra = "".join(f"  |  {k}: " + ", ".join(f"{sk} {sv:.4g}" if isinstance(sv, float) else f"{sk} {sv}"
                                                            for sk, sv in v.items()) for k, v in row["stats"].items())
                 cpu = "  ".join(f"{k} {v['calling_thread']:.1f}/{v['workers']:.1f}" for k, v in row["pass_cpu_ms"].items())
+                gpu = ("  |  GPU ms: " + "  ".join(f"{k} {v:.3f}" for k, v in row["gpu_pass_ms"].items())
+                       if "gpu_pass_ms" in row else "")
                 print(f"{name:18s} {width}x{height} {preset:6s}  frame {row['frame_ms']['median']:.2f} "
-                      f"({row['frame_ms']['p99']:.2f})  sum-of-passes {row['total_ms']['median']:.2f} "
-                      f"({row['total_ms']['p99']:.2f})  |  {passes}{extra}  |  cpu ms calling thread/workers: {cpu}",
+                      f"({row['frame_ms']['p99']:.2f})  fps in flight {row['fps_in_flight']:.1f}  Python "
+                      f"{row['python_ms']['median']:.2f} ms  GL calls {row['gl_calls']}  GL objects made "
+                      f"{row['gl_objects_created']}  sum-of-passes {row['total_ms']['median']:.2f} "
+                      f"({row['total_ms']['p99']:.2f})  |  {passes}{extra}  |  cpu ms calling thread/workers: {cpu}{gpu}",
                       flush=True)
     if json_path:
         with open(json_path, "w") as fh:

@@ -1,0 +1,105 @@
+"""The GL call counter (render/gl_count.py) and what ``igserver bench`` reports from it."""
+
+import moderngl
+import numpy as np
+import pytest
+
+from igserver.bench import PassTimers, bench_scene, markdown_table, timer_queries_unusable
+from igserver.render.gl_count import GLCallCounter
+
+from helpers import tiny
+
+VERTEX = """#version 330
+in vec2 in_pos;
+void main() { gl_Position = vec4(in_pos, 0.0, 1.0); }
+"""
+FRAGMENT = """#version 330
+uniform float u_a;
+uniform vec2 u_b;
+uniform vec3 u_c;
+uniform sampler2D u_tex;
+out vec4 colour;
+void main() { colour = vec4(u_a + u_b.x + u_c.y, 0.0, 0.0, 1.0) + texture(u_tex, vec2(0.5)); }
+"""
+
+
+@pytest.fixture()
+def tiny_program(renderer):
+    ctx = renderer.ctx
+    program = ctx.program(vertex_shader=VERTEX, fragment_shader=FRAGMENT)
+    vbo = ctx.buffer(np.array([-1, -1, 3, -1, -1, 3], dtype="f4").tobytes())
+    vao = ctx.vertex_array(program, [(vbo, "2f", "in_pos")])
+    texture = ctx.texture((2, 2), 4)
+    yield program, vao, texture
+    for obj in (vao, vbo, program, texture):
+        obj.release()
+
+
+def _moderngl_attributes() -> dict:
+    return {(name, attr): value for name in dir(moderngl) if isinstance(getattr(moderngl, name), type)
+            for attr, value in vars(getattr(moderngl, name)).items()}
+
+
+def test_a_known_sequence_is_counted_exactly(tiny_program):
+    program, vao, texture = tiny_program
+    with GLCallCounter() as calls:
+        program["u_a"].value = 1.0
+        program["u_b"].value = (2.0, 3.0)
+        program["u_c"].value = (4.0, 5.0, 6.0)
+        texture.use(0)
+        vao.render()
+    assert calls.total == 5, dict(calls.by_name)
+    for uniform in ("u_a", "u_b", "u_c"):  # one write each, named by the uniform
+        assert sum(n for name, n in calls.by_name.items() if uniform in name) == 1, dict(calls.by_name)
+    assert calls.by_name["Texture.use"] == 1 and calls.by_name["VertexArray.render"] == 1
+    assert calls.created() == 0
+    assert calls.gl_cpu_s > 0 and calls.wrapper_cost_s > 0
+    assert calls.overhead_s == pytest.approx(5 * calls.wrapper_cost_s)
+
+
+def test_objects_made_in_the_block_are_counted(renderer):
+    with GLCallCounter() as calls:
+        buffer = renderer.ctx.buffer(reserve=16)
+        buffer.write(b"\0" * 16)
+        buffer.release()  # object lifetime, not GL work of a frame
+    assert calls.created() == 1 and calls.total == 2, dict(calls.by_name)
+
+
+def test_moderngl_is_restored_after_the_block_even_on_an_exception(tiny_program):
+    program, vao, _ = tiny_program
+    before = _moderngl_attributes()
+    with pytest.raises(RuntimeError):
+        with GLCallCounter():
+            program["u_a"].value = 1.0
+            raise RuntimeError("inside the block")
+    assert _moderngl_attributes() == before
+    with GLCallCounter() as calls:
+        pass
+    vao.render()  # after the block: not counted
+    assert calls.total == 0
+
+
+def test_bench_reports_python_ms_gl_calls_objects_and_fps_in_flight(renderer):
+    row = bench_scene(renderer, tiny(), frames=2, warmup=1, gpu_timer=timer_queries_unusable(renderer))
+    assert row["gl_calls"] > 0 and row["gl_objects_created"] == 0
+    assert 0 < row["python_ms"]["median"] < row["frame_ms"]["median"] * 4
+    assert row["fps_in_flight"] > 0
+    if "llvmpipe" in renderer.caps.renderer:  # no GPU clock: said why, no GPU column
+        assert row["gpu_timer"] == "llvmpipe has no GPU clock" and "gpu_pass_ms" not in row
+    else:
+        assert set(row["gpu_pass_ms"]) <= set(row["passes"])
+    report = {"runs": [dict(row, scene="tiny", resolution="64x36", preset="medium")]}
+    head, _, line = markdown_table(report).splitlines()[:3]
+    for column in ("fps in flight", "Python ms", "GL calls", "GL objects made"):
+        assert column in head
+    assert f"| {row['gl_calls']} |" in line
+
+
+def test_pass_timers_bracket_each_pass_and_leave_the_passes_as_they_were(renderer):
+    scene = tiny()
+    with PassTimers(renderer) as timers:
+        result = renderer.render(scene)
+        gpu_ms = timers.read()
+    assert list(gpu_ms) == [n for n in result.passes if n in gpu_ms] and set(gpu_ms) == set(result.passes)
+    assert all(ms >= 0 for ms in gpu_ms.values())  # llvmpipe's read 0
+    assert all("execute" not in vars(p) for p in renderer.graph.passes.values())
