@@ -13,5 +13,11 @@ if ! command -v chromium >/dev/null 2>&1; then
     echo "test.sh: chromium missing: the viewer browser tests will be skipped (apt-get install chromium)" >&2
   fi
 fi
+# the CIGI packets are cross-checked against Wireshark's dissector: Debian's tshark (installed when root)
+if ! command -v tshark >/dev/null 2>&1 && [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+  echo "test.sh: installing tshark (CIGI cross-check)" >&2
+  { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends tshark >&2; } \
+    || echo "test.sh: could not install tshark: the CIGI cross-check will be skipped" >&2
+fi
 cd "$root"
 exec .venv/bin/python -m pytest -q "$@"

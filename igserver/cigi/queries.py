@@ -117,13 +117,18 @@ def boxes(scene: Scene, session: Session, types: TypeMap) -> list[Box]:
     return out
 
 
+def _ground_shows(scene: Scene) -> bool:
+    """The ground plane is a surface unless it lies under the sea (then it is the sea floor)."""
+    return scene.ground.enabled and not (scene.ocean.enabled and scene.ground.level < scene.ocean.level)
+
+
 def surfaces(scene: Scene, all_boxes: list[Box], x: float, y: float) -> list[tuple[float, np.ndarray, int]]:
     """(height, normal, material) of every surface above or below (x, y)."""
     found = []
     if scene.ocean.enabled:
         height, normal = sea_height(scene, np.array([[x, y]]))
         found.append((float(height[0]), normal[0], SEA))
-    if scene.ground.enabled:
+    if _ground_shows(scene):
         found.append((scene.ground.level, UP, GROUND))
     for box in all_boxes:
         top = box.top_at(x, y)
@@ -193,10 +198,10 @@ def _sea_hit(scene: Scene, start: np.ndarray, end: np.ndarray) -> float | None:
 def line_of_sight(scene: Scene, session: Session, types: TypeMap, start: np.ndarray, end: np.ndarray):
     """(t of the first obstruction or None, entity number hit or None) along start->end."""
     hits: list[tuple[float, int | None]] = []
-    if scene.ground.enabled and (start[2] - scene.ground.level) * (end[2] - scene.ground.level) <= 0.0 \
+    if _ground_shows(scene) and (start[2] - scene.ground.level) * (end[2] - scene.ground.level) <= 0.0 \
             and start[2] != end[2]:
         hits.append(((start[2] - scene.ground.level) / (start[2] - end[2]), None))
-    elif scene.ground.enabled and start[2] == end[2] == scene.ground.level:
+    elif _ground_shows(scene) and start[2] == end[2] == scene.ground.level:
         hits.append((0.0, None))
     if scene.ocean.enabled:
         t = _sea_hit(scene, start, end)

@@ -49,6 +49,7 @@ class IGRuntime:
         self.started_at = time.time()
         self.stream_clients = {"mjpeg": 0, "ws": 0}
         self.start_error: str | None = None
+        self.cigi = None  # the CIGI listener (igserver/cigi) when settings.cigi
         self.unresponsive: str | None = None  # the watchdog's finding, None while the render process answers
         self._watchdog_task: asyncio.Task | None = None
         self.stopping = asyncio.Event()  # set at shutdown: open streams end so the server can exit
@@ -128,6 +129,10 @@ class IGRuntime:
         loop.create_task(start_render_process())
         self._watchdog_task = loop.create_task(self._watchdog(), name="igserver-watchdog")
         self.pump.start()
+        if self.settings.cigi:
+            from ..cigi.listener import start_cigi
+
+            self.cigi = await start_cigi(self)
 
     def _end_streams_on_exit_signal(self, loop: asyncio.AbstractEventLoop) -> None:
         """SIGTERM/SIGINT: end the open MJPEG streams at once. uvicorn waits for open responses before it
@@ -169,6 +174,8 @@ class IGRuntime:
 
     async def stop(self) -> None:
         self.stopping.set()
+        if self.cigi is not None:
+            self.cigi.close()
         if self._watchdog_task is not None:
             self._watchdog_task.cancel()
         await self.pump.stop()

@@ -12,13 +12,14 @@ import json
 from pathlib import Path
 from typing import Annotated
 
-from pydantic import Field, SecretStr, field_validator
+from pydantic import Field, SecretStr, field_validator, model_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
 from .codec import Limits
 
 # Host names that always mean this machine. A browser can only reach a loopback-bound server under one of
 # these, so any other Host header on a loopback server is a DNS-rebinding attempt.
+CIGI = {"section": "cigi"}  # settings documented in docs/cigi.md, not in the README's table
 LOOPBACK_NAMES = frozenset({"localhost", "127.0.0.1", "::1", "localhost.localdomain", "ip6-localhost"})
 WILDCARD_HOSTS = frozenset({"0.0.0.0", "::", ""})
 
@@ -65,6 +66,23 @@ class ServerSettings(BaseSettings):
     watchdog_interval_s: float = Field(0.5, gt=0, le=60, description="how often the render process's liveness is checked (s)")
     max_raw_frame_bytes: int = Field(
         32 * 2**20, ge=0, description="raw (RGBA) frames above this are refused (413): ask for jpeg or png")
+    # CIGI 3.3 over UDP (igserver/cigi, docs/cigi.md; its own settings table there)
+    cigi: bool = Field(False, description="listen for a CIGI 3.3 host over UDP", json_schema_extra=CIGI)
+    cigi_bind: str = Field("127.0.0.1", description="address the CIGI socket binds; a non-loopback one requires "
+                           "--cigi-allow", json_schema_extra=CIGI)
+    cigi_port: int = Field(8004, ge=0, le=65535, description="UDP port of host messages", json_schema_extra=CIGI)
+    cigi_host_port: int = Field(8005, ge=1, le=65535, description="UDP port IG messages are sent to",
+                                json_schema_extra=CIGI)
+    cigi_host: str | None = Field(None, description="address IG messages are sent to; none = the sender of the "
+                                  "last valid host message", json_schema_extra=CIGI)
+    cigi_allow: Annotated[list[str], NoDecode] = Field(
+        default_factory=list, description="host addresses allowed to send (others are dropped and counted); "
+        "required when cigi_bind is not loopback", json_schema_extra=CIGI)
+    cigi_sync: bool = Field(False, description="synchronous mode: the host's IG Control timestamps drive "
+                            "sim_time (also whenever a host marks its timestamp valid)", json_schema_extra=CIGI)
+    cigi_entity_types: Path | None = Field(None, description="TOML file mapping entity types to models and "
+                                           "database numbers to scenes (none = the shipped default)",
+                                           json_schema_extra=CIGI)
     idle_timeout_s: float = Field(
         10.0, gt=0, le=3600,
         description="a connection is closed when its request headers are not complete this long (s) after it "
@@ -82,7 +100,7 @@ class ServerSettings(BaseSettings):
         1024 * 1024, ge=1, le=4096 * 4096,
         description="pixels of a profile image (width x height, read from its header): a larger one is refused (422)")
 
-    @field_validator("allowed_hosts", "allowed_origins", mode="before")
+    @field_validator("allowed_hosts", "allowed_origins", "cigi_allow", mode="before")
     @classmethod
     def _comma_list(cls, value):
         # IGSERVER_ALLOWED_HOSTS=a.example,b.example as well as the JSON list pydantic-settings reads
@@ -101,14 +119,25 @@ class ServerSettings(BaseSettings):
             return text or None
         return None
 
+    @model_validator(mode="after")
+    def _cigi_exposed(self) -> "ServerSettings":
+        # CIGI has no authentication: beyond loopback only the listed hosts may drive the IG
+        if self.cigi and not is_loopback(self.cigi_bind) and not self.cigi_allow:
+            raise ValueError(f"cigi_bind {self.cigi_bind} is not loopback: list the host addresses allowed to "
+                             "send in cigi_allow (--cigi-allow), CIGI has no authentication")
+        return self
+
     def binds_beyond_loopback(self) -> bool:
         return not is_loopback(self.host)
 
 
-def settings_table() -> str:
-    """The settings table of docs/operations.md: variable, CLI flag, default, meaning."""
+def settings_table(section: str | None = None) -> str:
+    """The settings table of docs/operations.md: variable, CLI flag, default, meaning
+    (``section="cigi"``: the CIGI settings, whose table is docs/cigi.md's)."""
     rows = ["| environment variable | `igserver serve` flag | default | meaning |", "| --- | --- | --- | --- |"]
     for name, field in ServerSettings.model_fields.items():
+        if (field.json_schema_extra or {}).get("section") != section:
+            continue
         default = field.get_default(call_default_factory=True)
         if isinstance(default, Limits):  # one row per nested bound: IGSERVER_LIMITS__MAX_DEPTH, --limits.max-depth
             for key, value in default.model_dump().items():
