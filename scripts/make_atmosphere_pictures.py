@@ -1,4 +1,4 @@
-"""README pictures of the atmosphere (docs/): the dusk strip +10 .. -20 deg in 2-deg steps toward and
+"""Pictures of the atmosphere for docs/atmosphere.md: the dusk strip +10 .. -20 deg in 2-deg steps toward and
 away from the sun (automatic exposure, eye steady state), noon fog of 300 m visibility, and a ground
 fog layer (top 60 m, visibility 150 m) seen from 500 m. Run from the repository root:
 

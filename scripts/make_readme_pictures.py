@@ -1,4 +1,4 @@
-"""README pictures of the example scenes (docs/*.jpg), each the scene file rendered as it stands
+"""Pictures of the example scenes for the README and docs/ (docs/*.jpg), each the scene file rendered as it stands
 (its own time, weather and preset). The atmosphere pictures have their own script
 (make_atmosphere_pictures.py). Run from the repository root:
 

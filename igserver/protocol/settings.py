@@ -19,7 +19,7 @@ from .codec import Limits
 
 # Host names that always mean this machine. A browser can only reach a loopback-bound server under one of
 # these, so any other Host header on a loopback server is a DNS-rebinding attempt.
-CIGI = {"section": "cigi"}  # settings documented in docs/cigi.md, not in the README's table
+CIGI = {"section": "cigi"}  # settings documented in docs/cigi.md, not in docs/operations.md's table
 LOOPBACK_NAMES = frozenset({"localhost", "127.0.0.1", "::1", "localhost.localdomain", "ip6-localhost"})
 WILDCARD_HOSTS = frozenset({"0.0.0.0", "::", ""})
 
