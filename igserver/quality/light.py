@@ -39,7 +39,7 @@ import numpy as np
 
 from ..render.frame import build_frame
 from ..render.renderer import Renderer
-from ..render.shaders import GLSL_VERSION, expand
+from ..render.shaders import GLSL_VERSION, expand, set_uniforms
 from ..render.sky.tables import AtmosphereTables
 from ..scene.model import Scene
 
@@ -111,9 +111,7 @@ class SkyEvaluator:
 
     def __call__(self, scene: Scene, dirs: np.ndarray):
         frame = build_frame(self.r.ctx, scene)
-        for name, value in {**frame.uniforms, "u_count": len(dirs)}.items():
-            if name in self.prog and hasattr(self.prog[name], "value"):
-                self.prog[name].value = value
+        set_uniforms(self.prog, {**frame.uniforms, "u_count": len(dirs)})
         pts = np.zeros((len(dirs), 4), "f4")
         pts[:, :3] = dirs
         inp, out = self.r.ctx.buffer(pts.tobytes()), self.r.ctx.buffer(reserve=pts.nbytes)

@@ -28,6 +28,7 @@ import numpy as np
 from ..render.frame import build_frame
 from ..render.renderer import Renderer
 from ..render.sky import atmosphere_model as am
+from ..render.shaders import set_uniforms
 from ..render.sky.tables import AtmosphereTables, cache_dir
 from ..scene.model import Scene
 from .light import SkyEvaluator
@@ -217,9 +218,7 @@ def _tables_radiance(renderer, evaluate, scene, params, dirs):
     tables = AtmosphereTables.get(renderer.ctx, params)
     tables.bind()
     prog = evaluate.prog
-    for name, value in {**frame.uniforms, **tables.uniforms(), "u_count": len(dirs)}.items():
-        if name in prog and hasattr(prog[name], "value"):
-            prog[name].value = value
+    set_uniforms(prog, {**frame.uniforms, **tables.uniforms(), "u_count": len(dirs)})
     pts = np.zeros((len(dirs), 4), "f4")
     pts[:, :3] = dirs
     inp, out = renderer.ctx.buffer(pts.tobytes()), renderer.ctx.buffer(reserve=pts.nbytes)

@@ -190,6 +190,9 @@ def shader_brdf(ctx, programs, angles: np.ndarray, material: np.ndarray) -> np.n
     """Evaluate common/brdf.glsl per sample on the GPU into a float32 target; returns (h, w, 3)."""
     import moderngl
 
+    from ..render.bindings import use_texture
+    from ..render.shaders import set_uniforms
+
     h, w = angles.shape[:2]
     tex_a = ctx.texture((w, h), 4, angles.tobytes(), dtype="f4")
     tex_m = ctx.texture((w, h), 4, material.tobytes(), dtype="f4")
@@ -197,10 +200,9 @@ def shader_brdf(ctx, programs, angles: np.ndarray, material: np.ndarray) -> np.n
     fbo = ctx.framebuffer([target])
     try:
         program = programs.program("common/fullscreen.vert.glsl", "surfaces/brdf_probe.frag.glsl")
-        tex_a.use(location=0)
-        tex_m.use(location=1)
-        program["u_angles"].value = 0
-        program["u_material"].value = 1
+        use_texture(tex_a, 0)
+        use_texture(tex_m, 1)
+        set_uniforms(program, {"u_angles": 0, "u_material": 1})
         fbo.use()
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         ctx.vertex_array(program, []).render(moderngl.TRIANGLES, vertices=3)

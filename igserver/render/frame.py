@@ -13,6 +13,7 @@ from ..astro import celestial_state, direction_enu
 from ..scene.model import Scene
 from .camera import CameraView, gl_matrix, make_view
 from .depth import zero_to_one
+from .frame_block import MAX_LIGHTS, FrameBlock
 from .lights import PointLight, gather_lights, light_uniforms
 from .post.exposure import (GROUND_REFLECTANCE, EyeAdaptation, display_metered_ev100, exposure_of_ev100,
                             frustum_directions)
@@ -20,10 +21,9 @@ from .sky.daylight import SUN_ANGULAR_RADIUS, Daylight
 from .sky.frame_sky import SkyFrame, sky_frame
 from .sky.haze import HazeTransition
 
-# Point/spot lights per frame (uniform arrays in common/lights.glsl, which must match): the
-# brightest at the camera first. The light loop skips lights out of range, so the cost per pixel
-# is bounded by MAX_LIGHTS and usually far below it.
-MAX_LIGHTS = 64
+# Point/spot lights per frame (MAX_LIGHTS: the frame block's arrays), the brightest at the camera
+# first. The light loop skips lights out of range, so the cost per pixel is bounded by MAX_LIGHTS
+# and usually far below it.
 
 
 @dataclass(frozen=True)
@@ -204,6 +204,7 @@ def build_frame(ctx: moderngl.Context, scene: Scene, state: FrameState | None = 
     frame.uniforms = common_uniforms(frame)
     frame.uniforms.update(sky.uniforms)
     frame.defines = light_defines(celestial, lights)
+    FrameBlock.get(ctx).update(frame.uniforms)
     return frame
 
 

@@ -3,9 +3,8 @@
 ``with GLCallCounter() as calls: renderer.render(scene)`` wraps, for the duration of the block,
 every moderngl entry point that reaches the driver: the methods of moderngl's object classes
 (``Texture.use``, ``Buffer.write``, ``VertexArray.render``, ``Context.texture``, ...), the property
-setters (``ctx.depth_func = ...``, ``fbo.viewport = ...``) and the writes to a program's uniforms and
-uniform-block bindings (``program["u_x"].value = ...``, ``.write(...)``), which moderngl implements in
-C and which are reached through proxies handed out by ``Program.get``/``__getitem__``.
+setters (``ctx.depth_func = ...``, ``fbo.viewport = ...``), the writes to a program's uniforms
+(``Uniform.write``, which its ``value`` setter calls) and to uniform-block bindings.
 
 What is not counted, because it does not reach the driver: a program's member look-ups, property
 reads moderngl answers from Python (sizes, ``glo``), ``release`` and ``__del__`` (object lifetime).
@@ -27,42 +26,9 @@ import moderngl
 _CLASSES = ("Context", "Program", "ComputeShader", "Texture", "Texture3D", "TextureArray", "TextureCube",
             "Buffer", "VertexArray", "Framebuffer", "Sampler", "Renderbuffer", "Query", "Scope")
 # Methods answered in Python (member look-ups, iteration) or object lifetime: not GL work of a frame.
+# (Uniform and UniformBlock are wrapped on their own, below.)
 _NOT_GL = {"get", "release", "__getitem__", "__iter__", "__init__", "__del__", "__repr__", "__eq__", "__hash__",
            "__enter__", "__exit__", "__setitem__", "__init_subclass__", "detect_framebuffer"}
-
-
-class _MemberProxy:
-    """A program's uniform (or uniform block) as ``program[name]`` returns it, counting its writes.
-
-    ``isinstance(proxy, moderngl.Uniform)`` stays true (``__class__`` answers the real class), so the
-    renderer's own code takes the same branches with and without the counter.
-    """
-
-    __slots__ = ("_member", "_counter", "_name")
-
-    def __init__(self, member, counter: "GLCallCounter", name: str):
-        object.__setattr__(self, "_member", member)
-        object.__setattr__(self, "_counter", counter)
-        object.__setattr__(self, "_name", name)
-
-    @property
-    def __class__(self):
-        return type(self._member)
-
-    def __getattr__(self, attr):
-        return getattr(self._member, attr)
-
-    def __setattr__(self, attr, value):
-        if attr in ("value", "binding"):
-            self._counter._timed(self._name + "." + attr, setattr, self._member, attr, value)
-        else:
-            setattr(self._member, attr, value)
-
-    def write(self, data):
-        return self._counter._timed(self._name + ".write", self._member.write, data)
-
-    def read(self):
-        return self._counter._timed(self._name + ".read", self._member.read)
 
 
 class GLCallCounter:
@@ -120,25 +86,15 @@ class GLCallCounter:
         self._saved.append((cls, attr, prop))
         setattr(cls, attr, property(prop.fget, fset, prop.fdel, prop.__doc__))
 
-    def _wrap_members(self, cls: type) -> None:
-        counter = self
-        original_get, original_item = cls.get, cls.__getitem__
+    def _wrap_uniform_write(self) -> None:
+        """``Uniform.write`` (the ``value`` setter calls it), labelled by the uniform's name."""
+        counter, original = self, moderngl.Uniform.write
 
-        def proxied(member, name):
-            if isinstance(member, (moderngl.Uniform, moderngl.UniformBlock)):
-                return _MemberProxy(member, counter, f"{cls.__name__}[{name}]")
-            return member
+        def write(obj, data):
+            return counter._timed(f"Uniform[{obj.name}].write", original, obj, data)
 
-        def get(obj, key, default=None):
-            member = original_get(obj, key, default)
-            return member if member is default else proxied(member, key)
-
-        def getitem(obj, key):
-            return proxied(original_item(obj, key), key)
-
-        for attr, fn, original in (("get", get, original_get), ("__getitem__", getitem, original_item)):
-            self._saved.append((cls, attr, original))
-            setattr(cls, attr, fn)
+        self._saved.append((moderngl.Uniform, "write", original))
+        moderngl.Uniform.write = write
 
     def _calibrate(self) -> None:
         """CPU seconds one wrapper adds around a call that does nothing."""
@@ -169,8 +125,9 @@ class GLCallCounter:
                         self._wrap_setter(cls, attr, value)
                 elif callable(value) and not isinstance(value, (staticmethod, classmethod, type)):
                     self._wrap_method(cls, attr, value)
-            if cls_name in ("Program", "ComputeShader"):
-                self._wrap_members(cls)
+        self._wrap_uniform_write()
+        for attr in ("value", "binding"):
+            self._wrap_setter(moderngl.UniformBlock, attr, vars(moderngl.UniformBlock)[attr])
         return self
 
     def __exit__(self, *exc) -> None:

@@ -27,6 +27,7 @@ import weakref
 import moderngl
 import numpy as np
 
+from ..bindings import use_texture
 from ..shaders import ProgramCache, set_uniforms, uniform_inputs
 from ..resident import resident
 from ..sky.frame_sky import _haze_tables
@@ -189,7 +190,7 @@ class AerialTable:
 
     def bind(self) -> None:
         for name, unit in AERIAL_UNITS.items():
-            self.textures[name].use(unit)
+            use_texture(self.textures[name], unit)
 
     def uniforms(self) -> dict:
         right, up, forward, tangents = self._frame

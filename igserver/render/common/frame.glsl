@@ -2,21 +2,10 @@
 // y north, z up, origin at the camera), radiance is pre-exposed (multiplied by u_exposure) so that
 // values stay well inside half-float range (the sun's disk is ~1.5e9 cd/m^2 before exposure).
 #include "common/depth.glsl"
-uniform mat4 u_view_proj;        // camera-relative world -> clip (reversed-Z, far plane at infinity)
-uniform mat4 u_inv_view_proj;    // clip -> camera-relative world; finite depths only (NDC z at
-                                 // infinity maps to w = 0): view rays come from view_ray()
-uniform vec3 u_camera_right;     // unit camera basis in the camera-relative world frame
-uniform vec3 u_camera_up;
-uniform vec3 u_camera_forward;
-uniform vec4 u_frustum_tangents; // tan of the frustum half-angles: left, right, bottom, top (signed)
-uniform vec2 u_resolution;       // px
-uniform float u_camera_altitude; // m above mean sea level (origin altitude + camera z)
-uniform float u_exposure;        // 1 / (1.2 * 2^EV100): cd/m^2 -> display-referred
-uniform vec3 u_sun_dir;          // unit, toward the sun
-uniform vec3 u_sun_illuminance;  // lux per channel at the camera, after the atmosphere
-uniform vec3 u_moon_dir;
-uniform vec3 u_moon_illuminance; // lux per channel
-uniform vec3 u_sky_ambient;      // cd/m^2, cosine-weighted mean sky radiance (irradiance / pi)
+// The camera, exposure, sun, moon and point/spot lights: the frame's uniform block (declared in
+// render/frame_block.py, one buffer shared by every draw program; plain uniforms where FRAME_BLOCK
+// is 0). Units there: positions m, illuminance lux per channel, radiance cd/m^2.
+#include "generated/frame_block.glsl"
 
 const float PI = 3.14159265358979;
 const float HALF_MAX = 60000.0;  // keep below float16 max (65504) after pre-exposure

@@ -9,9 +9,6 @@
 // loop stops at u_light_count and skips lights out of range, so cost grows with the lights present.
 // Passes that define SURFACE_SHADOWS get shadow maps (common/shadows.glsl); others (water, rain)
 // include this file unchanged and see no shadows.
-#ifndef MAX_LIGHTS
-#define MAX_LIGHTS 64
-#endif
 // Compile-time light terms (frame.py light_defines): a pass that knows the frame defines SUN_TERM /
 // MOON_TERM as 0 when that body is below -0.1 (its term would be skipped at run time anyway). On
 // llvmpipe a branch not taken still costs much of its body (SIMD code runs masked), so the
@@ -33,11 +30,8 @@
 #ifndef MOON_TERM
 #define MOON_TERM 1
 #endif
-uniform int u_light_count;
-uniform vec4 u_light_pos[MAX_LIGHTS];    // xyz camera-relative m, w = range m
-uniform vec4 u_light_color[MAX_LIGHTS];  // rgb = colour * intensity (cd), w = 1 spot / 0 point
-uniform vec4 u_light_dir[MAX_LIGHTS];    // xyz spot axis, w = cos(outer cone)
-uniform float u_light_cos_inner[MAX_LIGHTS];
+// u_light_count, u_light_pos, u_light_color, u_light_dir, u_light_cos_inner and MAX_LIGHTS: the
+// frame's block (common/frame.glsl).
 uniform float u_shadow_density;          // d_sh in [0,1] (0 when unset: no shadow terms)
 uniform vec3 u_shadow_color;             // c_sh, linear
 

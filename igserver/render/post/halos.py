@@ -23,6 +23,8 @@ from functools import lru_cache
 import moderngl
 import numpy as np
 
+from ..bindings import use_texture
+
 N_PHI = 256  # nodes over [-pi/2, pi/2]
 N_A = 64  # nodes of log10(a) over [A_LOG_MIN, A_LOG_MAX]
 A_LOG_MIN, A_LOG_MAX = -5.0, 3.0  # a = beta h below 1e-5: H no longer depends on a; above 1e3: exp(-a) is 0
@@ -135,7 +137,7 @@ class HaloTable:
         if g != self.g:
             self.texture.write(table_slice(g).tobytes())
             self.g = g
-        self.texture.use(unit)
+        use_texture(self.texture, unit)
 
     def release(self) -> None:
         self.texture.release()

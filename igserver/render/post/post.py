@@ -16,6 +16,7 @@ import math
 import moderngl
 import numpy as np
 
+from ..bindings import use_texture
 from ..camera import cone_on_screen
 from ..passes import RenderPass
 from ..shaders import set_uniforms
@@ -99,16 +100,13 @@ class PostPass(RenderPass):
             defines["MESOPIC"] = 1
         program = self.programs.program("common/fullscreen.vert.glsl", "post/tonemap.glsl", defines)
         set_uniforms(program, frame.uniforms)
-        program["u_hdr"].value = 0
-        if "u_exposure_correction" in program:
-            program["u_exposure_correction"].value = correction
-        if "u_rod_fraction" in program:
-            program["u_rod_fraction"].value = rod_fraction(frame.uniforms["u_adaptation_luminance"])
+        set_uniforms(program, {"u_hdr": 0, "u_exposure_correction": correction,
+                               "u_rod_fraction": rod_fraction(frame.uniforms["u_adaptation_luminance"])})
         if "u_halos" in program:
             set_uniforms(program, {"u_halos": 2, "u_distance": 1, "u_halo_far": halos["u_halo_far"]})
-            self._halo_target[0].use(2)
-            targets.distance.use(1)
-        targets.hdr.use(0)
+            use_texture(self._halo_target[0], 2)
+            use_texture(targets.distance, 1)
+        use_texture(targets.hdr, 0)
         targets.ldr_fbo.use()
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         self.fullscreen(program)
@@ -124,7 +122,7 @@ class PostPass(RenderPass):
         set_uniforms(program, frame.uniforms)
         set_uniforms(program, halos)
         set_uniforms(program, {"u_distance": 1, "u_halo_table": HALO_TABLE_UNIT})
-        targets.distance.use(1)
+        use_texture(targets.distance, 1)
         self._halo_table.use(halos["u_halo_g"], HALO_TABLE_UNIT)
         self._halo_target[1].use()
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
@@ -147,11 +145,11 @@ class PostPass(RenderPass):
                 tex.release()
             tex = self._meter_tex = self.ctx.texture(size, 4, dtype="f4")
         prog = self.programs.compute("post/meter.glsl")
-        prog["u_block"].value = block
+        set_uniforms(prog, {"u_block": block})
         if getattr(self, "_meter_sampler", None) is None:  # bilinear over the target's nearest filter
             self._meter_sampler = self.ctx.sampler(filter=(moderngl.LINEAR, moderngl.LINEAR),
                                                    repeat_x=False, repeat_y=False)
-        targets.hdr.use(0)
+        use_texture(targets.hdr, 0)
         self._meter_sampler.use(0)
         tex.bind_to_image(0, read=False, write=True)
         prog.run((size[0] + 3) // 4, (size[1] + 3) // 4, 1)

@@ -18,6 +18,7 @@ import numpy as np
 
 from ...scene.model import Scene
 from ...weather import precipitation_falls
+from ..bindings import use_texture
 from ..camera import CameraView
 from ..frame import local_light_defines
 from ..passes import RenderPass
@@ -107,7 +108,7 @@ class PrecipPass(RenderPass):
             "u_fade": float(particles.fade),
             "u_px_per_tan": float(0.5 * view.height * view.projection[1, 1]),
         })
-        frame.resources["scene_distance"].use(0)
+        use_texture(frame.resources["scene_distance"], 0)
         self._quad_indices(program, max(level.particles for level in particles.levels))
         targets.color_fbo.use()
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)

@@ -10,6 +10,7 @@ import numpy as np
 
 from ...astro import star_field
 from .. import depth
+from ..bindings import use_texture
 from ..passes import RenderPass
 from ..shaders import set_uniforms, uniform_inputs
 from .sky_view import SKY_VIEW_SIZE
@@ -211,8 +212,8 @@ class SkyPass(RenderPass):
             defines["SURFACE_BELOW"] = 1
         if self.hazy_table and hazy_table_holds(frame.uniforms):
             hazy, moon = self._hazy_table(frame)
-            hazy.use(SKY_HAZY_UNIT)
-            moon.use(SKY_HAZY_MOON_UNIT)
+            use_texture(hazy, SKY_HAZY_UNIT)
+            use_texture(moon, SKY_HAZY_MOON_UNIT)
             defines["SKY_HAZY_TABLE"] = 1
             if float(np.float32(frame.uniforms["u_moon_dir"][2])) > 0.0:  # haze_phases' own test
                 defines["SKY_HAZY_MOON"] = 1
@@ -304,8 +305,8 @@ class SkyPass(RenderPass):
                 or cirrus_drift_px(frame, held[1], offset) > self.cirrus_redraw_px):
             self._draw_cirrus_table(frame, program, size, tris)
             self._cirrus_drawn = (inputs, offset)
-        layer.use(location=CIRRUS_TABLE_UNIT)
-        hide.use(location=CIRRUS_HIDE_UNIT)
+        use_texture(layer, CIRRUS_TABLE_UNIT)
+        use_texture(hide, CIRRUS_HIDE_UNIT)
 
     def _cirrus_inputs(self, frame, program, key, size, tris) -> tuple:
         """Everything the cirrus table is drawn from except the layer's offset (its drift): the

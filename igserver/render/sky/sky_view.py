@@ -15,6 +15,7 @@ import weakref
 import moderngl
 import numpy as np
 
+from ..bindings import use_texture
 from ..shaders import ProgramCache, set_uniforms
 from ..resident import resident
 from .tables import AtmosphereTables
@@ -80,7 +81,7 @@ class SkyView:
 
     def bind(self) -> None:
         for name, unit in SKY_VIEW_UNITS.items():
-            self.textures[name].use(unit)
+            use_texture(self.textures[name], unit)
 
     def uniforms(self) -> dict:
         return dict(SKY_VIEW_UNITS)

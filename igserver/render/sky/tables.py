@@ -22,6 +22,7 @@ from pathlib import Path
 import moderngl
 import numpy as np
 
+from ..bindings import use_texture
 from ..shaders import ProgramCache, expand, set_uniforms
 from .atmosphere_model import AtmosphereParameters
 
@@ -117,7 +118,7 @@ class AtmosphereTables:
     def bind(self) -> None:
         for tex, unit in zip((self.transmittance, self.irradiance, self.scattering, self.single_mie),
                              TABLE_UNITS.values()):
-            tex.use(unit)
+            use_texture(tex, unit)
 
     def uniforms(self) -> dict:
         return {**self.params.uniforms(), **TABLE_UNITS}
@@ -203,8 +204,7 @@ class AtmosphereTables:
             # process's progress messages, and the service takes silence for a hang).
             gx, gy, _ = _groups(size, (4, 4, 4))
             for z in range(0, size[2], 4):
-                if "u_z_offset" in prog:
-                    prog["u_z_offset"].value = z
+                set_uniforms(prog, {"u_z_offset": z})
                 prog.run(gx, gy, 1)
                 ctx.memory_barrier()
 
@@ -221,7 +221,7 @@ class AtmosphereTables:
         prog = stage("TRANSMITTANCE")
         self.transmittance.bind_to_image(0, read=False, write=True)
         run(prog, s.transmittance)
-        self.transmittance.use(0)
+        use_texture(self.transmittance, 0)
 
         # 2. direct irradiance -> delta E (the irradiance table holds only the indirect part)
         prog = stage("DIRECT_IRRADIANCE")
@@ -241,25 +241,24 @@ class AtmosphereTables:
         indirect = stage("INDIRECT_IRRADIANCE")
         multiple = stage("MULTIPLE_SCATTERING", True)
         for order in range(2, s.orders + 1):
-            delta_irradiance.use(1)
-            delta_rayleigh.use(2)
-            delta_mie.use(3)
-            delta_multiple.use(4)
+            use_texture(delta_irradiance, 1)
+            use_texture(delta_rayleigh, 2)
+            use_texture(delta_mie, 3)
+            use_texture(delta_multiple, 4)
             # dJ of this order from dS(order-1) and the ground lit by dE(order-2)
             delta_density.bind_to_image(0, read=False, write=True)
-            density["u_order"].value = order
+            set_uniforms(density, {"u_order": order})
             run(density, s.scattering, True)
             # dE(order-1) from dS(order-1); E += dE
             delta_irradiance.bind_to_image(0, read=False, write=True)
             self.irradiance.bind_to_image(1, read=True, write=True)
-            indirect["u_order"].value = order - 1
+            set_uniforms(indirect, {"u_order": order - 1})
             run(indirect, s.irradiance)
             # dS(order) = integral of T dJ;  S += dS / P_R(nu)
-            delta_density.use(5)
+            use_texture(delta_density, 5)
             delta_multiple.bind_to_image(0, read=True, write=True)
             self.scattering.bind_to_image(1, read=True, write=True)
-            if "u_tail" in multiple:
-                multiple["u_tail"].value = int(order == s.orders and order >= 3)
+            set_uniforms(multiple, {"u_tail": int(order == s.orders and order >= 3)})
             run(multiple, s.scattering, True)
         self.ctx.finish()
         for tex in (delta_irradiance, delta_rayleigh, delta_mie, delta_multiple, delta_density):

@@ -7,6 +7,7 @@ roughness), 96 bytes, written once per frame.
 
 from __future__ import annotations
 
+import hashlib
 import logging
 import os
 import time
@@ -14,6 +15,7 @@ import time
 import moderngl
 import numpy as np
 
+from ..bindings import use_texture, write_buffer
 from ...scene.model import MAX_ENTITIES
 from .gltf import model_path
 from .loader import MaterialData, ModelData, load_model
@@ -40,6 +42,9 @@ class Textures:
         self.white = self._make(np.full((1, 1, 4), 255, np.uint8), srgb=False)
         self.white_srgb = self._make(np.full((1, 1, 4), 255, np.uint8), srgb=True)
         self.flat_normal = self._make(np.array([[[128, 128, 255, 255]]], np.uint8), srgb=False)
+        # One texture per distinct image: materials that share an image (the generated models'
+        # paints and woods) share its texture, so drawing them one after another binds nothing.
+        self._by_content: dict[tuple, moderngl.Texture] = {}
 
     def _make(self, rgba: np.ndarray, srgb: bool) -> moderngl.Texture:
         h, w = rgba.shape[:2]
@@ -54,7 +59,11 @@ class Textures:
     def from_image(self, image, srgb: bool, default: moderngl.Texture) -> moderngl.Texture:
         if image is None:
             return default
-        return self._make(np.asarray(image, dtype=np.uint8), srgb)
+        rgba = np.ascontiguousarray(image, dtype=np.uint8)
+        key = (srgb, rgba.shape, hashlib.sha1(rgba.tobytes()).digest())
+        if key not in self._by_content:
+            self._by_content[key] = self._make(rgba, srgb)
+        return self._by_content[key]
 
 
 class GpuMaterial:
@@ -80,7 +89,7 @@ class GpuMaterial:
 
     def bind(self) -> None:
         for unit, tex in enumerate((self.base, self.mr, self.normal, self.occlusion, self.emissive)):
-            tex.use(location=unit)
+            use_texture(tex, unit)
 
 
 SAMPLER_UNITS = {"u_base_tex": 0, "u_mr_tex": 1, "u_normal_tex": 2, "u_occlusion_tex": 3, "u_emissive_tex": 4}
@@ -107,7 +116,7 @@ class GpuPrimitive:
     def draw(self, program: moderngl.Program, use: str, instances: np.ndarray) -> None:
         """Draw ``instances`` ((n, 24) float32, n <= MAX_ENTITIES) with ``program``."""
         buf = self.instance_buffer(use)
-        buf.write(np.ascontiguousarray(instances, dtype=np.float32).tobytes())
+        write_buffer(buf, np.ascontiguousarray(instances, dtype=np.float32).tobytes())
         key = (id(program), use)
         vao = self._vaos.get(key)
         if vao is None:

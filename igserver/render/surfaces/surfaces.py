@@ -21,6 +21,7 @@ import numpy as np
 
 from ...scene.model import Entity, Scene
 from .. import depth
+from ..bindings import use_texture
 from ..camera import CameraView, body_to_world, gl_matrix
 from ..common.aerial_table import frame_aerial_table
 from ..passes import RenderPass
@@ -164,7 +165,7 @@ class SurfacesPass(RenderPass):
         tested = self.programs.program("surfaces/mesh.vert.glsl", "surfaces/mesh.frag.glsl",
                                        {"SHADOW_PASS": 1, "ALPHA_TEST": 1})
         for program in (opaque, tested):
-            program["u_light_view_proj"].write(gl_matrix(projection.view_proj))
+            set_uniforms(program, {"u_light_view_proj": gl_matrix(projection.view_proj)})
             self._set_samplers(program)
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.disable(moderngl.CULL_FACE | moderngl.BLEND)
@@ -196,7 +197,7 @@ class SurfacesPass(RenderPass):
             projection = fit_directional(bounds[:, :3], bounds[:, 3], direction, view.position,
                                          scene.shadows.resolution, depth.zero_to_one(self.ctx))
             tex = self._render_shadow_map("key", scene.shadows.resolution, projection, batches)
-            tex.use(location=SHADOW_UNIT_KEY)
+            use_texture(tex, SHADOW_UNIT_KEY)
             self._bound_shadow_maps.append((tex, SHADOW_UNIT_KEY))
             uniforms.update({"u_key_shadow_light": which, "u_key_shadow_texel": projection.texel})
             uniforms["u_key_shadow_matrix"] = gl_matrix(projection.map_matrix())
@@ -208,7 +209,7 @@ class SurfacesPass(RenderPass):
             projection = fit_spot(view.relative(light.position), light.spot_dir, light.cos_outer, light.range,
                                   SPOT_SHADOW_RESOLUTION, depth.zero_to_one(self.ctx))
             tex = self._render_shadow_map("spot", SPOT_SHADOW_RESOLUTION, projection, batches)
-            tex.use(location=SHADOW_UNIT_SPOT)
+            use_texture(tex, SHADOW_UNIT_SPOT)
             self._bound_shadow_maps.append((tex, SHADOW_UNIT_SPOT))
             uniforms.update({"u_spot_shadow_light": index, "u_spot_shadow_texel": projection.texel,
                              "u_spot_shadow_matrix": gl_matrix(projection.map_matrix())})
@@ -338,7 +339,7 @@ class SurfacesPass(RenderPass):
         tested but not written (moderngl keeps the depth mask on the framebuffer: the context
         attribute once set here was ignored, and the panes wrote depth)."""
         for tex, unit in self._bound_shadow_maps:
-            tex.use(location=unit)
+            use_texture(tex, unit)
         table = frame.resources.get("aerial_table")
         if table is not None and not self._aerial_exact_frame:
             table.bind()

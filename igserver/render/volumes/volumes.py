@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
+from ..bindings import use_texture
 from ...assets import AssetError, resolve_asset
 from ...scene.model import Scene
 from .. import presets
@@ -371,9 +372,9 @@ class VolumesPass(RenderPass):
             return
         program = self.programs.compute("volumes/model.comp.glsl", {"SMOKE": 1} if model.smoke else None)
         set_uniforms(program, {**model.uniforms, "u_z_first": z0, "u_shadows": 1})
-        self._profile_texture(model.vol).use(0)
+        use_texture(self._profile_texture(model.vol), 0)
         if model.smoke:
-            self._shadows(model).use(1)
+            use_texture(self._shadows(model), 1)
         model.texture.bind_to_image(0, read=False, write=True)
         program.run(math.ceil(model.size[0] / 4), math.ceil(model.size[1] / 4), (z1 - z0) // 4 + ((z1 - z0) % 4 > 0))
         self.ctx.memory_barrier()
@@ -396,7 +397,7 @@ class VolumesPass(RenderPass):
         tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
         program = self.programs.compute("volumes/model.comp.glsl", {"SMOKE": 1, "SHADOWS": 1})
         set_uniforms(program, {**u, "u_z_first": 0})
-        self._profile_texture(model.vol).use(0)
+        use_texture(self._profile_texture(model.vol), 0)
         tex.bind_to_image(0, read=False, write=True)
         program.run(*(math.ceil(n / 4) for n in model.size))
         self.ctx.memory_barrier()
@@ -488,7 +489,7 @@ class VolumesPass(RenderPass):
             distance_fbo.scissor = low_rect
             down = self.programs.program("common/fullscreen.vert.glsl", "volumes/downsample.frag.glsl", {"SCALE": scale})
             set_uniforms(down, {"u_scene_distance": 1})
-            distance.use(1)
+            use_texture(distance, 1)
             self.fullscreen(down)
             distance_fbo.scissor = None
             color_fbo.use()
@@ -504,9 +505,9 @@ class VolumesPass(RenderPass):
                        for v in volumes), default=1.0)
             set_uniforms(up, {"u_volume_color": 0, "u_volume_distance": 2, "u_scene_distance": 1, "u_scale": scale,
                               "u_volumes_far": far, "u_layer_range": dither})
-            low_color.use(0)
-            distance.use(1)
-            low_distance.use(2)
+            use_texture(low_color, 0)
+            use_texture(distance, 1)
+            use_texture(low_distance, 2)
             self.fullscreen(up)
             targets.color_fbo.scissor = None
             self.ctx.disable(moderngl.BLEND)
@@ -525,7 +526,7 @@ class VolumesPass(RenderPass):
         self.ctx.front_face = "ccw"
         self.ctx.cull_face = "front"
         self.ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
-        distance.use(1)
+        use_texture(distance, 1)
         jitter_offset = (scene.host_frame * 0.6180339887) % 1.0  # golden-ratio sequence per frame
         _, _, bottom, top = view.tangents
         pixel_angle = (math.atan(top) - math.atan(bottom)) / max(march_height, 1)  # rad per march pixel
@@ -579,8 +580,8 @@ class VolumesPass(RenderPass):
                 lum = FIRE_LUMINANCE * math.sqrt(vol.intensity)
                 uniforms["u_emission"] = (lum, lum, lum)
             set_uniforms(program, uniforms)
-            tex.use(0)
-            tex_next.use(2)
+            use_texture(tex, 0)
+            use_texture(tex_next, 2)
             # The container as slabs (Volume.slabs), each marching its own stretch of the ray: along
             # a ray z is monotonic, so its slabs come in order of their height distance from the
             # camera; drawn farthest first, the ONE, ONE_MINUS_SRC_ALPHA blend composes them as one
@@ -588,8 +589,8 @@ class VolumesPass(RenderPass):
             cam_z = float(view.position[2])
             slabs = sorted(vol.slabs(), key=lambda b: -max(float(b[0][2]) - cam_z, cam_z - float(b[1][2]), 0.0))
             for slab_lo, slab_hi in slabs:
-                program["u_box_min"].value = tuple(float(x) for x in view.relative(slab_lo))
-                program["u_box_max"].value = tuple(float(x) for x in view.relative(slab_hi))
+                set_uniforms(program, {"u_box_min": tuple(float(x) for x in view.relative(slab_lo)),
+                                       "u_box_max": tuple(float(x) for x in view.relative(slab_hi))})
                 self._vao(program).render(moderngl.TRIANGLES)
             self.stats["drawn"] += 1
             self.stats["slabs"] = self.stats.get("slabs", 0) + len(slabs)

@@ -26,6 +26,7 @@ from ...scene.model import Scene
 from ...water import sea_surface
 from ...water.spectrum import WaveSet
 from ...water.surface import SeaSurface, whitecap_coverage
+from ..bindings import use_texture, write_buffer
 from ..camera import CameraView, body_to_world
 from ..frame import local_light_defines
 from .. import presets
@@ -521,9 +522,9 @@ class SeaTables:
                 water.fullscreen(program)
             self._key = key
             self.fills += 1
-        self.sky.use(SKY_REFLECT_UNIT)
-        self.air[0].use(AIR_T_UNIT)
-        self.air[1].use(AIR_S_UNIT)
+        use_texture(self.sky, SKY_REFLECT_UNIT)
+        use_texture(self.air[0], AIR_T_UNIT)
+        use_texture(self.air[1], AIR_S_UNIT)
         return {"u_sky_reflect": SKY_REFLECT_UNIT, "u_sea_air_t": AIR_T_UNIT, "u_sea_air_s": AIR_S_UNIT,
                 "u_sea_air_map": air_map}
 
@@ -621,7 +622,7 @@ class WaterPass(RenderPass):
             tex = self.ctx.texture((FOAM_NOISE_SIZE, FOAM_NOISE_SIZE), 1, dtype="f1")
             fbo = self.ctx.framebuffer(color_attachments=[tex])
             program = self.programs.program("common/fullscreen.vert.glsl", "water/foam_noise.frag.glsl")
-            program["u_period"].value = FOAM_PERIOD
+            set_uniforms(program, {"u_period": FOAM_PERIOD})
             fbo.use()
             self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
             self.fullscreen(program)
@@ -685,8 +686,8 @@ class WaterPass(RenderPass):
         """The wave set's uniform values (``wave_uniforms``), with a bathymetry's field textures bound."""
         if sea.field is not None:
             self._upload_field(sea)
-            self._field_tex[0].use(FIELD_UNIT)
-            self._field_tex[1].use(FIELD_SCALAR_UNIT)
+            use_texture(self._field_tex[0], FIELD_UNIT)
+            use_texture(self._field_tex[1], FIELD_SCALAR_UNIT)
         return {**wu["uniforms"], "u_wave": wu["table"], "u_wave_phase": wu["phases"]}
 
     def select(self, sea: SeaSurface, scene: Scene, view: CameraView, lod_error_scale: float = 1.0,
@@ -792,11 +793,11 @@ class WaterPass(RenderPass):
         units = {}
         for c, (size, _) in enumerate(tiles):
             detail_map[c] = (1.0 / size, *(np.mod(view.position[:2], size) / size))
-            self._detail[c].use(DETAIL_UNIT0 + c)
+            use_texture(self._detail[c], DETAIL_UNIT0 + c)
             units[f"u_detail{c}"] = DETAIL_UNIT0 + c
         wind = scene.weather.wind_speed if scene.ocean.sea_state is None else sea.spectrum.wind
         threshold = drawn_foam_threshold(sea, wind) if self.foam_threshold is None else self.foam_threshold
-        self._foam_noise().use(FOAM_NOISE_UNIT)
+        use_texture(self._foam_noise(), FOAM_NOISE_UNIT)
         values = {**frame.uniforms, **table_uniforms, **glint_light(frame.uniforms), **self._wave_values(sea, waves),
                   "u_morph": morph.tobytes(), **units,
                   "u_min_slope_var": 2e-4 + detail_unresolved_var(sea), "u_foam_jacobian": threshold,
@@ -815,9 +816,9 @@ class WaterPass(RenderPass):
         program = self._program(sea.field is not None, with_hulls, read_maps, local_light_defines(frame.lights), foam_streaks)
         set_uniforms(program, shared["values"])
         set_uniforms(program, {"u_detail_map": shared["detail_map"][: max(read_maps, 1)].tobytes()})
-        if "u_detail_mean" in program:
-            mean = program["u_detail_mean"]
-            mean.write(means[read_maps:read_maps + mean.array_length].astype(np.float32).tobytes())
+        mean = program.get("u_detail_mean", None)
+        if mean is not None:
+            set_uniforms(program, {"u_detail_mean": means[read_maps:read_maps + mean.array_length].astype(np.float32).tobytes()})
         return program
 
     @staticmethod
@@ -862,7 +863,7 @@ class WaterPass(RenderPass):
         program = self.capture_program(sea.field is not None)
         set_uniforms(program, self._wave_values(sea, self.wave_uniforms(sea, scene, view)))
         morph = np.minimum(selection.morph, 1e30).astype(np.float32)
-        program["u_morph"].write(morph.tobytes())
+        set_uniforms(program, {"u_morph": morph.tobytes()})
         verts, _ = self._patch_buffer()
         g1 = lod.PATCH_QUADS + 1
         nodes = np.ascontiguousarray(selection.nodes, dtype=np.float32)
@@ -890,7 +891,7 @@ class WaterPass(RenderPass):
                 buffers[slot].release()
             buffers[slot] = self.ctx.buffer(reserve=max(len(data), 4096), dynamic=True)
             self._vaos_water = {k: v for k, v in getattr(self, "_vaos_water", {}).items() if k[1] != slot}
-        buffers[slot].write(data)
+        write_buffer(buffers[slot], data)
         key = (id(program), slot, fan)
         vaos = getattr(self, "_vaos_water", {})
         if key not in vaos:
