@@ -213,3 +213,15 @@ def test_readme_links_resolve():
         assert (ROOT / target).exists(), f"README links to a missing {target}"
         if anchor:
             assert anchor in anchors(ROOT / target), f"README links to {target}#{anchor}: no such heading"
+
+
+def test_clients_are_not_in_the_server_package():
+    """clients/ holds example host programs to copy, not server code: the wheel's package discovery
+    (pyproject.toml) must not pick it up."""
+    import tomllib
+
+    from setuptools import find_packages
+
+    find = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"]["find"]
+    packages = find_packages(str(ROOT), include=find.get("include", ["*"]), exclude=find.get("exclude", ()))
+    assert packages and all(p == "igserver" or p.startswith("igserver.") for p in packages), packages
