@@ -12,6 +12,7 @@ from dataclasses import dataclass, replace
 import moderngl
 import numpy as np
 
+from ...astro.ephemeris import direction_enu, refraction_deg
 from ...scene.model import Scene
 from ...weather import effective_visibility, wind_heading
 from .atmosphere_model import (KOSCHMIEDER, PRESETS, SOLAR_ILLUMINANCE, AtmosphereParameters, atmosphere_parameters,
@@ -44,15 +45,52 @@ _sky_light_cache: dict = {}
 
 
 def cached_clear_light(params, tables: AtmosphereTables, altitude_m, sun_el, moon_el, moon_phase):
-    """clear_light() memoised per frame inputs (its float64 integrals cost ~5 ms a call)."""
+    """clear_light() memoised per frame inputs (its float64 integrals cost ~5 ms a call); the sky's
+    light from the sun where the scattering air sees it (sky_sun_elevation)."""
     key = (tables.key, round(altitude_m, 2), round(sun_el, 6), round(moon_el, 5), round(moon_phase, 6))
     hit = _clear_light_cache.get(key)
     if hit is None:
         if len(_clear_light_cache) > 256:
             _clear_light_cache.clear()
         hit = _clear_light_cache[key] = clear_light(params, tables.irradiance_host, altitude_m, sun_el, moon_el,
-                                                    moon_phase)
+                                                    moon_phase, sky_sun_elevation(sun_el))
     return hit
+
+
+# Refraction as the sky sees it. The ephemeris gives the sun's APPARENT elevation e_a = e_0 + R(e_0)
+# (SPA/Bennett refraction R, 0.48 deg at a true e_0 = 0): the bending of the rays that reach the
+# eye through the whole lowest air. The air that scatters the sky's light is lit by rays bent
+# only by the air they crossed: a ray grazing at height z is bent by ~R rho(z)/rho(0) (refraction
+# scales with the density at the tangent point, scale height H ~ 8 km). Weighting by where that
+# light is scattered (density rho) and how much of it arrives (the half tangent path's Rayleigh
+# optical depth a rho/rho(0), a = beta_R(550) sqrt(pi R_e H / 2) = 0.013558 /km x 283 km = 3.83):
+#     k = <rho/rho0> = int_0^1 x e^(-a x) dx / int_0^1 e^(-a x) dx = (1 - e^-a (1 + a)) / (a (1 - e^-a)),
+# 0.24: the sky's sun stands e_0 + k R, not e_0 + R. At a true sunset that is 0.36 deg lower
+# than the disk, and the sky's light there is 1.34x lower than for the disk's elevation
+# (the irradiance falls by x1.9 a degree near 0 deg).
+_A_TANGENT = 0.013558 * math.sqrt(math.pi * 6360.0 * 8.0 / 2.0)
+SKY_REFRACTION_FRACTION = (1.0 - math.exp(-_A_TANGENT) * (1.0 + _A_TANGENT)) / (
+    _A_TANGENT * (1.0 - math.exp(-_A_TANGENT)))
+_REFRACTION_LIMIT = -(0.26667 + 0.5667)  # deg, true elevation below which the ephemeris applies none
+
+
+def sky_sun_elevation(apparent_deg: float) -> float:
+    """The sun's elevation (deg) for the sky's light: the apparent elevation less the part of
+    its refraction the scattering air does not see (SKY_REFRACTION_FRACTION above). The
+    ephemeris jumps from e_a = e_lim + R(e_lim) (-0.21 deg) to e_lim (-0.83) as the refraction
+    stops; an instructor's fixed sun (time.sun_override) may lie in that gap, where the
+    refraction is taken linear in e_a, so the result is continuous and rising in e_a."""
+    top = _REFRACTION_LIMIT + refraction_deg(_REFRACTION_LIMIT)
+    if apparent_deg <= _REFRACTION_LIMIT:
+        return apparent_deg
+    if apparent_deg < top:
+        bend = refraction_deg(_REFRACTION_LIMIT) * (apparent_deg - _REFRACTION_LIMIT) / (top - _REFRACTION_LIMIT)
+    else:
+        true = apparent_deg - refraction_deg(apparent_deg)
+        for _ in range(8):  # e_0 = e_a - R(e_0): |dR/de| < 0.25, converges to float64 in ~8 steps
+            true = apparent_deg - refraction_deg(max(true, _REFRACTION_LIMIT))
+        bend = apparent_deg - true
+    return apparent_deg - (1.0 - SKY_REFRACTION_FRACTION) * bend
 
 
 def scene_visibility(scene: Scene) -> float:
@@ -180,9 +218,11 @@ def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
     })
     if tables is not None:
         sky_view = SkyView.get(ctx)
+        # The clear sky is scattered light: its sun stands where the scattering air sees it.
+        sky_sun = direction_enu(sky_sun_elevation(celestial.sun_elevation), celestial.sun_azimuth)
         sky_view.update(tables, {**uniforms, "u_camera_altitude": altitude_m,
-                                 "u_sun_dir": _t(celestial.sun_dir), "u_moon_dir": _t(celestial.moon_dir)},
-                        altitude_m, celestial.sun_dir, celestial.moon_dir, uniforms["u_moon_scale"])
+                                 "u_sun_dir": _t(sky_sun), "u_moon_dir": _t(celestial.moon_dir)},
+                        altitude_m, sky_sun, celestial.moon_dir, uniforms["u_moon_scale"])
         sky_view.bind()
         uniforms.update(sky_view.uniforms())
     return SkyFrame(light, uniforms, tables, sky_view, haze, horizontal)

@@ -88,8 +88,12 @@ class ClearLight:
 
 
 def clear_light(params: AtmosphereParameters, irradiance_table: np.ndarray, altitude_m: float, sun_elevation: float,
-                moon_elevation: float, moon_phase: float) -> ClearLight:
-    mu_s = math.sin(math.radians(sun_elevation))
+                moon_elevation: float, moon_phase: float, sky_sun_elevation: float | None = None) -> ClearLight:
+    """``sun_elevation`` is the apparent (refracted) one the direct beam arrives at;
+    ``sky_sun_elevation`` the one the air that scatters the sky's light sees (sky_sun_elevation()
+    in frame_sky.py; the apparent one if None)."""
+    sky_el = sun_elevation if sky_sun_elevation is None else sky_sun_elevation
+    mu_s = math.sin(math.radians(sky_el))
     sun = SOLAR_ILLUMINANCE * sun_transmittance(params, altitude_m, sun_elevation)
     sky = SOLAR_ILLUMINANCE * irradiance_from_table(params, irradiance_table, altitude_m, mu_s)
     moon_toa = moon_illuminance_toa(moon_phase) * SOLAR_ILLUMINANCE / float(LUMA @ SOLAR_ILLUMINANCE)
