@@ -301,3 +301,96 @@ def test_bursts_of_big_queries_leave_no_lasting_memory_growth():
     finally:
         server.stdin.close()
         server.wait(30)
+
+
+# --------------------------------------------------------------------------- WebSocket clients
+
+
+def ws_hello(port: int, hello: dict) -> socket.socket:
+    """A WebSocket client that sends its hello and then never reads (the handshake by hand)."""
+    import base64
+    import os
+    import struct
+
+    sock = socket.create_connection(("127.0.0.1", port), timeout=10)
+    key = base64.b64encode(os.urandom(16)).decode()
+    sock.sendall(f"GET /v1/ws HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                 f"Sec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n".encode())
+    head = b""
+    while b"\r\n\r\n" not in head:
+        head += sock.recv(1)
+    assert head.startswith(b"HTTP/1.1 101"), head
+    payload = msgpack.packb(hello)
+    mask = os.urandom(4)
+    masked = bytes(b ^ mask[i % 4] for i, b in enumerate(payload))
+    sock.sendall(struct.pack("!BB", 0x82, 0x80 | len(payload)) + mask + masked)
+    return sock
+
+
+def test_websocket_clients_over_the_bound_are_closed_1013():
+    with FakeServer(ServerSettings(max_ws_clients=2)) as srv:
+        url = f"ws://127.0.0.1:{srv.port}/v1/ws"
+        with connect(url, compression=None) as first, connect(url, compression=None) as second:
+            for ws in (first, second):
+                ws.send(msgpack.packb({"type": "hello", "credits": 1}))
+                assert msgpack.unpackb(ws.recv(5))["type"] == "frame"
+            with connect(url, compression=None) as third:
+                with pytest.raises(ConnectionClosed) as closed:
+                    third.recv(5)
+                assert closed.value.rcvd.code == 1013 and "max_ws_clients" in closed.value.rcvd.reason
+        deadline = time.monotonic() + 5
+        while srv.runtime.stream_clients["ws"]:
+            assert time.monotonic() < deadline
+            time.sleep(0.02)
+        with connect(url, compression=None) as again:  # room again once they left
+            again.send(msgpack.packb({"type": "hello", "credits": 1}))
+            assert msgpack.unpackb(again.recv(5))["type"] == "frame"
+
+
+RAW_SERVER = """
+import sys
+sys.path.insert(0, {tests!r})
+from test_service_limits import SCENE, FakeServer
+from igserver.protocol.settings import ServerSettings
+scene = {{**SCENE, "camera": {{"width": 1920, "height": 1080}}}}
+with FakeServer(ServerSettings(keepalive_s=0.05, max_fps=20), scene) as srv:
+    print(srv.port, flush=True)
+    sys.stdin.readline()
+"""
+RAW_FRAME_MB = 1920 * 1080 * 4 / 2**20
+
+
+def test_websocket_clients_that_do_not_read_hold_one_frame_each_and_free_it_when_they_close():
+    import os
+    import subprocess
+    import sys
+
+    server = subprocess.Popen([sys.executable, "-c", RAW_SERVER.format(tests=os.path.dirname(__file__))],
+                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+
+    def rss_mb() -> float:
+        with open(f"/proc/{server.pid}/status") as f:
+            return next(int(line.split()[1]) for line in f if line.startswith("VmRSS")) / 1024
+
+    try:
+        port = int(server.stdout.readline())
+        hello = {"type": "hello", "format": "raw", "credits": 16}
+        # the baseline: one such client, so that the frame pump runs (rendering, encoding)
+        first = ws_hello(port, hello)
+        time.sleep(2.0)
+        base = rss_mb()
+        clients = [ws_hello(port, hello) for _ in range(6)]
+        time.sleep(2.0)  # each client's socket buffers are full: what is left waits in the server
+        held = rss_mb() - base
+        for sock in clients:
+            sock.close()
+        time.sleep(1.0)
+        left = rss_mb() - base
+        first.close()
+        print(f"6 stalled raw clients: +{held:.0f} MB ({held / 6 / RAW_FRAME_MB:.2f} frames each); "
+              f"after they closed: {left:+.0f} MB")
+        assert held < 6 * 1.5 * RAW_FRAME_MB
+        assert left < 2 * RAW_FRAME_MB
+    finally:
+        server.stdin.close()
+        server.wait(30)

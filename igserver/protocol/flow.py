@@ -44,14 +44,24 @@ class TransportInScope(H11Protocol):
 
     def connection_made(self, transport: asyncio.Transport) -> None:  # type: ignore[override]
         super().connection_made(transport)
-        app = self.app
-
-        async def app_with_transport(scope, receive, send):
-            scope.setdefault("extensions", {})[SCOPE_KEY] = transport
-            return await app(scope, receive, send)
-
-        self.app = app_with_transport
+        self.app = _with_transport(self.app, transport)
         self._arm_deadline()
+
+    def handle_websocket_upgrade(self, event: h11.Request) -> None:
+        # uvicorn builds the WebSocket protocol with the configured app, not this connection's: give that
+        # protocol the transport too (it calls its app once the handshake is done, after this returns)
+        ws_class, transport = self.ws_protocol_class, self.transport
+
+        def ws_protocol_with_transport(*args, **kwargs):
+            protocol = ws_class(*args, **kwargs)
+            protocol.app = _with_transport(protocol.app, transport)
+            return protocol
+
+        self.ws_protocol_class = ws_protocol_with_transport
+        try:
+            super().handle_websocket_upgrade(event)
+        finally:
+            self.ws_protocol_class = ws_class
 
     def data_received(self, data: bytes) -> None:
         head_pending = self.conn.their_state is h11.IDLE
@@ -86,6 +96,14 @@ class TransportInScope(H11Protocol):
             self.transport.close()
 
 
+def _with_transport(app, transport: asyncio.Transport):
+    async def app_with_transport(scope, receive, send):
+        scope.setdefault("extensions", {})[SCOPE_KEY] = transport
+        return await app(scope, receive, send)
+
+    return app_with_transport
+
+
 def transport_of(scope: dict[str, Any]) -> asyncio.Transport | None:
     return (scope.get("extensions") or {}).get(SCOPE_KEY)
 
@@ -102,11 +120,14 @@ def unsent_bytes(transport: asyncio.Transport) -> int:
     return pending
 
 
-async def drained(transport: asyncio.Transport | None, stopping: asyncio.Event | None = None) -> bool:
-    """Wait until everything written to the connection has left the server; False if it closed (or the
-    server is stopping) first. Without a transport (another ASGI server) returns at once."""
+async def drained(transport: asyncio.Transport | None, stopping: asyncio.Event | None = None,
+                  kernel: bool = True) -> bool:
+    """Wait until everything written to the connection has left the server (``kernel`` False: has left the
+    process, into the kernel's send queue); False if it closed (or the server is stopping) first. Without a
+    transport (another ASGI server) returns at once."""
     delay = POLL_S[0]
-    while transport is not None and unsent_bytes(transport):
+    pending = unsent_bytes if kernel else (lambda t: t.get_write_buffer_size())
+    while transport is not None and pending(transport):
         if transport.is_closing() or (stopping is not None and stopping.is_set()):
             return False
         await asyncio.sleep(delay)

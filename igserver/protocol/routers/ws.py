@@ -16,6 +16,11 @@ Frames flow once the client's first message has arrived (a hello, or the first p
 ``ws_initial_credits``, 2 by default). Each frame sent costs one credit. With none left the server sends nothing; when a credit comes back it
 sends the newest frame at that moment, never a queued old one. A slow client therefore sees fewer, fresh
 frames, and the shared render loop never waits for it.
+
+Memory: a client holds at most one frame in the server, the one being written. The next frame is chosen
+(the newest then) only once the previous one has left the process; frames skipped meanwhile are counted
+in ``igserver_frames_dropped_total{stream="ws"}``. At most ``max_ws_clients`` clients at once: one more
+is accepted and closed at once with code 1013 (try again later).
 """
 
 from __future__ import annotations
@@ -23,12 +28,14 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import time
+from types import SimpleNamespace
 
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 
 from ..codec import MSGPACK, decode, encode
 from ..dependencies import get_runtime
-from ..frames import EncodedFrame
+from ...render.worker import release_free_memory
+from ..flow import drained, transport_of
 from ..problems import ProblemError
 from .frames import check_raw_size, frame_message
 
@@ -49,6 +56,7 @@ class Session:
         self.credit_arrived = asyncio.Event()
         self.greeted = asyncio.Event()  # frames flow after the client's first message (normally hello)
         self.send_lock = asyncio.Lock()  # frames and error replies come from two tasks
+        self.sent_raw = False
 
     async def send(self, value: dict) -> None:
         data = encode(value, MSGPACK)
@@ -63,35 +71,44 @@ class Session:
     # -- server -> client
     async def send_frames(self) -> None:
         runtime = self.runtime
-        last: EncodedFrame | None = None
+        last_frame = -1  # numbers, not the frame: a sent frame is not kept alive by its client
         last_revision = -1
+        transport = transport_of(self.ws.scope)
         await self.greeted.wait()
         with runtime.pump.subscription():
             while True:
                 while self.credits <= 0:
                     self.credit_arrived.clear()
                     await self.credit_arrived.wait()
-                encoded = await runtime.pump.next_frame(last, timeout=None)
-                if last is not None and encoded.ig_frame > last.ig_frame + 1:
-                    runtime.metrics.frames_dropped.inc(encoded.ig_frame - last.ig_frame - 1, stream="ws")
+                # the previous frame must have left the process before the next one is built: a client
+                # that does not read holds one frame (in the transport's buffer), not one per credit
+                if not await drained(transport, runtime.stopping, kernel=False):
+                    return
+                seen = SimpleNamespace(ig_frame=last_frame) if last_frame >= 0 else None
+                encoded = await runtime.pump.next_frame(seen, timeout=None)
+                if last_frame >= 0 and encoded.ig_frame > last_frame + 1:
+                    runtime.metrics.frames_dropped.inc(encoded.ig_frame - last_frame - 1, stream="ws")
                 if self.format == "raw":
                     try:
                         check_raw_size(runtime, "raw", encoded.frame.width, encoded.frame.height)
                     except ProblemError as problem:  # the frame grew past the raw limit: go on in jpeg
                         self.format = "jpeg"
                         await self.send({"type": "error", "problem": problem.document("/v1/ws")})
-                # one frame in flight per client: send() waits while the client does not read, holding
-                # only this frame; the next one sent is the newest at that moment
-                data, encode_ms = await encoded.encoded_async(self.format, self.quality, runtime.metrics)
+                if self.format == "raw":  # the pixels themselves go into the message: no raw copy cached
+                    data, encode_ms = memoryview(encoded.frame.rgba).cast("B"), 0.0
+                    self.sent_raw = True
+                else:
+                    data, encode_ms = await encoded.encoded_async(self.format, self.quality, runtime.metrics)
                 self.credits -= 1
                 await self.send(frame_message(encoded, self.format, data, encode_ms))
                 runtime.metrics.frames_sent.inc(stream="ws")
                 if encoded.revision != last_revision:
-                    if last is not None:
+                    if last_frame >= 0:
                         runtime.metrics.latency_ms.observe((time.perf_counter() - encoded.accepted_at) * 1e3,
                                                            stream="ws")
                     last_revision = encoded.revision
-                last = encoded
+                last_frame = encoded.ig_frame
+                del encoded, data
 
     # -- client -> server
     async def receive_messages(self) -> None:
@@ -184,22 +201,35 @@ class Session:
 async def frame_socket(websocket: WebSocket):
     runtime = get_runtime(websocket)
     await websocket.accept()
+    limit = runtime.settings.max_ws_clients
+    if runtime.stream_clients["ws"] >= limit:
+        # accepted first: a close before the handshake would reach the client as HTTP 403, without the code
+        runtime.metrics.protocol_errors.inc(kind="ws_clients")
+        await websocket.close(code=1013, reason=f"too many WebSocket clients (max_ws_clients = {limit})")
+        return
     session = Session(websocket, runtime)
     runtime.stream_clients["ws"] += 1
-    sender = asyncio.create_task(session.send_frames())
-    receiver = asyncio.create_task(session.receive_messages())
+    tasks = (asyncio.create_task(session.send_frames()), asyncio.create_task(session.receive_messages()))
+    failure = None
     try:
-        done, _ = await asyncio.wait({sender, receiver}, return_when=asyncio.FIRST_COMPLETED)
-        for task in done:
-            if not task.cancelled() and task.exception() and not isinstance(
-                task.exception(), (WebSocketDisconnect, RuntimeError)
-            ):
-                raise task.exception()
-    except WebSocketDisconnect:
-        pass
+        done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
+        failure = next((task.exception() for task in done if not task.cancelled() and not isinstance(
+            task.exception(), (type(None), WebSocketDisconnect, RuntimeError, OSError))), None)
+        del done
     finally:
         runtime.stream_clients["ws"] -= 1
-        for task in (sender, receiver):
+        for task in tasks:
             task.cancel()
-            with contextlib.suppress(BaseException):
-                await task
+        # gathered, not awaited one by one: an ended task's exception is not raised again in this frame,
+        # whose traceback would then hold the frame and through it the task and its exception (a cycle
+        # that keeps a frame-sized message alive until the cyclic collector happens to run)
+        with contextlib.suppress(asyncio.CancelledError):
+            await asyncio.gather(*tasks, return_exceptions=True)
+        del tasks
+        if session.sent_raw:  # frame-sized buffers were freed: give them back to the OS
+            await asyncio.to_thread(release_free_memory)
+    if failure is not None:
+        try:
+            raise failure
+        finally:
+            failure = None
