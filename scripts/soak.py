@@ -1,4 +1,4 @@
-"""Soak the server and report whether memory returns to its baseline (issue 9, findings 2c/2d).
+"""Soak the server and report whether memory returns to its baseline (docs/operations.md, Memory).
 
     .venv/bin/python scripts/soak.py [--frames 3000]
 

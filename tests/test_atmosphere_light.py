@@ -48,7 +48,7 @@ def radiance(renderer, s: Scene) -> np.ndarray:
     return renderer.read_hdr()[..., :3] / frame.exposure, exposure
 
 
-# --- issue 11: exposure through dusk -----------------------------------------------------------
+# --- exposure through dusk ------------------------------------------------------------------
 
 # (180, True) failed from the wave sea's merge until the water pass stopped binding its third detail
 # map on the frame's haze-table unit (8): the sky and every later pass read wave slopes as fog light.
@@ -201,7 +201,7 @@ def test_fixed_exposure_wins(renderer):
     assert renderer.render(s).ev100 == 3.0
 
 
-# --- issue 10: fog and visibility ----------------------------------------------------------------
+# --- fog and visibility -----------------------------------------------------------------------
 
 def test_visibility_never_rebuilds_tables(renderer):
     renderer.render(scene(atmosphere={"visibility": 20_000.0}))
@@ -323,7 +323,7 @@ def test_frame_reports_ev100_and_illuminance(renderer):
     assert message["illuminance_lux"] == pytest.approx(result.illuminance_lux, rel=1e-5)
 
 
-# --- issue 9 item 4: the table cache is bounded ------------------------------------------------------
+# --- the table cache is bounded ------------------------------------------------------------------
 
 def test_table_cache_evicts_least_recently_used(tmp_path):
     import os

@@ -104,7 +104,7 @@ def test_cli(server, tmp_path, capsys):
     assert "ws:" in out and "http:" in out and "p99" in out
 
 
-# --------------------------------------------------------------------------- issue 9, item 9: CLI and client
+# --------------------------------------------------------------------------- the igclient CLI and the client
 
 def test_cli_messages_instead_of_tracebacks(server, tmp_path, capsys):
     url = ["--url", server.url]

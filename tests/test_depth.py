@@ -1,6 +1,6 @@
-"""Depth from 1 mm to 10,000 km (issue 12): reversed-Z, float depth, an infinite far plane.
+"""Depth from 1 mm to 10,000 km: reversed-Z, float depth, an infinite far plane.
 
-Each case the issue lists is a regression test here: a far plane of 1e7 m renders the sky, the
+Each stiff case is a regression test here: a far plane of 1e7 m renders the sky, the
 ground and the sea; boxes a few tens of metres apart at 5 km and 80 km occlude in the right order
 (and, generally, objects 0.1 % of their distance apart from 1 m to 100 km); from 100 km up the sea
 reaches its horizon with no holes; no dark line on the sea horizon at narrow fields of view.

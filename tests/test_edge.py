@@ -1,4 +1,4 @@
-"""The service's edge (issue 9 part B), through real servers on loopback: safe defaults (content type, Host,
+"""The service's edge, through real servers on loopback: safe defaults (content type, Host,
 Origin, bearer token and the viewer's cookie login), settings, offline docs, an OpenAPI document that
 matches the wire, strict types, limits, 405 Allow, Prometheus metrics."""
 

@@ -1,4 +1,4 @@
-"""Quality presets (issue 12): the knob table, the one-knob ladder between levels, the auto
+"""Quality presets: the knob table, the one-knob ladder between levels, the auto
 controller's hysteresis, and the preset from the scene model (= the protocol) and the CLI."""
 
 from __future__ import annotations

@@ -47,9 +47,8 @@ def scene_states(draw):
                    "near": near, "far": far, "width": W, "height": H},
         "time": {"sun_override": {"elevation": sun_elevation, "azimuth": draw(st.floats(0.0, 360.0))},
                  "sim_time": draw(st.sampled_from([0.0, 1e6, 1e9]))},
-        # Visibility: its corners and the default only. Each new value rebuilds the atmosphere
-        # tables for seconds today (the atmosphere part of issue 12 removes that); 200 km is the
-        # value test_depth.py already built.
+        # Visibility: its corners and the default only (the cases docs/design.md#stability names);
+        # 200 km is the value test_depth.py also renders.
         "atmosphere": {"visibility": draw(st.sampled_from([30_000.0, 200_000.0]))},
         "weather": {"wind_speed": draw(corner([0.0, 40.0], st.floats(0.0, 40.0)))},
         "ocean": {"enabled": draw(st.booleans())},

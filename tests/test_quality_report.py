@@ -1,4 +1,4 @@
-"""The combined quality report (issue 12): every study module is found, the report has a table per
+"""The combined quality report: every study module is found, the report has a table per
 pipeline and a PNG plot of error against ms with the presets marked."""
 
 from __future__ import annotations

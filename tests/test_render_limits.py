@@ -1,4 +1,4 @@
-"""Accepted extremes render (issue 9, findings 2, 2b, 2c), on the session renderer:
+"""Accepted extremes render, on the session renderer:
 a camera at the model's altitude limit, many distinct profile assets (bounded texture cache), and the
 budget's mirror of the renderer's presets."""
 

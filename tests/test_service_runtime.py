@@ -1,4 +1,4 @@
-"""The service as an operator runs it (issue 9, part A), through a real server and render process:
+"""The service as an operator runs it, through a real server and render process:
 the IG clock, the render budget, named profile assets, render time limit and watchdog, frame memory,
 readiness with precompute progress, and graceful shutdown with open streams."""
 

@@ -1,4 +1,4 @@
-"""Volume speed-ups and the stripe fix (issue 12): footprint-limited march steps, reduced-resolution
+"""Volume speed-ups and the stripe fix: footprint-limited march steps, reduced-resolution
 march with depth-aware upsampling, re-modelling at a capped rate with keyframe blending.
 
 Named to run before test_volumes.py, whose module-scoped second GL context, once released, leaves

@@ -211,7 +211,7 @@ def test_eikonal_sweep_keeps_a_plane_wave_exact():
 @pytest.mark.parametrize("wind_direction", [70.0, 250.0])
 def test_height_map_phase_is_continuous(wind_direction):
     """Over the island map the residual phase R = ψ − k_ref·D·x may not jump between neighbouring
-    nodes (issue 8: the old row march left |ΔR|/Δ up to 324 rad/m against k ≤ 0.32). The converged
+    nodes (a row march, which this replaced, left |ΔR|/Δ up to 324 rad/m against k ≤ 0.32). The converged
     sweep satisfies ψ_i ≤ ψ_j + k_i·Δ for every neighbour j (the Godunov update is at most the one-sided
     value), so |Δψ| ≤ max(k_i, k_j)·Δ and |ΔR| ≤ (max(k_i, k_j) + k_ref)·Δ, dry land (filled at its
     own k) included. Rounding: 1e-9 relative (float64 sums of ≤ 800 steps)."""

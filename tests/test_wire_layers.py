@@ -54,7 +54,7 @@ def test_codec_passes_finite_trees_through_unchanged():
             "flag": True, "n": 3, "s": "text"}
     assert decode(pack(tree), MSGPACK) == tree
     assert decode(json.dumps(tree).encode(), JSON) == tree
-    # no content type is refused (issue 9 item 3: a write must name JSON or msgpack)
+    # no content type is refused (a write must name JSON or msgpack: docs/operations.md, Security)
     assert raises_kind("unsupported_media_type", decode, json.dumps(tree).encode(), "")
     assert decode(pack(tree), "application/x-msgpack; charset=binary") == tree
 

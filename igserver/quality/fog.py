@@ -11,7 +11,7 @@ reflect off a Lambertian ground of albedo A, and are followed until they leave t
     the ground plane downward within 10 deg of the vertical, per solid angle and cosine).
 The analytic values are those of sky/haze.py (the same formulas the shaders evaluate). Also
 measured through the renderer: the frame time of the first frames after a visibility change
-against the steady frame time (issue 10: the first frame within 2x, no freeze).
+against the steady frame time (the first frame within 2x: a visibility change must not freeze a stream).
 """
 
 from __future__ import annotations

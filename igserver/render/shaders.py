@@ -52,7 +52,7 @@ def assemble(path: str, stage: str, defines: dict[str, object] | None = None) ->
     lines = [GLSL_VERSION, f"#define {stage}_SHADER 1"]
     if os.environ.get("IGSERVER_ATMOSPHERE_DIRECT") == "1":
         # Study knob: every pass walks the 4D atmosphere tables per pixel instead of reading the
-        # per-frame sky-view table (the pre-wave-2 cost, for before/after timings and image error).
+        # per-frame sky-view table (the per-pixel reference, for the table's timings and image error).
         lines.append("#define ATMOSPHERE_DIRECT_TABLES 1")
     for key, value in sorted((defines or {}).items()):
         lines.append(f"#define {key} {value}" if value is not True else f"#define {key} 1")

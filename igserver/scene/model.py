@@ -314,7 +314,7 @@ class Light(Strict):
         return self
 
 
-# --- Surfaces: entities (glTF models), their articulated parts, shadows (issue 13) -------------------
+# --- Surfaces: entities (glTF models), their articulated parts, shadows (docs/surfaces.md) ----------
 
 MAX_PARTS = 32
 PART_NAME_PATTERN = r"^[A-Za-z0-9_.:-][A-Za-z0-9_.: -]{0,63}$"

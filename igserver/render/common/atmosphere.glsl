@@ -12,7 +12,7 @@
 // Two tiers, chosen per frame by u_sky_model (0 gradient, 1 precomputed) or at compile time by
 // SKY_GRADIENT / SKY_PRECOMPUTED (the sky pass):
 //
-// Gradient tier (seed 003, first approach): with theta the view elevation normalised to [0,1],
+// Gradient tier (the paper's first approach, docs/design.md#atmosphere): with theta the view elevation normalised to [0,1],
 //   Coeff = (1 - theta)^2,   colour = zenith + (horizon - zenith) * Coeff,
 // zenith/horizon colours (cd/m^2) computed on the CPU from sun elevation and observer altitude,
 // plus a halo around the sun whose colour and size follow the sun's elevation; aerial perspective
@@ -128,8 +128,8 @@ uniform vec3 u_night_sky;   // cd/m^2 at the zenith: airglow, zodiacal light, fa
 uniform vec3 u_moon_scale;  // moon / sun illuminance above the atmosphere, per channel (0: no moon)
 
 // Scattered light of one source (sun or moon) along a ray, per unit source illuminance.
-// (The per-pixel reference path keeps the plain linear lookup of the pre-wave-2 renderer, so its
-// cost is the old cost; the per-frame table can afford the geometric one.)
+// (The per-pixel reference path keeps the plain linear lookup, so it costs what a per-pixel table walk
+// always cost; the per-frame sky-view table can afford the geometric one.)
 vec3 clear_scattering(float r, float mu, float mu_s, float nu, bool hits_ground) {
 #ifdef ATMOSPHERE_DIRECT_TABLES
     vec3 s = scattering_lookup(u_scattering_lut, r, mu, mu_s, nu, hits_ground).rgb;

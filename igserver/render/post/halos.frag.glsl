@@ -4,7 +4,7 @@
 // several ms per full-resolution frame on llvmpipe.
 #include "common/frame.glsl"
 #include "common/nearest_distance.glsl"
-// Halos of lights in fog (issue 10: a night fog glows around fires and lamps, more as visibility
+// Halos of lights in fog (a night fog glows around fires and lamps, more as visibility
 // falls): the single-scattered light of each point source along the pixel's view ray up to the
 // surface, in a homogeneous medium of the fog's extinction at the camera (beta, albedo omega,
 // Henyey-Greenstein g). Closed form through one table (post/halos.py): with h the light's distance

@@ -1,4 +1,4 @@
-// Precipitation streaks (seed 003): one screen-aligned quad per particle copy, from the particle's
+// Precipitation streaks (docs/design.md#precipitation): one screen-aligned quad per particle copy, from the particle's
 // position T ago to its current position (particles.py), at least one pixel wide.
 //
 // Particle i (gl_VertexID / 4) of tile k (u_first_tile + gl_InstanceID) sits at q_i + L k,
