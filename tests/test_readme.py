@@ -206,13 +206,16 @@ def anchors(path: Path) -> set[str]:
 
 
 def test_readme_links_resolve():
-    """Every relative link of the README names a file of the repository, and its anchor a heading there."""
-    for target, anchor in re.findall(r"\]\(([^)#\s]+)(?:#([^)\s]*))?\)", README.read_text()):
-        if "://" in target:
-            continue
-        assert (ROOT / target).exists(), f"README links to a missing {target}"
-        if anchor:
-            assert anchor in anchors(ROOT / target), f"README links to {target}#{anchor}: no such heading"
+    """Every relative link of the README and of the docs/ pages names a file of the repository, and its
+    anchor a heading (or an <a id>) there."""
+    for page in [README, ROOT / "clients" / "README.md", *sorted((ROOT / "docs").glob("*.md"))]:
+        for target, anchor in re.findall(r"\]\(([^)#\s]*)(?:#([^)\s]*))?\)", page.read_text()):
+            if "://" in target or target.startswith("mailto:"):
+                continue
+            path = (page.parent / target) if target else page
+            assert path.exists(), f"{page.relative_to(ROOT)} links to a missing {target}"
+            if anchor and path.suffix == ".md":
+                assert anchor in anchors(path), f"{page.relative_to(ROOT)} links to {target}#{anchor}: no such heading"
 
 
 def test_clients_are_not_in_the_server_package():
