@@ -17,7 +17,8 @@ Where a command is not simply run, the reason:
   an hour on two cores. They are validated dry: the command with `--help` appended must succeed and its
   help must name every flag the README uses, and every scene a `--scenes` list names must load.
 
-The clients/ host program the README points to runs too, against the same server.
+The clients/ host program the README points to runs too, against the same server. The README's and the
+docs pages' links resolve, and every docs/design.md section a code comment cites exists.
 """
 
 from __future__ import annotations
