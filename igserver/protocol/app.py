@@ -122,7 +122,10 @@ def create_app(
             await runtime.stop()
 
     # Swagger UI and ReDoc from the fastapi-offline package: /docs works on an air-gapped network
+    # (ReDoc's page is routers/docs.py's; Swagger's validator badge would be fetched from outside)
     app = FastAPIOffline(
+        redoc_url=None,
+        swagger_ui_parameters={"validatorUrl": None},
         title="igserver",
         version="1",
         summary="Image generator for training simulators",

@@ -5,9 +5,9 @@ The state messages are ``igserver.scene.Scene`` unchanged; these are the envelop
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, BeforeValidator, Field
 
 SCENE_REF = {"$ref": "#/components/schemas/Scene"}
 PATCH_SCHEMA = {"$ref": "#/components/schemas/ScenePatch"}  # built in openapi.py: the Scene, all optional
@@ -39,6 +39,21 @@ def body_doc(schema: dict, description: str) -> dict:
 
 
 MSGPACK_ALSO = {"application/vnd.msgpack": {}}
+
+# Query flags: HTTP's spellings of a boolean, and nothing looser. ``?replace=yes`` meaning true (pydantic's
+# lax bool) would let a typo replace the whole state; any case is accepted, as Python's requests sends "True".
+QUERY_BOOLS = {"true": True, "1": True, "false": False, "0": False}
+
+
+def strict_query_bool(value: Any) -> bool:
+    if isinstance(value, bool):  # the route's default
+        return value
+    if isinstance(value, str) and value.lower() in QUERY_BOOLS:
+        return QUERY_BOOLS[value.lower()]
+    raise ValueError(f"expected true, false, 1 or 0, got {str(value)[:20]!r}")
+
+
+QueryBool = Annotated[bool, BeforeValidator(strict_query_bool)]
 PROBLEM_RESPONSES = {
     code: {
         "description": text,

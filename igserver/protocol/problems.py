@@ -100,8 +100,13 @@ def from_validation_error(exc: ValidationError, prefix: tuple = ()) -> ProblemEr
         errors.append({"pointer": json_pointer(loc), "detail": err.get("msg", "invalid value")})
         if err.get("type") == "finite_number":
             kind = "non_finite"
+    return ProblemError(kind, summary(errors), errors)
+
+
+def summary(errors: list[dict[str, str]]) -> str:
+    """A problem's detail from its field errors: the first one, with its pointer, and how many more."""
     first = errors[0] if errors else {"pointer": "#", "detail": "invalid"}
-    summary = f"{first['pointer']}: {first['detail']}"
+    text = f"{first['pointer']}: {first['detail']}"
     if len(errors) > 1:
-        summary += f" (and {len(errors) - 1} more)"
-    return ProblemError(kind, summary, errors)
+        text += f" (and {len(errors) - 1} more)"
+    return text

@@ -35,7 +35,7 @@ COOKIE = "igserver_token"
 QUERY = "access_token"
 SAFE = frozenset({"GET", "HEAD", "OPTIONS"})
 OPEN_PATHS = ("/v1/health", "/docs", "/redoc", "/openapi.json", "/asyncapi.json", "/v1/ws-protocol",
-              "/static-offline-docs/", "/v1/problems/")
+              "/static-offline-docs/", "/v1/problems/", "/favicon.ico")
 
 
 def _split_host(value: str) -> tuple[str, str | None]:
@@ -92,6 +92,10 @@ class EdgeGuard:
         return ProblemError("forbidden", f"Origin {origin!r} is not allowed (add it to IGSERVER_ALLOWED_ORIGINS)")
 
     def presented_token(self, scope, headers: dict[str, str]) -> str | None:
+        """The token the request carries, stripped; a blank one (``?access_token=+++``) is none."""
+        return (self._presented(scope, headers) or "").strip() or None
+
+    def _presented(self, scope, headers: dict[str, str]) -> str | None:
         auth = headers.get("authorization", "")
         if auth[:7].lower() == "bearer ":
             return auth[7:].strip()
@@ -109,7 +113,7 @@ class EdgeGuard:
         return None
 
     def token_ok(self, presented: str | None) -> bool:
-        return presented is not None and hmac.compare_digest(presented.encode(), self.token.encode())
+        return bool(presented) and hmac.compare_digest(presented.encode(), self.token.encode())
 
     def check(self, scope, headers: dict[str, str]) -> ProblemError | None:
         problem = self.check_host(headers)

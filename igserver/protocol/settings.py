@@ -111,9 +111,12 @@ class ServerSettings(BaseSettings):
         return value
 
     def bearer_token(self) -> str | None:
-        """The configured token (``token`` wins over ``token_file``); None when authentication is off."""
-        if self.token is not None and self.token.get_secret_value():
-            return self.token.get_secret_value()
+        """The configured token (``token`` wins over ``token_file``); None when authentication is off.
+
+        Surrounding whitespace is not part of a token (a header's value is read stripped), so a blank one
+        (``IGSERVER_TOKEN='   '``) is no token: a network bind then refuses to start, as without one."""
+        if self.token is not None and self.token.get_secret_value().strip():
+            return self.token.get_secret_value().strip()
         if self.token_file is not None:
             text = self.token_file.read_text(encoding="utf-8").strip()
             return text or None

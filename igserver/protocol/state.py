@@ -8,6 +8,7 @@ the event loop thread only, which makes them atomic with respect to each other w
 from __future__ import annotations
 
 import asyncio
+import math
 import time
 from typing import Any, Callable
 
@@ -51,11 +52,41 @@ class StateStore:
         self._changed = asyncio.Event()
         self._on_accept = on_accept
         self._good: tuple[int, Scene] | None = None  # the last revision that rendered, and its state
+        # DELETEd effects fading out: id -> the sim_time their fade ends, when they leave the state
+        self._removing: dict[str, float] = {}
 
     @property
     def scene(self) -> Scene:
         """The accepted state at the IG clock's sim_time now: what a frame rendered now shows."""
-        return at_sim_time(self._scene, self.clock.sim_time())
+        now = self.clock.sim_time()
+        if self._removing:
+            self._drop_faded(now)
+        return at_sim_time(self._scene, now)
+
+    # -- DELETEd effects: they fade out, then leave; meanwhile their id and their slot may be taken again
+    def remove_after_fade(self, effect_id: str) -> None:
+        """The effect (already inactive) leaves the state when its fade-out ends."""
+        effect = next(e for e in self._scene.effects if e.id == effect_id)
+        # changed_at None: inactive since the state began, nothing to fade
+        self._removing[effect_id] = -math.inf if effect.changed_at is None else effect.changed_at + effect.fade
+
+    def keep(self, effect_id: str) -> None:
+        """A new effect took the id of a DELETEd one: it stays."""
+        self._removing.pop(effect_id, None)
+
+    def fading_out(self) -> dict[str, float]:
+        """DELETEd effects still fading: id -> the sim_time they leave, soonest first."""
+        return dict(sorted(self._removing.items(), key=lambda item: item[1]))
+
+    def _drop_faded(self, now: float) -> None:
+        gone = {effect_id for effect_id, end in self._removing.items() if end <= now}
+        if not gone:
+            return
+        for effect_id in gone:
+            del self._removing[effect_id]
+        # Not a new revision: a faded-out effect draws nothing (fade level 0), so no frame changes.
+        effects = [effect for effect in self._scene.effects if effect.id not in gone]
+        self._scene = self._scene.model_copy(update={"effects": effects})
 
     def _accept(self, new: Scene, tree: Any = None) -> Scene:
         host_time = sends_sim_time(tree)
@@ -63,6 +94,9 @@ class StateStore:
             self.clock.host_sent(host_time)
         now = self.clock.sim_time()
         new = at_sim_time(stamp_effect_changes(self._scene, new, now), now)
+        if self._removing:  # a removal ends when its effect is gone or burning again
+            inactive = {effect.id for effect in new.effects if not effect.active}
+            self._removing = {i: end for i, end in self._removing.items() if i in inactive}
         self._scene = new
         self.revision += 1
         self.accepted_at = time.perf_counter()

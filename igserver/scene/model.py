@@ -196,7 +196,8 @@ class Bathymetry(Strict):
     shore_distance: float = Field(500.0, ge=0.0, le=1e6, description="m, origin-to-shoreline distance (slope)")
     shore_heading: float = Field(0.0, ge=0.0, le=360.0, description="deg, direction from origin to shore")
     slope: float = Field(0.02, gt=0.0, le=1.0, description="bottom slope dz/dx (slope)")
-    map: str | None = Field(None, max_length=64, description="bathymetry asset name: a grey PNG (map)")
+    map: str | None = Field(None, max_length=64, pattern=ASSET_NAME_PATTERN, validate_default=True,
+                            description="bathymetry asset name: a grey PNG (map)")
     map_center: tuple[Coordinate, Coordinate] = Field((0.0, 0.0), description="m, ENU (x, y) of the image centre (map)")
     map_size: tuple[
         Annotated[float, Field(ge=1.0, le=1e6)], Annotated[float, Field(ge=1.0, le=1e6)]
@@ -206,14 +207,24 @@ class Bathymetry(Strict):
         Annotated[float, Field(ge=-11_000.0, le=9000.0)], Annotated[float, Field(ge=-11_000.0, le=9000.0)]
     ] = Field((-50.0, 10.0), description="m, bottom elevation above the water level of black and of white (map)")
 
+    @field_validator("map")
+    @classmethod
+    def _map(cls, value: str | None, info) -> str | None:
+        # a field validator, so that its errors point at the map (#/ocean/bathymetry/map); ``type`` is
+        # declared first, so it is in info.data when valid
+        if value is None:
+            if info.data.get("type") == "map":
+                raise ValueError("bathymetry.type 'map' needs bathymetry.map (an asset name)")
+            return value
+        # the asset must exist: checked here, at the protocol edge, not at render time
+        try:
+            resolve_asset("bathymetry", value, (".png",))
+        except AssetError as exc:
+            raise ValueError(str(exc)) from None
+        return value
+
     @model_validator(mode="after")
-    def _map(self) -> "Bathymetry":
-        if self.type == "map" and self.map is None:
-            raise ValueError("bathymetry.type 'map' needs bathymetry.map (an asset name)")
-        if self.map is not None:
-            from ..assets import resolve_asset  # plain names only; the asset must exist (checked here,
-                                                # at the protocol edge, not at render time)
-            resolve_asset("bathymetry", self.map, (".png",))
+    def _map_elevation(self) -> "Bathymetry":
         if not self.map_elevation[1] > self.map_elevation[0]:
             raise ValueError("bathymetry.map_elevation must be (lower, higher)")
         return self

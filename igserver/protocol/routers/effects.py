@@ -6,12 +6,14 @@ revision, and switching ``active`` stamps ``changed_at`` with the scene's sim_ti
 
 from __future__ import annotations
 
+from typing import Annotated
+
 from fastapi import APIRouter, Path, Query, Response
 
-from ...scene.model import ID_PATTERN, Effect
+from ...scene.model import ID_PATTERN, MAX_EFFECTS, Effect
 from ..dependencies import Message, ReplyFormat, Runtime, reply
-from ..models import EFFECT_PATCH_REF, EFFECT_REF, MSGPACK_ALSO, PROBLEM_RESPONSES, body_doc
-from ..problems import ProblemError
+from ..models import EFFECT_PATCH_REF, EFFECT_REF, MSGPACK_ALSO, PROBLEM_RESPONSES, QueryBool, body_doc
+from ..problems import ProblemError, summary
 
 router = APIRouter(prefix="/v1/effects", tags=["effects"])
 
@@ -31,17 +33,31 @@ def _find(runtime, effect_id: str) -> tuple[int, list[dict]]:
 
 
 def _commit(runtime, trees: list[dict], index_for_errors: int | None, method: str) -> None:
-    # errors point into the request body (``#/diameter``), not into the scene (``#/effects/3/diameter``)
+    # errors point into the request body (``#/diameter``), not into the scene (``#/effects/3/diameter``),
+    # in errors[] and in the detail alike
     try:
         runtime.store.patch({"effects": trees})
     except ProblemError as problem:
-        prefix = f"#/effects/{index_for_errors}" if index_for_errors is not None else None
-        if prefix:
+        if index_for_errors is not None:
+            prefix = f"#/effects/{index_for_errors}"
             for error in problem.errors:
-                if error["pointer"].startswith(prefix):
+                if error["pointer"] == prefix or error["pointer"].startswith(prefix + "/"):
                     error["pointer"] = "#" + error["pointer"][len(prefix):]
+            problem.detail = summary(problem.errors) if problem.errors else problem.detail
         raise
     runtime.metrics.state_updates.inc(method=method)
+
+
+def _make_room(runtime, trees: list[dict], effect_id: str) -> list[dict]:
+    """A new effect takes the place of a DELETEd one fading out under its id, and, when every slot is
+    taken, those of DELETEd ones fading out (soonest gone first): their fades are cut short."""
+    fading = runtime.store.fading_out()
+    trees = [tree for tree in trees if not (tree["id"] == effect_id and tree["id"] in fading)]
+    for fading_id in fading:
+        if len(trees) < MAX_EFFECTS:
+            break
+        trees = [tree for tree in trees if tree["id"] != fading_id]
+    return trees
 
 
 @router.get("", response_model=list[Effect], summary="All effects", responses={200: {"content": MSGPACK_ALSO}})
@@ -61,11 +77,12 @@ async def list_effects(runtime: Runtime, fmt: ReplyFormat):
 async def add_effect(runtime: Runtime, message: Message, fmt: ReplyFormat):
     if not isinstance(message, dict):
         raise ProblemError("validation", "an effect must be a map", [{"pointer": "#", "detail": "expected a map"}])
-    trees = _effect_trees(runtime)
+    trees = _make_room(runtime, _effect_trees(runtime), message.get("id"))
     if any(tree["id"] == message.get("id") for tree in trees):
         raise ProblemError("conflict", f"effect {message.get('id')!r} exists: PATCH it instead")
     trees.append(message)
     _commit(runtime, trees, len(trees) - 1, "effect_add")
+    runtime.store.keep(message["id"])
     _, trees = _find(runtime, message["id"])
     effect = next(t for t in trees if t["id"] == message["id"])
     return reply(effect, fmt, status_code=201, headers={"Location": f"/v1/effects/{message['id']}"})
@@ -100,14 +117,15 @@ async def patch_effect(runtime: Runtime, message: Message, fmt: ReplyFormat, eff
 @router.delete(
     "/{effect_id}",
     status_code=202,
-    summary="Deactivate with a fade (202, the effect stays until replaced); ?immediate=true removes it (204)",
+    summary="Deactivate with a fade, then remove (202: listed, inactive, until the fade ends; its id and "
+    "slot are free at once); ?immediate=true removes it now (204)",
     responses={202: {"model": Effect, "content": MSGPACK_ALSO}, 204: {"description": "removed"}},
 )
 async def delete_effect(
     runtime: Runtime,
     fmt: ReplyFormat,
     effect_id: str = EffectId,
-    immediate: bool = Query(False, description="remove at once, without a fade"),
+    immediate: Annotated[QueryBool, Query(description="remove at once, without a fade")] = False,
 ):
     index, trees = _find(runtime, effect_id)
     if immediate:
@@ -116,5 +134,6 @@ async def delete_effect(
         return Response(status_code=204)
     trees[index]["active"] = False
     _commit(runtime, trees, index, "effect_deactivate")
+    runtime.store.remove_after_fade(effect_id)
     index, trees = _find(runtime, effect_id)
     return reply(trees[index], fmt, status_code=202)

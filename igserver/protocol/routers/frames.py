@@ -5,7 +5,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import time
-from typing import Literal
+from typing import Annotated, Literal
 
 from fastapi import APIRouter, Query, Request, Response
 from fastapi.responses import StreamingResponse
@@ -15,7 +15,7 @@ from ..dependencies import Message, Runtime
 from ..flow import drained, transport_of
 from ..frames import EncodedFrame
 from ..imaging import MEDIA_TYPES
-from ..models import PATCH_SCHEMA, PROBLEM_RESPONSES, body_doc
+from ..models import PATCH_SCHEMA, PROBLEM_RESPONSES, QueryBool, body_doc
 from ..problems import ProblemError
 from ...render.worker import RenderError
 
@@ -119,7 +119,7 @@ async def render_state(
     request: Request,
     runtime: Runtime,
     message: Message,
-    replace: bool = Query(False, description="the body is a complete state, not a patch"),
+    replace: Annotated[QueryBool, Query(description="the body is a complete state, not a patch")] = False,
     format: Format = Query("jpeg"),
     quality: int = Query(85, ge=1, le=100),
 ):

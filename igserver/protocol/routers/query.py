@@ -38,11 +38,12 @@ class WaterHeightQuery(BaseModel):
 
 
 async def query_body(request: Request, runtime: Runtime):
-    """The body under the server's limits, arrays widened to twice the point bound: a longer list of
-    points is a validation error of this route (422 with its pointer), not a generic array limit."""
+    """The body under the server's limits, with arrays as long as the body allows (an item takes at least
+    a byte): more points than MAX_QUERY_POINTS is always this route's validation error (422, pointer
+    #/points), never the generic array limit; only a body over the byte limit is 413."""
     limits = runtime.settings.limits
     return await decode_message(request, limits.model_copy(
-        update={"max_array": max(limits.max_array, 2 * MAX_QUERY_POINTS)}))
+        update={"max_array": max(limits.max_array, limits.max_body_bytes)}))
 
 
 QueryMessage = Annotated[object, Depends(query_body)]
