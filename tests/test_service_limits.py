@@ -121,6 +121,59 @@ def closed_by_server(sock: socket.socket, within_s: float) -> bool:
         return False
 
 
+class ServerProcess:
+    """A ``FakeServer`` in a process of its own (its memory and descriptors apart from the test's):
+    ``settings`` and ``scene`` are Python expressions; ``rlimit_nofile`` caps its descriptors."""
+
+    SCRIPT = """
+import logging, resource, sys
+sys.path.insert(0, {tests!r})
+if {nofile}:
+    resource.setrlimit(resource.RLIMIT_NOFILE, ({nofile}, {nofile}))
+logging.basicConfig(level=logging.WARNING, format="%(name)s %(message)s")
+from test_service_limits import SCENE, SEA, FakeServer
+from igserver.protocol.settings import ServerSettings
+with FakeServer(ServerSettings({settings}), {scene}) as srv:
+    print(srv.port, flush=True)
+    sys.stdin.readline()
+"""
+
+    def __init__(self, settings: str, scene: str = "SCENE", rlimit_nofile: int = 0, stderr=None):
+        import os
+        import subprocess
+        import sys
+
+        script = self.SCRIPT.format(tests=os.path.dirname(__file__), nofile=rlimit_nofile, settings=settings,
+                                    scene=scene)
+        self.process = subprocess.Popen([sys.executable, "-c", script], stdin=subprocess.PIPE,
+                                        stdout=subprocess.PIPE, stderr=stderr or subprocess.DEVNULL, text=True)
+        self.port = int(self.process.stdout.readline())
+
+    def rss_mb(self) -> float:
+        with open(f"/proc/{self.process.pid}/status") as f:
+            return next(int(line.split()[1]) for line in f if line.startswith("VmRSS")) / 1024
+
+    def settled_rss_mb(self, at_least_s: float = 1.0, within_s: float = 10.0) -> float:
+        """The resident size once it stops moving (two reads 0.5 s apart within 1 MB): a busy machine
+        delays the server's work, not what it holds in the end."""
+        time.sleep(at_least_s)
+        deadline, last = time.monotonic() + within_s, self.rss_mb()
+        while time.monotonic() < deadline:
+            time.sleep(0.5)
+            now = self.rss_mb()
+            if abs(now - last) < 1.0:
+                return now
+            last = now
+        return last
+
+    def __enter__(self) -> "ServerProcess":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.process.stdin.close()
+        self.process.wait(30)
+
+
 # --------------------------------------------------------------------------- connections
 
 
@@ -186,47 +239,24 @@ def test_connections_over_the_bound_are_answered_503():
             time.sleep(0.05)
 
 
-FD_STARVED_SERVER = """
-import logging, resource, sys, time
-sys.path.insert(0, {tests!r})
-resource.setrlimit(resource.RLIMIT_NOFILE, (96, 96))
-logging.basicConfig(level=logging.WARNING, format="%(name)s %(message)s")
-from test_service_limits import FakeServer
-from igserver.protocol.settings import ServerSettings
-with FakeServer(ServerSettings(idle_timeout_s=1.0)) as srv:
-    print(srv.port, flush=True)
-    sys.stdin.readline()
-"""
-
-
 def test_running_out_of_descriptors_logs_one_line_and_recovers(tmp_path):
-    import os
-    import subprocess
-    import sys
-
     log_path = tmp_path / "server.log"
-    with open(log_path, "w") as log_file:
-        server = subprocess.Popen([sys.executable, "-c", FD_STARVED_SERVER.format(tests=os.path.dirname(__file__))],
-                                  stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=log_file, text=True)
-    try:
-        port = int(server.stdout.readline())
+    with open(log_path, "w") as log_file, \
+            ServerProcess("idle_timeout_s=1.0", rlimit_nofile=96, stderr=log_file) as server:
         held = []
         for _ in range(200):  # far more than the server's 96 descriptors
             with contextlib.suppress(OSError):
-                held.append(socket.create_connection(("127.0.0.1", port), timeout=2))
+                held.append(socket.create_connection(("127.0.0.1", server.port), timeout=2))
         time.sleep(1.5)
         # the idle ones are closed after 1 s; the server accepts again
         deadline = time.monotonic() + 10
         while True:
             with contextlib.suppress(httpx.TransportError):
-                if httpx.get(f"http://127.0.0.1:{port}/v1/health", timeout=2).status_code == 200:
+                if httpx.get(f"http://127.0.0.1:{server.port}/v1/health", timeout=2).status_code == 200:
                     break
             assert time.monotonic() < deadline, "the server did not recover"
         for sock in held:
             sock.close()
-    finally:
-        server.stdin.close()
-        server.wait(30)
     text = log_path.read_text()
     assert "Traceback" not in text and text.count("\n") < 10, text[:2000]
     assert "cannot accept connections" in text
@@ -258,32 +288,11 @@ def test_queries_over_the_bound_are_refused_503_with_retry_after_over_rest_and_w
         assert gate.refused == 2
 
 
-QUERY_SERVER = """
-import sys
-sys.path.insert(0, {tests!r})
-from test_service_limits import SEA, FakeServer
-from igserver.protocol.settings import ServerSettings
-with FakeServer(ServerSettings(max_concurrent_queries=2), SEA) as srv:
-    print(srv.port, flush=True)
-    sys.stdin.readline()
-"""
-
-
 def test_bursts_of_big_queries_leave_no_lasting_memory_growth():
-    import os
-    import subprocess
-    import sys
     from concurrent.futures import ThreadPoolExecutor
 
-    server = subprocess.Popen([sys.executable, "-c", QUERY_SERVER.format(tests=os.path.dirname(__file__))],
-                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-
-    def rss_mb() -> float:
-        with open(f"/proc/{server.pid}/status") as f:
-            return next(int(line.split()[1]) for line in f if line.startswith("VmRSS")) / 1024
-
-    try:
-        url = f"http://127.0.0.1:{int(server.stdout.readline())}/v1/query/water-height"
+    with ServerProcess("max_concurrent_queries=2", "SEA") as server:
+        url = f"http://127.0.0.1:{server.port}/v1/query/water-height"
         body = {"points": np.random.default_rng(1).uniform(-1e3, 1e3, (10_000, 2)).tolist()}
 
         def query(_):
@@ -295,12 +304,9 @@ def test_bursts_of_big_queries_leave_no_lasting_memory_growth():
             for _ in range(3):
                 codes = list(pool.map(query, range(24)))
                 assert set(codes) <= {200, 503} and 200 in codes and 503 in codes
-                after.append(rss_mb())
-        print("server RSS after each burst (MB):", [round(a) for a in after])
-        assert after[2] < after[0] + 12
-    finally:
-        server.stdin.close()
-        server.wait(30)
+                after.append(server.rss_mb())
+    print("server RSS after each burst (MB):", [round(a) for a in after])
+    assert after[2] < after[0] + 12
 
 
 # --------------------------------------------------------------------------- WebSocket clients
@@ -347,50 +353,24 @@ def test_websocket_clients_over_the_bound_are_closed_1013():
             assert msgpack.unpackb(again.recv(5))["type"] == "frame"
 
 
-RAW_SERVER = """
-import sys
-sys.path.insert(0, {tests!r})
-from test_service_limits import SCENE, FakeServer
-from igserver.protocol.settings import ServerSettings
-scene = {{**SCENE, "camera": {{"width": 1920, "height": 1080}}}}
-with FakeServer(ServerSettings(keepalive_s=0.05, max_fps=20), scene) as srv:
-    print(srv.port, flush=True)
-    sys.stdin.readline()
-"""
 RAW_FRAME_MB = 1920 * 1080 * 4 / 2**20
 
 
 def test_websocket_clients_that_do_not_read_hold_one_frame_each_and_free_it_when_they_close():
-    import os
-    import subprocess
-    import sys
-
-    server = subprocess.Popen([sys.executable, "-c", RAW_SERVER.format(tests=os.path.dirname(__file__))],
-                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-
-    def rss_mb() -> float:
-        with open(f"/proc/{server.pid}/status") as f:
-            return next(int(line.split()[1]) for line in f if line.startswith("VmRSS")) / 1024
-
-    try:
-        port = int(server.stdout.readline())
+    scene = '{**SCENE, "camera": {"width": 1920, "height": 1080}}'
+    with ServerProcess("keepalive_s=0.05, max_fps=20", scene) as server:
         hello = {"type": "hello", "format": "raw", "credits": 16}
         # the baseline: one such client, so that the frame pump runs (rendering, encoding)
-        first = ws_hello(port, hello)
-        time.sleep(2.0)
-        base = rss_mb()
-        clients = [ws_hello(port, hello) for _ in range(6)]
-        time.sleep(2.0)  # each client's socket buffers are full: what is left waits in the server
-        held = rss_mb() - base
+        first = ws_hello(server.port, hello)
+        base = server.settled_rss_mb(2.0)
+        clients = [ws_hello(server.port, hello) for _ in range(6)]
+        # each client's socket buffers are full: what is left waits in the server
+        held = server.settled_rss_mb(2.0) - base
         for sock in clients:
             sock.close()
-        time.sleep(1.0)
-        left = rss_mb() - base
+        left = server.settled_rss_mb() - base
         first.close()
-        print(f"6 stalled raw clients: +{held:.0f} MB ({held / 6 / RAW_FRAME_MB:.2f} frames each); "
-              f"after they closed: {left:+.0f} MB")
-        assert held < 6 * 1.5 * RAW_FRAME_MB
-        assert left < 2 * RAW_FRAME_MB
-    finally:
-        server.stdin.close()
-        server.wait(30)
+    print(f"6 stalled raw clients: +{held:.0f} MB ({held / 6 / RAW_FRAME_MB:.2f} frames each); "
+          f"after they closed: {left:+.0f} MB")
+    assert held < 6 * 1.5 * RAW_FRAME_MB
+    assert left < 2 * RAW_FRAME_MB
