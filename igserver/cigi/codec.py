@@ -44,6 +44,7 @@ class Packet:
     # field -> allowed values (enumerations whose other codes the ICD leaves undefined)
     ENUMS: ClassVar[dict[str, range | tuple]] = {}
     _structs: ClassVar[dict[str, struct.Struct]]
+    _bools: ClassVar[frozenset[str]]  # the one-bit fields typed bool (the others decode as int)
 
     @classmethod
     def _struct(cls, order: str) -> struct.Struct:
@@ -55,6 +56,7 @@ class Packet:
             if size != cls.SIZE:  # a layout that disagrees with its size is a programming error
                 raise AssertionError(f"{cls.__name__}: layout is {size} bytes, SIZE says {cls.SIZE}")
             cls._structs = cached
+            cls._bools = frozenset(f.name for f in fields(cls) if f.type in ("bool", bool))
         return cached[order]
 
     def encode(self, order: str = BIG) -> bytes:
@@ -87,7 +89,7 @@ class Packet:
             if len(slot) > 2:
                 for bit_name, shift, width in slot[2]:
                     bits = (value >> shift) & ((1 << width) - 1)
-                    kwargs[bit_name] = bool(bits) if width == 1 and cls._is_bool(bit_name) else bits
+                    kwargs[bit_name] = bool(bits) if width == 1 and bit_name in cls._bools else bits
             else:
                 if code in "fd" and not math.isfinite(value):
                     raise Malformed("non_finite", f"{cls.NAME or cls.__name__}.{name} is {value}")
@@ -99,13 +101,6 @@ class Packet:
         packet = cls(**kwargs)
         packet.check()
         return packet
-
-    @classmethod
-    def _is_bool(cls, name: str) -> bool:
-        for f in fields(cls):
-            if f.name == name:
-                return f.type in ("bool", bool)
-        return False
 
     def check(self) -> None:
         """Meaning-dependent ranges (raise ``Malformed("out_of_range", ...)``); none by default."""

@@ -62,13 +62,16 @@ class CigiEngine:
         self.pending: deque[Packet] = deque(maxlen=4096)  # answers going out with the next Start of Frame
         self.last_error: str | None = None
         self._logged: set[str] = set()
+        self._dumped: tuple[int, dict] | None = None  # (revision, its scene as a JSON tree)
 
     # -- host messages
     def handle(self, data: bytes) -> Plan | None:
         """Apply one host datagram; returns its plan, or None when it was rejected (counted, logged once per kind)."""
         try:
             message = parse(data)
-            plan = map_message(message, self.store.scene, self.session, self.types, self.sync, self.load_scene)
+            scene = self.store.scene
+            plan = map_message(message, scene, self.session, self.types, self.sync, self.load_scene,
+                               self._tree(scene))
             scene = self.store.validate_patch(plan.patch)
         except Malformed as exc:
             self._reject(exc.kind, exc.detail)
@@ -96,6 +99,13 @@ class CigiEngine:
             for request in plan.queries:
                 self.pending.append(answer(now, self.session, self.types, request))
         return plan
+
+    def _tree(self, scene: Scene) -> dict:
+        """``scene`` as a JSON tree, dumped once per state revision (only the clock's sim_time moves)."""
+        if self._dumped is None or self._dumped[0] != self.store.revision:
+            self._dumped = (self.store.revision, scene.model_dump(mode="json"))
+        tree = self._dumped[1]
+        return dict(tree, time=dict(tree["time"], sim_time=scene.time.sim_time))
 
     def _reject(self, kind: str, detail: str) -> None:
         self.counters.datagrams.inc(result="rejected")
@@ -137,7 +147,7 @@ class CigiEngine:
         scene = self.store.scene
         work = Work(scene, self.session.copy(), self.types, None)
         for number in moving:
-            entity = work.session.entities[number]
+            entity = work.session.touch(number)
             dt = scene.time.sim_time - entity.updated_at
             if entity.velocity is not None:
                 entity.position = tuple(p + v * dt for p, v in zip(entity.position, entity.velocity))

@@ -9,6 +9,7 @@ render (regional weather, sun/moon enables) are kept in the session and counted 
 
 from __future__ import annotations
 
+import dataclasses
 import struct
 from collections import Counter
 from dataclasses import dataclass, field
@@ -55,8 +56,10 @@ class Plan:
 class Work:
     """The lists and sections of the scene a message changes, as plain trees (the wire form of a patch)."""
 
-    def __init__(self, scene: Scene, session: Session, types: TypeMap, load_scene: Callable[[str], Scene] | None):
-        self.tree = scene.model_dump(mode="json")
+    def __init__(self, scene: Scene, session: Session, types: TypeMap, load_scene: Callable[[str], Scene] | None,
+                 tree: dict | None = None):
+        # ``tree``: scene.model_dump(mode="json") when the caller has it (read here, never changed in place)
+        self.tree = tree if tree is not None else scene.model_dump(mode="json")
         self.session = session
         self.types = types
         self.load_scene = load_scene
@@ -91,7 +94,7 @@ class Work:
         entity = self.session.entities.get(number)
         if entity is None or self.item("entities", entity_id(number)) is None:
             raise Malformed("unknown_entity", f"{what} refers to entity {number}, which does not exist")
-        return entity
+        return self.session.touch(number)
 
 
 # -- IG Control -----------------------------------------------------------------------------------------
@@ -313,7 +316,8 @@ def _light(work: Work, p, words: list[int]) -> None:
         raise Malformed("out_of_range", f"light component state {p.component_state} (0 off, 1 on, 2 remove)")
     intensity, range_m, height = word_float(words[0]), word_float(words[2]), word_float(words[3])
     # the intensity while on is remembered: "off" is intensity 0, "on" again restores it
-    memory = lights.setdefault(key, {"intensity": 1000.0, "height": 0.0})
+    memory = dict(lights.get(key) or {"intensity": 1000.0, "height": 0.0})
+    lights[key] = memory
     if intensity:
         memory["intensity"] = intensity
     memory["height"] = height  # m above the entity's origin
@@ -335,8 +339,7 @@ def view_control(work: Work, p: ViewControl) -> None:
         return
     work.entity(p.entity_id, "View Control")
     view = work.session.view
-    if view is None or view.entity != p.entity_id:
-        view = ViewAttachment(p.entity_id)
+    view = ViewAttachment(p.entity_id) if view is None or view.entity != p.entity_id else dataclasses.replace(view)
     ox, oy, oz = view.offset
     yaw, pitch, roll = view.attitude
     view.offset = (p.x if p.x_enable else ox, p.y if p.y_enable else oy, p.z if p.z_enable else oz)
@@ -418,9 +421,10 @@ QUERIES = (HatHotRequest, LosSegmentRequest, LosVectorRequest)
 
 
 def map_message(message: Message, scene: Scene, session: Session, types: TypeMap, sync: bool = False,
-                load_scene: Callable[[str], Scene] | None = None) -> Plan:
-    """The plan of one parsed host message against ``scene`` (``session`` is not modified)."""
-    work = Work(scene, session.copy(), types, load_scene)
+                load_scene: Callable[[str], Scene] | None = None, tree: dict | None = None) -> Plan:
+    """The plan of one parsed host message against ``scene`` (``session`` is not modified; ``tree``: the
+    scene as a JSON tree, when the caller has it)."""
+    work = Work(scene, session.copy(), types, load_scene, tree)
     packets = iter(message.packets)
     if ig_control(work, next(packets), sync):
         for packet in packets:

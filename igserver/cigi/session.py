@@ -8,7 +8,7 @@ accepted: a rejected datagram leaves it as it was, like the scene.
 
 from __future__ import annotations
 
-import copy
+import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -65,7 +65,16 @@ class Session:
     last_timestamp: int | None = None
 
     def copy(self) -> "Session":
-        return copy.deepcopy(self)
+        """A copy whose containers are new: the mapping replaces entries (``touch``), never edits them."""
+        return dataclasses.replace(self, entities=dict(self.entities), regions=dict(self.regions),
+                                   regional=dict(self.regional), lights=dict(self.lights),
+                                   celestial=dict(self.celestial), atmosphere=dict(self.atmosphere))
+
+    def touch(self, number: int) -> CigiEntity:
+        """Entity ``number`` as a private copy, ready to change."""
+        entity = dataclasses.replace(self.entities[number])
+        self.entities[number] = entity
+        return entity
 
     def sim_time_of(self, timestamp: int) -> float:
         """s, the host's timestamp (10 µs ticks) unwrapped past 2^32 (a jump back of over half the range is a wrap)."""
