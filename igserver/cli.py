@@ -13,9 +13,27 @@ from pydantic import ValidationError
 PRESET_CHOICES = ["low", "medium", "high", "auto"]
 
 
-def _resolution(text: str) -> tuple[int, int]:
-    w, _, h = text.lower().partition("x")
-    return int(w), int(h)
+def resolutions(text: str) -> list[tuple[int, int]]:
+    """``--resolutions 640x360,1280x720`` (an argparse type: a typo is a usage message)."""
+    sizes = []
+    for item in text.split(","):
+        w, x, h = item.strip().lower().partition("x")
+        if not (x and w.isdigit() and h.isdigit() and int(w) > 0 and int(h) > 0):
+            raise argparse.ArgumentTypeError(
+                f"expected WIDTHxHEIGHT[,WIDTHxHEIGHT...] in pixels, e.g. 640x360,1280x720; got {item.strip()!r}")
+        sizes.append((int(w), int(h)))
+    return sizes
+
+
+def study_names() -> list[str]:
+    """The studies in igserver/quality: its modules with a ``run`` (read from the source: importing every
+    study to list them would load the renderer)."""
+    import re
+    from importlib import resources
+
+    return sorted(entry.name[:-3] for entry in resources.files("igserver.quality").iterdir()
+                  if entry.name.endswith(".py") and entry.name != "report.py"
+                  and re.search(r"^def run\(", entry.read_text(encoding="utf-8"), re.MULTILINE))
 
 
 def _scene_from_args(args):
@@ -62,9 +80,8 @@ def cmd_bench(args) -> int:
     from . import bench
 
     scenes = args.scenes.split(",") if args.scenes else bench.DEFAULT_SCENES
-    resolutions = [_resolution(r) for r in args.resolutions.split(",")]
     presets = args.presets.split(",") if args.presets else ([args.preset] if args.preset else None)
-    bench.run(scenes, resolutions, args.frames, args.set or [], args.json, presets, args.markdown)
+    bench.run(scenes, args.resolutions, args.frames, args.set or [], args.json, presets, args.markdown)
     return 0
 
 
@@ -114,11 +131,13 @@ def add_serve_arguments(parser: argparse.ArgumentParser, default_scene: str | No
 
 
 def cmd_quality(args) -> int:
-    try:
-        module = importlib.import_module(f"igserver.quality.{args.pipeline}")
-    except ModuleNotFoundError:
-        print(f"no quality study named {args.pipeline!r}", file=sys.stderr)
+    # checked by name first: a study that fails to import (a missing extra) must not read as "no such study"
+    names = study_names()
+    if args.pipeline not in names:
+        print(f"no quality study named {args.pipeline!r}; studies: {', '.join(names)} "
+              "(or none: all of them into one report)", file=sys.stderr)
         return 2
+    module = importlib.import_module(f"igserver.quality.{args.pipeline}")
     return module.run(args.rest) or 0
 
 
@@ -148,7 +167,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("bench", help="frame time per pass and in total")
     p.add_argument("--scenes", help="comma-separated scene names (default: all example scenes)")
-    p.add_argument("--resolutions", default="640x360")
+    p.add_argument("--resolutions", type=resolutions, default="640x360", metavar="WxH[,WxH...]",
+                   help="frame sizes, e.g. 640x360,1280x720")
     p.add_argument("--frames", type=int, default=30)
     p.add_argument("--json", help="also write the report as JSON")
     p.add_argument("--markdown", help="also write the performance table (the README's form) to this file")

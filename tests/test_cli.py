@@ -44,3 +44,31 @@ def test_bench_prints_per_pass_medians(tmp_path):
         assert split["calling_thread"] >= 0.0 and split["workers"] >= -0.5  # process - thread clock: ~µs noise
     assert run0["pass_cpu_ms"]["sky"]["calling_thread"] + run0["pass_cpu_ms"]["sky"]["workers"] > 0.0
     assert "cpu ms calling thread/workers: sky" in proc.stdout
+
+
+def test_unknown_quality_study_lists_the_studies(capsys):
+    from igserver.cli import main
+
+    assert main(["quality", "nosuch"]) == 2
+    err = capsys.readouterr().err
+    assert "no quality study named 'nosuch'" in err
+    for study in ("sky", "volumes", "water", "surfaces"):
+        assert study in err
+    listed = err.split("studies:")[-1].split("(")[0]
+    assert "report" not in listed  # the report is not a study
+
+
+def test_bench_resolution_typo_is_a_usage_message(capsys):
+    import pytest
+
+    from igserver.cli import main
+
+    with pytest.raises(SystemExit) as info:
+        main(["bench", "--resolutions", "64by36"])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert "usage: igserver bench" in err and "--resolutions" in err and "WIDTHxHEIGHT" in err
+    assert "invalid literal for int()" not in err
+    with pytest.raises(SystemExit):
+        main(["bench", "--resolutions", "640x360,0x10"])
+    assert "640x360" in capsys.readouterr().err
