@@ -374,3 +374,52 @@ def test_websocket_clients_that_do_not_read_hold_one_frame_each_and_free_it_when
           f"after they closed: {left:+.0f} MB")
     assert held < 6 * 1.5 * RAW_FRAME_MB
     assert left < 2 * RAW_FRAME_MB
+
+
+SERVE = """
+import sys
+sys.path.insert(0, {tests!r})
+from test_service_limits import SCENE, FakeRenderService
+from igserver.protocol.app import serve
+from igserver.protocol.settings import ServerSettings
+from igserver.scene import Scene
+scene = Scene.model_validate({{**SCENE, "camera": {{"width": 640, "height": 360}}}})
+sys.exit(serve(None, settings=ServerSettings(port={port}), service=FakeRenderService(scene)))
+"""
+
+
+def test_sigterm_with_a_half_closed_websocket_client_exits_0_without_a_traceback():
+    import os
+    import signal
+    import struct
+    import subprocess
+    import sys
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    server = subprocess.Popen([sys.executable, "-c", SERVE.format(tests=os.path.dirname(__file__), port=port)],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 30
+        while True:
+            with contextlib.suppress(httpx.TransportError):
+                if httpx.get(f"http://127.0.0.1:{port}/v1/ready", timeout=2).status_code == 200:
+                    break
+            assert server.poll() is None and time.monotonic() < deadline
+            time.sleep(0.05)
+        client = ws_hello(port, {"type": "hello", "format": "raw", "credits": 16})
+        time.sleep(0.3)  # frames are waiting for the client, which does not read
+        mask = os.urandom(4)
+        payload = bytes(b ^ mask[i % 4] for i, b in enumerate(struct.pack("!H", 1000)))
+        client.sendall(struct.pack("!BB", 0x88, 0x80 | len(payload)) + mask + payload)  # close; never reads
+        time.sleep(0.3)
+        server.send_signal(signal.SIGTERM)
+        assert server.wait(10) == 0
+        log = server.stderr.read()
+        assert "Traceback" not in log, log
+        client.close()
+    finally:
+        if server.poll() is None:
+            server.kill()
+            server.wait()

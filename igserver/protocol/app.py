@@ -152,7 +152,7 @@ def create_app(
 def uvicorn_config(app: FastAPI, host: str, port: int, **kwargs):
     import uvicorn
 
-    from .flow import TransportInScope
+    from .flow import TransportInScope, WebSocketsProtocol
 
     # image frames do not compress: per-message deflate would only cost CPU and latency (docs/design.md#performance);
     # the HTTP protocol puts the connection's transport in the scope for the MJPEG flow control, and
@@ -160,7 +160,7 @@ def uvicorn_config(app: FastAPI, host: str, port: int, **kwargs):
     settings = app.state.runtime.settings
     return uvicorn.Config(
         app, host=host, port=port, ws_per_message_deflate=False, log_level=kwargs.pop("log_level", "warning"),
-        lifespan="on", http=TransportInScope, timeout_keep_alive=settings.idle_timeout_s,
+        lifespan="on", http=TransportInScope, ws=WebSocketsProtocol, timeout_keep_alive=settings.idle_timeout_s,
         limit_concurrency=settings.max_connections, h11_max_incomplete_event_size=settings.max_header_bytes,
         **kwargs,
     )
@@ -186,11 +186,13 @@ def serve(
     settings: ServerSettings | None = None,
     device_index: int | None = None,
     preset: str | None = None,
+    service=None,
 ) -> int:
     """Load the scene, bind, start the app under uvicorn, print the viewer URL; returns when the server stops.
 
     Exit status 2 (with a message, no traceback) when the scene, the port or the security settings are wrong.
-    ``preset``: the initial scene's quality preset (``quality.preset``).
+    ``preset``: the initial scene's quality preset (``quality.preset``). ``service``: a render service in
+    place of the render process (tests).
     """
     import uvicorn
 
@@ -220,13 +222,30 @@ def serve(
         print(f"igserver: cannot listen on {host}:{port}: {exc.strerror or exc} "
               "(another igserver running? pick another --port)", file=sys.stderr)
         return 2
-    app = create_app(scene=scene, settings=settings, device_index=device_index)
+    app = create_app(service, scene=scene, settings=settings, device_index=device_index)
     server = uvicorn.Server(uvicorn_config(app, host, port))
     shown = f"[{host}]" if ":" in host else host
     login = "?access_token=<token>" if token else ""
     print(f"igserver: viewer at http://{shown}:{port}/{login}  (API docs: http://{shown}:{port}/docs)", flush=True)
-    server.run(sockets=[sock])
+    with _exit_signals_end_the_run():
+        server.run(sockets=[sock])
     return 0
+
+
+@contextlib.contextmanager
+def _exit_signals_end_the_run():
+    """SIGTERM and SIGINT stop the server with status 0. uvicorn shuts down gracefully on either, then raises
+    the signal again for the handler it found: with the defaults that ends the process by the signal
+    (status -15 for ``docker stop``) or with a KeyboardInterrupt traceback. Here that handler does nothing:
+    the shutdown is complete by then."""
+    import signal
+
+    saved = {signum: signal.signal(signum, lambda *_: None) for signum in (signal.SIGTERM, signal.SIGINT)}
+    try:
+        yield
+    finally:
+        for signum, handler in saved.items():
+            signal.signal(signum, handler)
 
 
 def main(argv: list[str] | None = None) -> int:

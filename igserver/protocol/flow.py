@@ -22,6 +22,8 @@ from typing import Any
 
 import h11
 from uvicorn.protocols.http.h11_impl import H11Protocol
+from uvicorn.protocols.websockets.websockets_sansio_impl import WebSocketsSansIOProtocol
+from websockets.protocol import State
 
 SCOPE_KEY = "igserver.transport"
 SIOCOUTQNSD = 0x894B  # linux/sockios.h: bytes in the send queue not yet sent
@@ -94,6 +96,24 @@ class TransportInScope(H11Protocol):
         self._deadline = None
         if self.conn.their_state in (h11.IDLE, h11.SEND_BODY) and not self.transport.is_closing():
             self.transport.close()
+
+
+class WebSocketsProtocol(WebSocketsSansIOProtocol):
+    """uvicorn's WebSocket protocol, stopping cleanly at shutdown when the client's close has arrived.
+
+    A client that sent its close and stops reading leaves the connection CLOSING (the reply is queued
+    behind unread frames). uvicorn's shutdown then sends a close of its own, which the WebSocket state
+    machine refuses: the exception ended ``igserver serve`` on SIGTERM with status 1 and a traceback.
+    Nothing is left to say on such a connection, and a client that does not read would hold a graceful
+    close (which waits for the write buffer to drain) for ever: it is aborted."""
+
+    def shutdown(self) -> None:
+        if self.handshake_complete and not self.close_sent and self.conn.state is not State.OPEN:
+            self.stop_keepalive()
+            self.queue.put_nowait({"type": "websocket.disconnect", "code": 1012})
+            self.transport.abort()
+            return
+        super().shutdown()
 
 
 def _with_transport(app, transport: asyncio.Transport):
