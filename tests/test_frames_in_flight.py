@@ -176,3 +176,14 @@ def test_a_stream_in_flight_tags_every_frame_with_its_own_state_when_the_host_ch
 
 def _raw(frame) -> np.ndarray:
     return np.frombuffer(frame.data, np.uint8).reshape(frame.height, frame.width, 4)
+
+
+def test_the_service_bench_times_a_saturated_stream_from_each_state_to_its_frame():
+    from igserver.client.core import latency_bench, summarize
+
+    scene = Scene.model_validate({"camera": {"width": 64, "height": 36}, "atmosphere": {"model": "gradient"}})
+    with LoopbackServer(scene) as srv:
+        result = latency_bench(srv.url, frames=8, warmup=2, mode="ws-stream", rate_hz=200.0)
+    summary = summarize(result)
+    assert summary["frames"] == 8 and summary["e2e_p50"] > 0 and summary["fps"] > 0
+    assert all(e >= r for e, r in zip(result["e2e_ms"], result["render_ms"]))  # a frame after its render

@@ -2,7 +2,9 @@
 
 Starts ``python -m igserver.protocol`` in its own process (so client and server do not share a GIL),
 then, at the requested size, measures state sent -> frame of that state received, one frame at a
-time, over the WebSocket and over POST /v1/render. Each frame carries its render time (render
+time, over the WebSocket and over POST /v1/render, and with a host that sends a state every
+1/``--rate`` s without waiting (``ws-stream``: the stream saturated, frames in flight, each frame
+timed from the sending of the state it shows). Each frame carries its render time (render
 process) and encode time (server), measured in the same run; the difference is the service overhead
 (decode, validate, IPC to the render process and back, framing, loopback).
 It also compares the JPEG encoders on a rendered frame.
@@ -73,7 +75,8 @@ def run_service_bench(argv: list[str] | None = None) -> int:
     parser.add_argument("--height", type=int, default=360)
     parser.add_argument("--frames", type=int, default=300)
     parser.add_argument("--scene", default=None, help="scene file or name (default: built-in defaults)")
-    parser.add_argument("--modes", default="ws,http")
+    parser.add_argument("--modes", default="ws,http,ws-stream")
+    parser.add_argument("--rate", type=float, default=60.0, help="ws-stream: states sent per second")
     parser.add_argument("--url", default=None, help="bench a running server instead of starting one")
     parser.add_argument("--json", action="store_true", help="print the summaries as JSON")
     args = parser.parse_args(argv)
@@ -84,7 +87,8 @@ def run_service_bench(argv: list[str] | None = None) -> int:
             ready = ig.wait_ready()
             raw = ig.get_frame("raw")
         rgba = np.frombuffer(raw.data, np.uint8).reshape(raw.height, raw.width, 4)
-        summaries = [summarize(latency_bench(url, args.frames, mode=mode)) for mode in args.modes.split(",")]
+        summaries = [summarize(latency_bench(url, args.frames, mode=mode, rate_hz=args.rate))
+                     for mode in args.modes.split(",")]
 
     encoders = compare_jpeg_encoders(rgba)
     if args.json:
