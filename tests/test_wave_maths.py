@@ -249,17 +249,20 @@ def test_beach_rays_follow_snell_and_the_amplitude_follows_energy_flux(incidence
     assert np.allclose(field.factor[0, sel, 0][~capped], expected[~capped], rtol=1e-6)
 
 
-def test_breaking_caps_the_highest_wave_at_mccowan_and_dry_land_is_still():
-    """Rayleigh's highest of ~1000 waves 1.86 Hs may not exceed 0.78 h (McCowan): where the cap acts the
-    highest wave equals it; on dry land (h <= 0) nothing moves and the breaking mark is 0."""
+def test_breaking_caps_the_linear_sea_at_the_surf_zone_height_and_dry_land_is_still():
+    """The linear sea's Hs may not exceed 0.61 h: the Hs whose elevation, once bounded inside ±0.39 h (single
+    waves ≤ 0.78 h, McCowan), has 4σ = √2·0.42 h (Thornton & Guza 1983: Hrms = 0.42 h in the saturated surf
+    zone). Where the cap acts Hs equals it; on dry land (h <= 0) nothing moves and the breaking mark is 0."""
+    from igserver.water.bathymetry import SURF_LINEAR_HS
+    assert SURF_LINEAR_HS == pytest.approx(0.61, abs=0.01)
     waves = _one_wave(0.5, 90.0, amplitude=1.2)
     field = wave_field(BEACH, waves, 0.5, 0.5)
     h = field.depth[:, 0]
     hs = 4.0 * np.sqrt(0.5 * (waves.amplitude[0] * field.factor[0, :, 0]) ** 2)
     capped = (field.breaking[:, 0] > 1e-9) & (h > 0)
     assert np.count_nonzero(capped) > 10
-    assert np.allclose(1.86 * hs[capped], 0.78 * h[capped], rtol=1e-9)
-    assert np.all(1.86 * hs[h > 0] <= 0.78 * h[h > 0] * (1 + 1e-9))
+    assert np.allclose(hs[capped], SURF_LINEAR_HS * h[capped], rtol=1e-9)
+    assert np.all(hs[h > 0] <= SURF_LINEAR_HS * h[h > 0] * (1 + 1e-9))
     dry = h <= 0
     assert np.count_nonzero(dry) > 0 and np.all(field.factor[0, dry, 0] == 0) and np.all(field.breaking[dry, 0] == 0)
     # the mark is 1 − cap: ~0 offshore, rising toward the shoreline
@@ -445,14 +448,16 @@ def _float64_reference(sea: SeaSurface, x: np.ndarray, t: float) -> dict:
     """The surface above world points x, written independently in plain float64: per-wave loops, np.sin
     and np.cos in float64 on unreduced phases (|θ| < 1e4 rad here: 2e-12 rad of rounding), the field
     interpolated by np.interp along the beach's one-row grid, and fixed-point-plus-Newton iterations
-    of p + Δ(p) = x run far past convergence (60 steps)."""
+    of p + Δ(p) = x run far past convergence (60 steps). The height is L(z₁ + z₂) (surface.py): the
+    second-order term z₂ = ½(|Σ s_i e^{iθ_i}|² − Σ s_i²), s_i = a_i √(α|K_i|), and the depth limit L,
+    identity up to z₀ = 0.195 h then z₀ + (0.39 h − z₀) tanh((|z| − z₀)/(0.39 h − z₀)), written here."""
     w, f = sea.waves, sea.field
 
     def local(p):
         if f is None:
             kv = w.k[:, None, None] * w.direction[:, :, None] * np.ones(len(p))
             return np.zeros((w.n, len(p))), w.amplitude[:, None] * np.ones(len(p)), kv[:, 0], kv[:, 1], \
-                np.full(len(p), sea.steepness)
+                np.full(len(p), sea.steepness), np.full(len(p), sea.reference_depth)
         g = f.grid
         gu = np.clip(((p - g.origin) @ g.u) / g.du, 0, g.nu - 1)
         if g.nv == 1:
@@ -470,10 +475,10 @@ def _float64_reference(sea: SeaSurface, x: np.ndarray, t: float) -> dict:
         a = np.array([w.amplitude[i] * lerp(f.factor[i]) for i in range(w.n)])
         kx = np.array([lerp(f.kvec[i, ..., 0]) for i in range(w.n)])
         ky = np.array([lerp(f.kvec[i, ..., 1]) for i in range(w.n)])
-        return r, a, kx, ky, lerp(f.steepness)
+        return r, a, kx, ky, lerp(f.steepness), lerp(f.depth)
 
     def surface(p):
-        r, a, kx, ky, q = local(p)
+        r, a, kx, ky, q, depth = local(p)
         theta = (w.k[:, None] * (w.direction @ p.T)) - w.omega[:, None] * t + w.phase[:, None] + r
         s, c = np.sin(theta), np.cos(theta)
         kmag = np.hypot(kx, ky)
@@ -482,12 +487,25 @@ def _float64_reference(sea: SeaSurface, x: np.ndarray, t: float) -> dict:
         disp = np.stack([np.sum(ux * c, 0), np.sum(uy * c, 0)], 1)
         jac = np.stack([[1 - np.sum(ux * kx * s, 0), -np.sum(ux * ky * s, 0)],
                         [-np.sum(uy * kx * s, 0), 1 - np.sum(uy * ky * s, 0)]]).transpose(2, 0, 1)
-        tx = np.stack([jac[:, 0, 0], jac[:, 1, 0], np.sum(a * kx * c, 0)], 1)
-        ty = np.stack([jac[:, 0, 1], jac[:, 1, 1], np.sum(a * ky * c, 0)], 1)
+        sk = a * np.sqrt(sea.second_order * kmag)
+        big_x, big_y = np.sum(sk * s, 0), np.sum(sk * c, 0)
+        z = np.sum(a * s, 0) + 0.5 * (big_x**2 + big_y**2 - np.sum(sk**2, 0))
+        dz_dx = np.sum(a * kx * c, 0) + big_x * np.sum(sk * kx * c, 0) - big_y * np.sum(sk * kx * s, 0)
+        dz_dy = np.sum(a * ky * c, 0) + big_x * np.sum(sk * ky * c, 0) - big_y * np.sum(sk * ky * s, 0)
+        om = w.omega[:, None]
+        dz_dt = -np.sum(a * om * c, 0) - big_x * np.sum(sk * om * c, 0) + big_y * np.sum(sk * om * s, 0)
+        bound = 0.39 * np.maximum(depth, 1e-3)
+        knee, width = 0.5 * bound, 0.5 * bound
+        over = np.abs(z) > knee
+        th = np.tanh(np.where(over, np.abs(z) - knee, 0.0) / width)
+        z = np.where(over, np.sign(z) * (knee + width * th), z)
+        dl = np.where(over, 1.0 - th**2, 1.0)
+        tx = np.stack([jac[:, 0, 0], jac[:, 1, 0], dl * dz_dx], 1)
+        ty = np.stack([jac[:, 0, 1], jac[:, 1, 1], dl * dz_dy], 1)
         normal = np.cross(tx, ty)
         velocity = np.stack([np.sum(ux * w.omega[:, None] * s, 0), np.sum(uy * w.omega[:, None] * s, 0),
-                             -np.sum(a * w.omega[:, None] * c, 0)], 1)
-        return disp, jac, np.sum(a * s, 0), normal / np.linalg.norm(normal, axis=1, keepdims=True), velocity
+                             dl * dz_dt], 1)
+        return disp, jac, z, normal / np.linalg.norm(normal, axis=1, keepdims=True), velocity
 
     p = x.copy()
     for _ in range(60):

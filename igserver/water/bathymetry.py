@@ -12,9 +12,22 @@ Integrated ONCE per (bathymetry, wave set), on a regular grid in a local frame (
   local wave vector K = ∇ψ.
 - Amplitude. Linear shoaling K_s = √(c_g,ref / c_g(h)) and refraction K_r = √(cos θ_ref / cos θ)
   (θ measured from the march axis: exact for straight parallel contours, the plane beach; an
-  approximation over a general height map). Breaking: wherever the highest wave of the local sea,
-  H_max = 1.86·Hs (Rayleigh, ~1000 waves; Hs = 4·√(Σ A_i²/2)), would exceed 0.78·h, all amplitudes
-  are scaled down to it; on dry land (h ≤ 0) they are zero. The scale (1 − cap) marks the surf zone.
+  approximation over a general height map). Breaking (``surf_cap``): wherever the local linear sea,
+  Hs = 4·√(Σ A_i²/2), would exceed SURF_LINEAR_HS·h, all amplitudes are scaled down to it; on dry
+  land (h ≤ 0) they are zero. The scale (1 − cap) marks the surf zone. The same cap holds over a
+  uniform depth (``reference_waves``): there is no depth without a breaking limit.
+- Depth-limited heights. Two published limits, met together:
+    * the saturated surf zone (Thornton & Guza 1983, Torrey Pines): Hrms ≈ 0.42·h, i.e. Hs = √2·Hrms
+      ≈ 0.59·h (Rayleigh heights: Hm0 = 4σ = √2·Hrms);
+    * a single wave breaks beyond H = 0.78·h (McCowan 1894; the solitary wave's limit).
+  A linear sum of waves with Hs = 0.59·h has Rayleigh heights up to ~1.9·Hs = 1.1·h and troughs that
+  reach the bed. So the elevation itself is bounded (``depth_limit``): z ↦ L(z) is the identity
+  for |z| ≤ z₀ and beyond it saturates smoothly toward ±c, c = ½·0.78·h, with
+      L(z) = sign z·(z₀ + (c − z₀)·tanh((|z| − z₀)/(c − z₀))),   z₀ = LIMIT_KNEE·c,
+  C¹ at z₀ (slope 1) and strictly inside (−c, c): every crest-to-trough height stays below 0.78·h and
+  no trough passes −0.39·h. Deep water is untouched (z₀ = 195 m over 1000 m). The bound takes a few
+  percent off the variance near the cap, so the linear cap SURF_LINEAR_HS is the Hs whose bounded
+  elevation has 4σ = 0.59·h (``_surf_linear_hs``: 0.61·h); below ~0.45·h the bound changes Hs by < 1 %.
 - Steepness. Q grows toward the shore with shallowness 1 − tanh(k_p h) (k_p the peak's local
   wavenumber): Q(x) = Q + (Q_SHORE − Q)·(1 − tanh k_p h).
 
@@ -34,13 +47,53 @@ from ..scene.model import Bathymetry
 from .dispersion import group_velocity, wavenumber
 from .spectrum import WaveSet
 
-BREAKING_RATIO = 0.78  # H / h (McCowan): the highest wave breaks beyond it
-HIGHEST_WAVE = 1.86  # H_max / Hs of ~1000 waves of a Rayleigh sea (the highest a ship meets in an hour)
+BREAKING_RATIO = 0.78  # H / h (McCowan 1894): a single wave breaks beyond it
+SURF_HRMS_RATIO = 0.42  # Hrms / h of the saturated surf zone (Thornton & Guza 1983)
+SURF_HS_RATIO = math.sqrt(2.0) * SURF_HRMS_RATIO  # Hs / h there: 0.594 (Hm0 = √2·Hrms)
+LIMIT_KNEE = 0.5  # z₀ / c: the elevation bound starts at half the largest crest (or trough) ±c = ±0.39 h
 Q_SHORE = 0.9  # Gerstner steepness reached in very shallow water
 MIN_COS = 0.17  # cos 80°: a ray never turns past 80° from the march axis (caustic guard)
 SLOPE_MAX_CELLS = 8192
 MAP_MAX_CELLS = 384
 DRY_DEPTH = 1e-3  # m: the wavenumber is evaluated at least at this depth (dry cells: amplitude 0)
+
+
+def depth_limit(z, depth) -> tuple[np.ndarray, np.ndarray]:
+    """(L(z), dL/dz): the elevation z (m) bounded inside ±½·BREAKING_RATIO·h over depth h (m; module
+    docstring). The identity, bit for bit, wherever |z| ≤ z₀ (all of deep water)."""
+    z = np.asarray(z, dtype=np.float64)
+    c = 0.5 * BREAKING_RATIO * np.maximum(depth, DRY_DEPTH)
+    z0 = LIMIT_KNEE * c
+    w = c - z0
+    t = np.tanh(np.maximum(np.abs(z) - z0, 0.0) / w)
+    return np.sign(z) * (np.minimum(np.abs(z), z0) + w * t), 1.0 - t * t
+
+
+def _surf_linear_hs() -> float:
+    """Hs / h of the linear sea whose bounded elevation L(z) has 4σ = SURF_HS_RATIO·h: σ of L(z) for z
+    ~ N(0, s²) by 96-node Gauss–Hermite quadrature (exact to ~1e-10 here), then bisection on s."""
+    x, w = np.polynomial.hermite_e.hermegauss(96)
+    w = w / w.sum()
+
+    def hs_bounded(s: float) -> float:
+        return 4.0 * math.sqrt(float(np.sum(w * depth_limit(s * x, 1.0)[0] ** 2)))
+
+    lo, hi = SURF_HS_RATIO / 4.0, SURF_HS_RATIO / 2.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if hs_bounded(mid) < SURF_HS_RATIO else (lo, mid)
+    return 4.0 * 0.5 * (lo + hi)
+
+
+SURF_LINEAR_HS = _surf_linear_hs()  # Hs / h of the capped linear sea: 0.61
+
+
+def surf_cap(hs, depth) -> np.ndarray:
+    """The amplitude scale that keeps a linear sea of significant height hs (m) within the surf zone's
+    SURF_LINEAR_HS·h over depth h (m): 1 where it is lower, 0 on dry land (h ≤ 0)."""
+    depth = np.asarray(depth, dtype=np.float64)
+    limit = SURF_LINEAR_HS * np.maximum(depth, 0.0)
+    return np.where(depth > 0.0, np.minimum(1.0, limit / np.maximum(hs, 1e-300)), 0.0)
 
 
 def shore_steepness(q: float, kh: np.ndarray) -> np.ndarray:
@@ -166,10 +219,13 @@ class WaveField:
 
 
 def reference_waves(waves: WaveSet, depth: float) -> WaveSet:
-    """The wave set over the reference depth: k(ω, h_ref) and the shoaled amplitude A·K_s."""
+    """The wave set over the reference depth: k(ω, h_ref) and the shoaled amplitude A·K_s, within the
+    surf zone's cap (``surf_cap``)."""
     k = wavenumber(waves.omega, depth)
     ks = np.sqrt(group_velocity(waves.omega, waves.k, np.inf) / group_velocity(waves.omega, k, depth))
-    return WaveSet(waves.omega, k, waves.direction, waves.amplitude * ks, waves.phase)
+    amplitude = waves.amplitude * ks
+    amplitude = amplitude * surf_cap(4.0 * math.sqrt(0.5 * float(np.sum(amplitude**2))), depth)
+    return WaveSet(waves.omega, k, waves.direction, amplitude, waves.phase)
 
 
 def _march(k: np.ndarray, k_ref: np.ndarray, d_ref: np.ndarray, ds: float) -> tuple[np.ndarray, ...]:
@@ -321,8 +377,7 @@ def wave_field(bathy: Bathymetry, waves: WaveSet, q: float, omega_p: float) -> W
     factor = np.sqrt(cg_ref[:, None, None] / cg) * np.sqrt(cos_ratio)
     wet = h > 0.0
     hs_local = 4.0 * np.sqrt(0.5 * np.sum((waves.amplitude[:, None, None] * factor) ** 2, axis=0))
-    h_max = HIGHEST_WAVE * hs_local
-    cap = np.where(wet, np.minimum(1.0, BREAKING_RATIO * np.maximum(h, 0.0) / np.maximum(h_max, 1e-300)), 0.0)
+    cap = surf_cap(hs_local, h)
     factor = factor * cap[None]
     kp = wavenumber(omega_p, hk)
     steep = shore_steepness(q, kp * hk)

@@ -262,6 +262,23 @@ def wave_bands(spectrum: SeaSpectrum, n_mesh: int, n_detail: int, swell_hs: floa
     return mesh, detail
 
 
+def second_order_coefficient(waves: WaveSet) -> float:
+    """α of the surface's second-order crest-trough asymmetry (surface.py): z₂ = ½|Σ a_i √(α k_i) e^{iθ_i}|²
+    gives a height skewness λ₃ = 3 α σ ⟨√k⟩² (⟨√k⟩ = Σ a_i² √k_i / Σ a_i²: the narrow-band kernel √(k_i k_j)).
+    Second-order theory for a sea of finite spectral width (Tayfun & Fedele 2007) gives
+    λ₃ = 3 σ k_m (1 − ν + ν²), k_m = ω_m²/g with ω_m = m₁/m₀ and the bandwidth ν = √(m₀ m₂/m₁² − 1)
+    (0.30 for this JONSWAP mesh band): so α = k_m (1 − ν + ν²) / ⟨√k⟩², 0.79 here (λ₃ 0.12-0.17 at
+    Beaufort 5-9). Deep-water wavenumbers (``waves`` before shoaling); 0 for a still sea."""
+    e = waves.amplitude**2
+    if waves.n == 0 or float(np.sum(e)) <= 0.0:
+        return 0.0
+    m0, m1, m2 = float(np.sum(e)), float(np.sum(e * waves.omega)), float(np.sum(e * waves.omega**2))
+    nu = math.sqrt(max(m0 * m2 / m1**2 - 1.0, 0.0))
+    k_m = (m1 / m0) ** 2 / G
+    root_k = float(np.sum(e * np.sqrt(waves.k))) / m0
+    return k_m * (1.0 - nu + nu * nu) / root_k**2
+
+
 def cox_munk_mss(wind: float) -> float:
     """Mean-square slope of a wind-roughened sea (Cox & Munk 1954, clean surface)."""
     return 0.003 + 5.12e-3 * wind

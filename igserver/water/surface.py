@@ -5,11 +5,26 @@ For a rest point p₀ (world ENU x, y; float64) and wave i:
     a_i = A_i F_i(p₀)                                    (F: shoaling · refraction · breaking)
     b_i = min(Q(p₀) / (|K_i| n), a_i)                    (horizontal amplitude: Q_i A_i, Q_i = Q/(ω_i A_i n),
                                                           never more than the vertical: no loops)
-    P = (p₀ + Σ b_i K̂_i cos θ_i,  Σ a_i sin θ_i)
+    z₁ = Σ a_i sin θ_i,   z₂ = ½(X² + Y² − Σ s_i²),   X + iY = Σ s_i e^{iθ_i},   s_i = a_i √(α |K_i|)
+    P = (p₀ + Σ b_i K̂_i cos θ_i,  L(z₁ + z₂))          (L: the depth limit, bathymetry.depth_limit)
 with K_i(p₀) the local wave vector (k_i D_i in uniform depth). Tangents ignore the slow variation of
 a, b and K over a wavelength: ∂P/∂p₀ = I − Σ b_i K̂_i K_iᵀ sin θ_i (2×2, horizontal) and
-∂z/∂p₀ = Σ a_i K_i cos θ_i. The horizontal Jacobian J = det(I − M) with ‖M‖ ≤ Σ b_i|K_i| ≤ Q ≤ 1,
-so J ≥ 0: the surface never folds over.
+∂z/∂p₀ = L′·(Σ a_i K_i cos θ_i + X ∇X + Y ∇Y). The horizontal Jacobian J = det(I − M) with
+‖M‖ ≤ Σ b_i|K_i| ≤ Q ≤ 1, so J ≥ 0: the surface never folds over (z₂ and L are vertical only).
+
+Crests sharper than troughs (z₂). Seen at a fixed place (Eulerian), the Gerstner sea is, to second
+order in steepness, η = z₁ − Δ·∇z₁. For a narrow band (one k, b = a) Δ·∇z₁ = k ẑ₁² (ẑ₁ = −Σ a_i cos θ_i,
+the Hilbert transform of z₁), so η = z₁ + ½k(z₁² − ẑ₁²) − ½k(z₁² + ẑ₁²): Stokes's second order (the
+sum-frequency waves that raise crests and flatten troughs; Longuet-Higgins 1963, Tayfun 1980:
+skewness λ₃ = 3σk) plus a set-down ½k|A|² under every wave group (|A|² = z₁² + ẑ₁²) whose covariance
+with z₁² cancels λ₃ exactly: a many-wave Gerstner sea has height skewness 0 (for any b ≤ a). The
+vertical correction z₂ = ½αk(z₁² + ẑ₁²) at the rest point (to this order, the second-order Lagrangian
+mean level of the wave groups: Pierson 1961, Fouques et al. 2006) undoes the set-down; at a fixed place
+what remains is Stokes's second order, λ₃ = 3ασk. Over a spectrum k z₁² becomes |Σ a_i √k_i e^{iθ_i}|²
+(the kernel √(k_i k_j), exact for equal wavenumbers): two more sums per point (X, Y), not one per pair
+of waves. α (``second_order``) carries what that narrow-band kernel misses, the spectrum's width
+(``spectrum.second_order_coefficient``). ½ Σ s_i² is z₂'s mean: subtracted, the sea's mean level is
+what it was. The horizontal map is untouched: J, the foam and the queries' inversion are as before.
 
 A host asks for the height at a WORLD point x: the rest point p₀ with p₀ + Δ(p₀) = x is found by
 Chebyshev's method (Newton plus the second-order term) on that 2×2 map (unique while J > 0), then P,
@@ -31,9 +46,10 @@ from functools import cached_property, lru_cache
 import numpy as np
 
 from ..scene.model import Ocean, Weather
-from .bathymetry import WaveField, reference_waves, shore_steepness, wave_field
+from .bathymetry import WaveField, depth_limit, reference_waves, shore_steepness, wave_field
 from .dispersion import wavenumber
-from .spectrum import SeaSpectrum, WaveSet, calibrate_detail, sea_spectrum, wave_bands
+from .spectrum import (SeaSpectrum, WaveSet, calibrate_detail, sea_spectrum, second_order_coefficient,
+                       wave_bands)
 
 DETAIL_WAVES = 36  # waves in the normal-map band
 TWO_PI = 2.0 * math.pi
@@ -58,7 +74,8 @@ class SeaSurface:
     detail: WaveSet  # normal-map band, deep water
     field: WaveField | None  # per-wave fields over a non-uniform bathymetry
     steepness: float  # Q over the reference depth
-    reference_depth: float
+    reference_depth: float  # m: also the depth limit's h in uniform depth (over a field: its depth)
+    second_order: float = 0.0  # α of the crest-trough asymmetry z₂ (module docstring); 0: linear Gerstner
 
     @property
     def n(self) -> int:
@@ -101,20 +118,23 @@ class SeaSurface:
         return self._kd.astype(np.float32)
 
     @cached_property
-    def _uniform_weights(self) -> tuple[np.ndarray, np.ndarray]:
-        """Uniform depth: the per-wave weights of every wave sum (see ``_weights``), (9, n) for the
-        cosines and (6, n) for the sines: each set of sums is then one BLAS product."""
+    def _uniform_weights(self) -> tuple:
+        """Uniform depth: the per-wave weights of every wave sum (see ``_weights``), (13, n) for the
+        cosines and (10, n) for the sines: each set of sums is then one BLAS product; z₂'s mean and
+        the depth limit's h."""
         w = self.waves
         kx, ky = w.k * w.direction[:, 0], w.k * w.direction[:, 1]
         b = np.minimum(self.steepness / (np.maximum(w.k, 1e-300) * max(w.n, 1)), w.amplitude)
-        return _weights(w.amplitude, kx, ky, b / np.maximum(w.k, 1e-300), w.omega)
+        wc, ws, mu = _weights(w.amplitude, kx, ky, b / np.maximum(w.k, 1e-300), w.omega, w.k, self.second_order)
+        return wc, ws, float(mu), self.reference_depth
 
     def _field_at(self, p0: np.ndarray, w: "_Work") -> tuple[np.ndarray, tuple]:
-        """Over a bathymetry: residual phase R (n, N) and the per-point sum weights (9, n, N) cosine,
-        (6, n, N) sine, at rest points p0 (N, 2) — the field interpolated as the shader does."""
+        """Over a bathymetry: residual phase R (n, N) and the per-point sum weights (13, n, N) cosine,
+        (10, n, N) sine, z₂'s mean (N,) and the depth (N,) at rest points p0 (N, 2) — the field
+        interpolated as the shader does."""
         n, f, m = self.waves.n, self.field, len(p0)
         gu, gv = f.grid.to_grid(p0)
-        v = _interpolate(_field_nodes(f), f.residual.shape[1:], gu, gv, w)  # (4n + 1, N): R, F, Kx, Ky per wave, then Q
+        v = _interpolate(_field_nodes(f), f.residual.shape[1:], gu, gv, w)  # (4n + 2, N): R, F, Kx, Ky per wave, Q, h
         kx, ky = v[2 * n:3 * n], v[3 * n:4 * n]
         kmag = np.multiply(kx, kx, out=w.get("kmag", (n, m)))  # |K| (np.hypot is ~50x slower here)
         kmag += np.multiply(ky, ky, out=w.get("a", (n, m)))
@@ -122,10 +142,11 @@ class SeaSurface:
         np.maximum(kmag, 1e-300, out=kmag)
         a = np.multiply(v[n:2 * n], self.waves.amplitude[:, None], out=w.get("a", (n, m)))
         bk = np.multiply(kmag, max(n, 1), out=w.get("bk", (n, m)))
-        np.divide(v[4 * n:], bk, out=bk)
+        np.divide(v[4 * n:4 * n + 1], bk, out=bk)
         np.minimum(bk, a, out=bk)
         bk /= kmag  # b / |K|, with b = min(Q / (|K| n), a)
-        return v[:n], _weights(a, kx, ky, bk, self.waves.omega[:, None], w)
+        wc, ws, mu = _weights(a, kx, ky, bk, self.waves.omega[:, None], kmag, self.second_order, w)
+        return v[:n], (wc, ws, mu, v[4 * n + 1].copy())
 
     def _phases(self, p0: np.ndarray, o: np.ndarray, offsets: np.ndarray, w: "_Work"):
         """sin, cos (float32, (n, N)) of the phases at rest points p0 (N, 2), the residual phase R (or
@@ -141,14 +162,14 @@ class SeaSurface:
         return s, c, r, weights
 
     def _sums(self, s: np.ndarray, c: np.ndarray, weights, w: "_Work") -> tuple[np.ndarray, np.ndarray]:
-        """Every wave sum at once: Σ_i cos θ_i · wc_i (9, N) and Σ_i sin θ_i · ws_i (6, N) (float64
+        """Every wave sum at once: Σ_i cos θ_i · wc_i (13, N) and Σ_i sin θ_i · ws_i (10, N) (float64
         products of the float32 sines and cosines)."""
-        wc, ws = weights
+        wc, ws = weights[:2]
         c64, s64 = w.get("c64", c.shape), w.get("s64", s.shape)
         np.copyto(c64, c)
         np.copyto(s64, s)
         m = c.shape[1]
-        cs, ss = w.get("cs", (9, m)), w.get("ss", (6, m))
+        cs, ss = w.get("cs", (N_COS, m)), w.get("ss", (N_SIN, m))
         if wc.ndim == 2:  # uniform: one (9, n) @ (n, N) product each
             return np.matmul(wc, c64, out=cs), np.matmul(ws, s64, out=ss)
         return np.einsum("jnp,np->jp", wc, c64, out=cs), np.einsum("jnp,np->jp", ws, s64, out=ss)
@@ -163,7 +184,7 @@ class SeaSurface:
         o = np.asarray(origin_xy, dtype=np.float64)
         w = _Work()
         s, c, _, weights = self._phases(p0, o, self.phase_offsets(t, o), w)
-        return _outputs(p0, *self._sums(s, c, weights, w), full)
+        return _outputs(p0, *self._sums(s, c, weights, w), full, *weights[2:])
 
     def query(self, xy, t: float, tolerance: float = 1e-5) -> dict:
         """Height, normal and velocity of the surface ABOVE world points xy (N, 2): inverts Δ by
@@ -208,7 +229,8 @@ class SeaSurface:
                 every = n_done == len(done)
                 pick = (lambda a: a) if every else (lambda a: a[..., done])
                 idx = active if every else active[done]
-                _answer(pick(cs), pick(ss), out, idx)
+                mu, depth = (x if np.ndim(x) == 0 else pick(x) for x in weights[2:])
+                _answer(pick(cs), pick(ss), out, idx, mu, depth)
                 out["residual"][idx], out["rest"][idx] = pick(size), pick(p).T
                 if every:
                     break
@@ -241,11 +263,24 @@ class SeaSurface:
             c -= np.multiply(s0, sd, out=tmp)
 
 
-def _answer(cs: np.ndarray, ss: np.ndarray, out: dict, idx: np.ndarray) -> None:
+def _vertical(cs: np.ndarray, ss: np.ndarray, mu, depth) -> tuple[np.ndarray, ...]:
+    """Height, its gradient over the rest point (x, y) and its time derivative from the wave sums:
+    z = L(z₁ + z₂) (module docstring), X = Σ s sin θ (ss[6]), Y = Σ s cos θ (cs[9]), ∇X = cs[10:12],
+    ∇Y = −ss[7:9], ∂X/∂t = −cs[12], ∂Y/∂t = ss[9]."""
+    x, y = ss[6], cs[9]
+    z = ss[3] + 0.5 * (x * x + y * y) - mu
+    gx = cs[2] + x * cs[10] - y * ss[7]
+    gy = cs[3] + x * cs[11] - y * ss[8]
+    vz = -cs[4] - x * cs[12] + y * ss[9]
+    z, slope = depth_limit(z, depth)
+    return z, slope * gx, slope * gy, slope * vz
+
+
+def _answer(cs: np.ndarray, ss: np.ndarray, out: dict, idx: np.ndarray, mu, depth) -> None:
     """Height, unit normal and velocity from the wave sums, written at ``idx`` of the query's arrays
     (the same formulas as ``_outputs``)."""
     jxx, jxy, jyy = 1.0 - ss[0], -ss[1], 1.0 - ss[2]
-    gx, gy = cs[2], cs[3]
+    z, gx, gy, vz = _vertical(cs, ss, mu, depth)
     normal = np.empty((len(jxx), 3))
     np.multiply(jxy, gy, out=normal[:, 0])
     normal[:, 0] -= gx * jyy
@@ -254,10 +289,10 @@ def _answer(cs: np.ndarray, ss: np.ndarray, out: dict, idx: np.ndarray) -> None:
     np.multiply(jxx, jyy, out=normal[:, 2])
     normal[:, 2] -= jxy * jxy
     normal /= np.sqrt(np.einsum("ij,ij->i", normal, normal))[:, None]
-    out["height"][idx] = ss[3]
+    out["height"][idx] = z
     out["normal"][idx] = normal
     velocity = out["velocity"]
-    velocity[idx, 0], velocity[idx, 1], velocity[idx, 2] = ss[4], ss[5], -cs[4]
+    velocity[idx, 0], velocity[idx, 1], velocity[idx, 2] = ss[4], ss[5], vz
 
 
 class _Work:
@@ -292,14 +327,19 @@ def _workspace():
                 _WORKSPACES.append(w)
 
 
-def _weights(a, kx, ky, bk, omega, w: "_Work | None" = None) -> tuple[np.ndarray, np.ndarray]:
-    """Weights of the wave sums, per wave (n,) → (9, n) and (6, n), or per wave and point (n, N) →
-    (9, n, N) and (6, n, N). Cosine-weighted: displacement x, y (b K̂ = bk K); ∂z/∂x₀, ∂z/∂y₀ (a K);
-    −∂z/∂t (a ω); the displacement's second derivatives −∂²Δ/∂p² = Σ bk K K K cos θ (xxx, xxy, xyy,
-    yyy). Sine-weighted: M = Σ bk K Kᵀ sin θ (xx, xy, yy), z (a), the horizontal velocity (bk K ω)."""
+N_COS, N_SIN = 13, 10  # rows of the cosine- and sine-weighted wave sums
+
+
+def _weights(a, kx, ky, bk, omega, kmag, alpha: float, w: "_Work | None" = None) -> tuple:
+    """Weights of the wave sums, per wave (n,) → (13, n) and (10, n), or per wave and point (n, N) →
+    (13, n, N) and (10, n, N); and z₂'s mean ½ Σ s_i² (a number, or (N,)). Cosine-weighted: displacement x, y
+    (b K̂ = bk K); ∂z/∂x₀, ∂z/∂y₀ (a K); −∂z/∂t (a ω); the displacement's second derivatives
+    −∂²Δ/∂p² = Σ bk K K K cos θ (xxx, xxy, xyy, yyy); Y (s), ∇X (s K), −∂X/∂t (s ω). Sine-weighted:
+    M = Σ bk K Kᵀ sin θ (xx, xy, yy), z₁ (a), the horizontal velocity (bk K ω), X (s), −∇Y (s K),
+    ∂Y/∂t (s ω). s = a √(α |K|) (module docstring)."""
     shape = np.shape(a)
-    wc = np.empty((9, *shape)) if w is None else w.get("wc", (9, *shape))
-    ws = np.empty((6, *shape)) if w is None else w.get("ws", (6, *shape))
+    wc = np.empty((N_COS, *shape)) if w is None else w.get("wc", (N_COS, *shape))
+    ws = np.empty((N_SIN, *shape)) if w is None else w.get("ws", (N_SIN, *shape))
     mul = np.multiply
     mul(bk, kx, out=wc[0])  # bkx
     mul(bk, ky, out=wc[1])  # bky
@@ -316,11 +356,19 @@ def _weights(a, kx, ky, bk, omega, w: "_Work | None" = None) -> tuple[np.ndarray
     mul(ws[0], ky, out=wc[6])  # bkx kx ky
     mul(ws[1], ky, out=wc[7])  # bkx ky ky
     mul(ws[2], ky, out=wc[8])  # bky ky ky
-    return wc, ws
+    sk = np.sqrt(np.multiply(kmag, alpha, out=ws[6]), out=ws[6])
+    mul(sk, a, out=ws[6])  # s
+    wc[9] = ws[6]
+    mul(ws[6], kx, out=wc[10])
+    mul(ws[6], ky, out=wc[11])
+    mul(ws[6], omega, out=wc[12])
+    ws[7], ws[8], ws[9] = wc[10], wc[11], wc[12]
+    mu = 0.5 * np.sum(ws[6] * ws[6], axis=0)  # z₂'s mean
+    return wc, ws, mu
 
 
-def _outputs(p0: np.ndarray, cs: np.ndarray, ss: np.ndarray, full: bool) -> dict:
-    """Displaced point, horizontal Jacobian, normal and velocity from the wave sums cs (9, N), ss (6, N)."""
+def _outputs(p0: np.ndarray, cs: np.ndarray, ss: np.ndarray, full: bool, mu=0.0, depth=np.inf) -> dict:
+    """Displaced point, horizontal Jacobian, normal and velocity from the wave sums cs (13, N), ss (10, N)."""
     jxx, jxy, jyy = 1.0 - ss[0], -ss[1], 1.0 - ss[2]
     out = {
         "displaced_xy": p0 + cs[:2].T,
@@ -330,12 +378,12 @@ def _outputs(p0: np.ndarray, cs: np.ndarray, ss: np.ndarray, full: bool) -> dict
     if not full:
         return out
     # ∂P/∂x0 = (jxx, jxy, gx), ∂P/∂y0 = (jxy, jyy, gy): their cross product, up while J > 0
-    gx, gy = cs[2], cs[3]
+    z, gx, gy, vz = _vertical(cs, ss, mu, depth)
     normal = np.stack([jxy * gy - gx * jyy, gx * jxy - jxx * gy, out["jacobian"]], axis=1)
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
-    out["position"] = np.concatenate([out["displaced_xy"], ss[3][:, None]], axis=1)
+    out["position"] = np.concatenate([out["displaced_xy"], z[:, None]], axis=1)
     out["normal"] = normal
-    out["velocity"] = np.stack([ss[4], ss[5], -cs[4]], axis=1)
+    out["velocity"] = np.stack([ss[4], ss[5], vz], axis=1)
     return out
 
 
@@ -376,13 +424,14 @@ _NODES: dict[int, tuple[WaveField, tuple[np.ndarray, np.ndarray]]] = {}
 
 
 def _field_nodes(f: WaveField) -> tuple[np.ndarray, np.ndarray]:
-    """The field's per-wave node values node-major, (nu·nv, 4n + 1): R, F, Kx, Ky of every wave (n
-    each), then Q — one gather of rows fetches all of the points' parameters; and their differences
+    """The field's per-wave node values node-major, (nu·nv, 4n + 2): R, F, Kx, Ky of every wave (n
+    each), then Q and the depth — one gather of rows fetches all of the points' parameters; and their differences
     to the next node along u (the lerp's slope, the same float64 value it would compute)."""
     cached = _NODES.get(id(f))
     if cached is None or cached[0] is not f:
         n, nu, nv = f.residual.shape
-        stacked = np.concatenate([f.residual, f.factor, f.kvec[..., 0], f.kvec[..., 1], f.steepness[None]])
+        stacked = np.concatenate([f.residual, f.factor, f.kvec[..., 0], f.kvec[..., 1], f.steepness[None],
+                                  f.depth[None]])
         nodes = np.ascontiguousarray(stacked.transpose(1, 2, 0))  # (nu, nv, 4n + 1)
         slope = np.zeros_like(nodes)
         slope[:-1] = nodes[1:] - nodes[:-1]  # the last node: clamped, i1 = i0 (never used with tu > 0)
@@ -452,4 +501,4 @@ def _sea_surface_cached(key: str, wave_count: int) -> SeaSurface:
     kp = float(wavenumber(spectrum.omega_p, h_ref))
     q_ref = float(shore_steepness(ocean.steepness, np.asarray(kp * h_ref)))
     field = wave_field(bathy, waves, ocean.steepness, spectrum.omega_p) if waves.n else None
-    return SeaSurface(spectrum, waves, detail, field, q_ref, h_ref)
+    return SeaSurface(spectrum, waves, detail, field, q_ref, h_ref, second_order_coefficient(mesh))

@@ -2,7 +2,9 @@
 // For a camera-relative rest point p (m) and wave i:
 //   theta_i = k_i.p + phase_i + R_i(p)                 (phase_i: CPU-reduced k_i.cam - w_i t + phi_i)
 //   a_i = A_i F_i(p) f_i,   b_i = min(Q(p) / (|K_i| n), a_i)
-//   P = (p + sum b_i Khat_i cos theta_i,  sum a_i sin theta_i)
+//   z1 = sum a_i sin theta_i,  z2 = (X^2 + Y^2 - sum s_i^2) / 2,  X + iY = sum s_i e^(i theta_i),
+//   s_i = a_i sqrt(alpha |K_i|)       (second order: crests sharper than troughs)
+//   P = (p + sum b_i Khat_i cos theta_i,  L(z1 + z2))   (L: the depth limit, bathymetry.depth_limit)
 // f_i fades a wave out where the mesh spacing cannot carry it (LOD): waves of k*spacing between
 // pi/2 and pi (4 to 2 vertices per wavelength); their slope variance goes to the roughness instead.
 #ifndef MAX_WAVES
@@ -14,6 +16,8 @@ uniform vec4 u_wave[MAX_WAVES];         // xy: k_ref * D (rad/m), z: A (m), w: o
 uniform float u_wave_phase[MAX_WAVES];  // rad in [0, 2 pi)
 uniform float u_wave_norm;              // n, the number of mesh waves
 uniform float u_steepness;              // Q over the reference depth (no field)
+uniform float u_second_order;           // alpha of z2 (surface.py; 0: linear Gerstner)
+uniform float u_sea_depth;              // m, the depth limit's h (no field); <= 0: unlimited
 
 #ifdef WATER_FIELD
 uniform sampler2DArray u_field;         // per wave: R (rad), F, Kx, Ky (rad/m)
@@ -48,16 +52,29 @@ vec2 field_uv(vec2 p) {
 }
 #endif
 
+// The depth limit (bathymetry.depth_limit): the identity for |z| <= z0, then a tanh saturation toward
+// +-c, c = 0.39 h (single waves <= 0.78 h), z0 = c / 2; returns L(z), and L'(z) in slope.
+float depth_limit(float z, float h, out float slope) {
+    float c = 0.39 * max(h, 1e-3);
+    float z0 = 0.5 * c;
+    float w = c - z0;
+    float t = tanh(min(max(abs(z) - z0, 0.0) / w, 10.0));  // 10: tanh = 1 in float, no exp overflow
+    slope = 1.0 - t * t;
+    return sign(z) * (min(abs(z), z0) + w * t);
+}
+
 SeaSample sea_displace(vec2 p, float spacing) {
     float q = u_steepness;
     float depth = 1e4;
     float breaking = 0.0;
+    float limit_depth = u_sea_depth > 0.0 ? u_sea_depth : 1e4;
 #ifdef WATER_FIELD
     vec2 uv = field_uv(p);
     vec3 sc = textureLod(u_field_scalar, uv, 0.0).xyz;
     q = sc.x;
     depth = sc.y;
     breaking = sc.z;
+    limit_depth = depth;
 #endif
     vec2 disp = vec2(0.0);
     float height = 0.0;
@@ -65,6 +82,10 @@ SeaSample sea_displace(vec2 p, float spacing) {
     vec2 grad = vec2(0.0);
     float lost = 0.0;
     float lost_j = 0.0;
+    vec2 xy2 = vec2(0.0);   // X, Y
+    vec2 gx2 = vec2(0.0);   // grad X = sum s K cos
+    vec2 gy2 = vec2(0.0);   // -grad Y = sum s K sin
+    float mean2 = 0.0;      // sum s^2
     for (int i = 0; i < u_wave_count; ++i) {
         vec4 w = u_wave[i];
         float theta = dot(w.xy, p) + u_wave_phase[i];
@@ -94,7 +115,17 @@ SeaSample sea_displace(vec2 p, float spacing) {
         jyx -= bk.y * s * kv.x;
         jyy -= bk.y * s * kv.y;
         grad += a * c * kv;
+        float s2 = a * sqrt(u_second_order * kmag);
+        xy2 += s2 * vec2(s, c);
+        gx2 += (s2 * c) * kv;
+        gy2 += (s2 * s) * kv;
+        mean2 += s2 * s2;
     }
+    height += 0.5 * (dot(xy2, xy2) - mean2);
+    grad += xy2.x * gx2 - xy2.y * gy2;
+    float slope;
+    height = depth_limit(height, limit_depth, slope);
+    grad *= slope;
     vec3 tx = vec3(jxx, jyx, grad.x);
     vec3 ty = vec3(jxy, jyy, grad.y);
     SeaSample r;
