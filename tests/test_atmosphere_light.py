@@ -386,3 +386,62 @@ def test_beams_through_the_layer_stay_finite_at_any_height(renderer, elevation, 
     light = build_frame(renderer.ctx, scene).light
     for value in (light.sun_illuminance, light.sun_disk_luminance, light.sky_ambient, light.moon_illuminance):
         assert np.all(np.isfinite(value)) and np.all(np.asarray(value) >= 0.0)
+
+
+def test_low_sun_disk_dimmed_by_the_light_it_casts(renderer):
+    # A camera 15 m over the sea aimed at the sun 0.47 deg up (apparent) through 30 km visibility:
+    # the disk's flux (the frame's HDR radiance summed over it, the sky around subtracted) against
+    # the sun the frame casts on surfaces (light.sun_disk_luminance x its solid angle, the CPU's
+    # float64 clear air times the haze over HazeLayer.slant_mu), averaged over the disk: across
+    # its 0.53 deg the haze path runs from 52 to 78 airmasses, so the transmittance varies by
+    # e^(+-1.7) and the disk's mean exceeds its centre's (chord-weighted 9-point mean below).
+    # Tolerance 20 %: limb darkening weights the centre (u = 0.6), the disk's 1.5-px tent, the
+    # float32 transmittance table at grazing. Red and green only: the blue disk is ~1e-4 of red.
+    from igserver.render.camera import make_view
+    from igserver.render.frame import sun_and_moon
+    from igserver.render.sky.daylight import SUN_SOLID_ANGLE
+    base = scene(0.47, az=300.0, pitch=0.47, heading=300.0, w=64, h=36, ocean={"enabled": False},
+                 atmosphere={"visibility": 30000.0, "visibility_transition": 0.0})
+    s = base.model_copy(update={"camera": base.camera.model_copy(update={"fov_y": 3.0, "exposure_ev": 18.0,
+                                                                         "position": (0.0, 0.0, 15.0)})})
+    renderer.render(s)
+    frame = build_frame(renderer.ctx, s)
+    hdr = renderer.read_hdr()[..., :3] / frame.exposure
+    view = make_view(s.camera)
+    clip = view.view_proj @ np.append(np.asarray(sun_and_moon(s).sun_dir) * 1e6, 1.0)
+    col, row = int((clip[0] / clip[3] * 0.5 + 0.5) * 64), int((0.5 - clip[1] / clip[3] * 0.5) * 36)
+    win = hdr[row - 8:row + 9, col - 8:col + 9]
+    background = np.median(np.concatenate([win[0], win[-1], win[:, 0], win[:, -1]]), axis=0)
+    pixel = math.radians(3.0) / 36
+    flux = (win - background).sum(axis=(0, 1)) * pixel * pixel
+    x = np.linspace(-0.9, 0.9, 9)
+    weights = np.sqrt(1.0 - x * x)
+    cast = sum(w * build_frame(renderer.ctx, s.model_copy(update={"time": s.time.model_copy(update={
+        "sun_override": s.time.sun_override.model_copy(update={"elevation": 0.47 + 0.2667 * xi})})})
+    ).light.sun_disk_luminance for xi, w in zip(x, weights)) / weights.sum() * SUN_SOLID_ANGLE
+    ratio = flux[:2] / cast[:2]
+    assert np.all((ratio > 0.8) & (ratio < 1.2)), (flux, cast, ratio)
+    # ... and it is red: green under a fifth of red (the clear air alone leaves 0.5).
+    assert flux[1] < 0.2 * flux[0], flux
+
+
+def test_snowfall_horizon_is_no_darker_than_the_sky_above_it(renderer):
+    # Moderate snow by day over a snow-covered ground (the snow scene: visibility ~0.6 km with the
+    # snow's extinction, ground albedo 0.8). Deep in an optically thick layer the light is nearly
+    # diffuse: the radiance looking up is F_down / pi, looking horizontally (F_down + F_up) / 2 pi,
+    # and F_up = A F_down over the ground: with the layer's phase weights (up and down mixed as
+    # 1/2 + z/2) horizon / 25 deg up = (1 + A) / 2 / (0.71 + 0.29 A) = 0.96 over snow, 0.74 over the
+    # layer's old fixed 0.1 (the dark band). Rows 0.5-3 deg above the horizon against rows 20-26
+    # deg up, linear luminance; bound 0.85: the 0.96 less the falling flakes' streaks and the
+    # sun's phase term (a low winter sun at 59.9 N).
+    from igserver.scene.files import load_scene
+    from igserver.scene import apply_patch
+    s = apply_patch(load_scene("snow"), {"camera": {"width": 64, "height": 36, "pitch": 0.0, "exposure_ev": 12.0},
+                                         "entities": []})
+    renderer.render(s)
+    lum = renderer.read_hdr()[..., :3] @ LUMA
+    deg_per_row = 55.0 / 36
+    row = lambda el: int(18 - el / deg_per_row)  # noqa: E731 - rows top first, the horizon at 18
+    horizon = lum[row(3.0):row(0.5) + 1].mean()
+    above = lum[row(26.0):row(20.0) + 1].mean()
+    assert horizon > 0.85 * above, (horizon, above)

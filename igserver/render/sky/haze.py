@@ -64,6 +64,10 @@ class HazeLayer:
     edge: float  # m, scale height above the top
     g: float
     omega: float
+    # Albedo of the surface under the layer: what the light going down comes back up as. Snow
+    # under a snowfall (0.8) fills the layer with nearly as much light going up as down, so the
+    # whiteout's horizon is as bright as its zenith; over 0.1 it was 0.55x as bright (a dark band).
+    albedo: float = GROUND_ALBEDO
 
     # --- profile ------------------------------------------------------------------------------
     def density(self, h):
@@ -127,7 +131,8 @@ class HazeLayer:
         t_beam = self.transmission(tau_below, mu0)
         t = self.transmission(tau_below, SKY_MU0)
         r = 1.0 - t
-        return (1.0 - t_beam) + t_beam * t * GROUND_ALBEDO / (1.0 - GROUND_ALBEDO * r)
+        a = self.albedo
+        return (1.0 - t_beam) + t_beam * t * a / (1.0 - a * r)
 
     def fluxes(self, h: float, sun_normal, mu_s: float, sky_horizontal, moon_normal=(0.0, 0.0, 0.0),
                mu_m: float = -1.0) -> dict:
@@ -156,11 +161,12 @@ class HazeLayer:
 
     def tau_view(self, h0: float, dirs: np.ndarray) -> np.ndarray:
         """(N, 3) optical depth of whole view rays (mirror of haze_sky(): to the flat ground below,
-        to space above with the grazing floor)."""
+        to space above over slant_mu, the beams' round-earth path)."""
         z = np.asarray(dirs, float)[:, 2]
         c = float(self.column(h0))
         hc = c / max(float(self.density(h0)), 1e-6)
-        up = c / np.sqrt(z * z + 2.0 * hc / EARTH_RADIUS_M)
+        zp = np.maximum(z, 0.0)
+        up = 2.0 * c / (zp + np.sqrt(zp * zp + 8.0 * hc / (math.pi * EARTH_RADIUS_M)))
         below = float(self.column(0.0)) - c  # column between the ground and the camera
         down = below / np.maximum(-z, 1e-9) if h0 > 0.0 else np.full_like(z, np.inf)
         col = np.where(z >= 0.0, up, down)
@@ -207,13 +213,13 @@ class HazeLayer:
             "u_haze_base": float(base_altitude_m),
             "u_haze_g": float(self.g),
             "u_haze_omega": float(self.omega),
-            "u_haze_ground_albedo": GROUND_ALBEDO,
+            "u_haze_ground_albedo": float(self.albedo),
             "u_haze_table_top": float(self.table_top()),
         }
 
 
 def haze_layer(visibility_m: float, turbidity: float, fog_top: float | None,
-               clear_ground_extinction_per_m: float) -> HazeLayer:
+               clear_ground_extinction_per_m: float, ground_albedo: float = GROUND_ALBEDO) -> HazeLayer:
     fog = _fog_fraction(visibility_m)
     alpha = 1.3 * (1.0 - fog)
     beta_550 = max(KOSCHMIEDER / visibility_m - clear_ground_extinction_per_m, 0.0)
@@ -222,7 +228,8 @@ def haze_layer(visibility_m: float, turbidity: float, fog_top: float | None,
         top, edge = float(fog_top), max(0.1 * float(fog_top), 5.0)
     else:
         top, edge = 0.0, 1200.0 * turbidity / 2.0
-    return HazeLayer(beta=beta, top=top, edge=edge, g=0.7 + 0.15 * fog, omega=0.9 + 0.1 * fog)
+    return HazeLayer(beta=beta, top=top, edge=edge, g=0.7 + 0.15 * fog, omega=0.9 + 0.1 * fog,
+                     albedo=float(ground_albedo))
 
 
 def hg_phase(g: float, nu) -> np.ndarray:
