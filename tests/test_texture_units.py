@@ -1,11 +1,14 @@
-"""Texture units: the frame-wide tables (haze, sky view, atmosphere) sit on fixed units that every
-pass's shaders read through common/atmosphere.glsl, so no pass may bind anything else there.
+"""Texture units and block bindings: one registry (igserver/render/bindings.py) that the Python side
+binds from and the shaders read as ``UNIT_<NAME>`` defines.
 
-A collision is silent on llvmpipe: a shadow map bound on the sky-view unit made the surfaces'
-aerial perspective (and every later pass) read depth values as in-scattered light."""
+The frame-wide tables (haze, sky view, atmosphere, shadow maps, aerial table, foam noise) sit on
+fixed units for the whole frame, so no pass may bind anything else there. A collision is silent on
+llvmpipe: a shadow map bound on the sky-view unit made the surfaces' aerial perspective (and every
+later pass) read depth values as in-scattered light."""
 import re
 from pathlib import Path
 
+from igserver.render import bindings
 from igserver.render.common import aerial_table
 from igserver.render.post import post
 from igserver.render.sky import frame_sky, sky, sky_view, tables
@@ -15,44 +18,40 @@ from igserver.render.water import water
 RENDER = Path(__file__).resolve().parents[1] / "igserver" / "render"
 
 
-def frame_wide_units() -> set[int]:
-    return {frame_sky.HAZE_TABLE_UNIT, *sky_view.SKY_VIEW_UNITS.values(), *tables.TABLE_UNITS.values(),
-            *aerial_table.AERIAL_UNITS.values()}
+def test_frame_wide_units_are_distinct_and_clear_of_the_pass_units():
+    frame_wide = list(bindings.FRAME_UNITS.values())
+    assert len(frame_wide) == len(set(frame_wide))
+    assert not set(frame_wide) & set(bindings.PASS_UNITS.values())
 
 
-def test_frame_wide_units_are_distinct():
-    units = [frame_sky.HAZE_TABLE_UNIT, *sky_view.SKY_VIEW_UNITS.values(), *tables.TABLE_UNITS.values(),
-             *aerial_table.AERIAL_UNITS.values()]
-    assert len(units) == len(set(units))
-
-
-def test_pass_units_avoid_the_frame_wide_units():
+def test_python_side_binds_the_registry_units():
+    assert frame_sky.HAZE_TABLE_UNIT == bindings.FRAME_UNITS["HAZE_TABLE"]
+    assert set(sky_view.SKY_VIEW_UNITS.values()) | set(tables.TABLE_UNITS.values()) | set(
+        aerial_table.AERIAL_UNITS.values()) <= set(bindings.FRAME_UNITS.values())
     pass_units = {
-        "surfaces shadow (key)": surfaces.SHADOW_UNIT_KEY,
-        "surfaces shadow (spot)": surfaces.SHADOW_UNIT_SPOT,
-        **{f"material {k}": v for k, v in gpu_models.SAMPLER_UNITS.items()},
-        "water field": water.FIELD_UNIT, "water field scalar": water.FIELD_SCALAR_UNIT,
-        "water sky reflection": water.SKY_REFLECT_UNIT, "water air T": water.AIR_T_UNIT,
-        "water air S": water.AIR_S_UNIT, "water foam noise": water.FOAM_NOISE_UNIT,
+        **gpu_models.SAMPLER_UNITS,
+        "water detail": water.DETAIL_UNIT0, "water field": water.FIELD_UNIT,
+        "water field scalar": water.FIELD_SCALAR_UNIT, "water sky reflection": water.SKY_REFLECT_UNIT,
+        "water air T": water.AIR_T_UNIT, "water air S": water.AIR_S_UNIT,
         "post halo table": post.HALO_TABLE_UNIT, "sky cirrus table": sky.CIRRUS_TABLE_UNIT,
-        "sky cirrus hide": sky.CIRRUS_HIDE_UNIT,
-        "sky hazy table": sky.SKY_HAZY_UNIT, "sky hazy moon": sky.SKY_HAZY_MOON_UNIT,
+        "sky cirrus hide": sky.CIRRUS_HIDE_UNIT, "sky hazy table": sky.SKY_HAZY_UNIT,
+        "sky hazy moon": sky.SKY_HAZY_MOON_UNIT,
     }
-    clash = {name: unit for name, unit in pass_units.items() if unit in frame_wide_units()}
-    assert not clash, clash
+    assert set(pass_units.values()) <= set(bindings.PASS_UNITS.values()), pass_units
+    assert water.DETAIL_UNIT0 + 2 not in bindings.FRAME_UNITS.values()  # the three detail maps
+    assert {surfaces.SHADOW_UNIT_KEY, surfaces.SHADOW_UNIT_SPOT, water.FOAM_NOISE_UNIT} <= set(bindings.FRAME_UNITS.values())
 
 
-def test_shader_bindings_of_frame_wide_tables_match_python():
-    # The GLSL side declares the frame-wide samplers with explicit bindings; they must be the
-    # units the Python side binds, and no other sampler in any shader may claim those units.
-    text = (RENDER / "common" / "atmosphere.glsl").read_text() + (RENDER / "common" / "aerial_table.glsl").read_text()
-    declared = {m.group(2): int(m.group(1))
-                for m in re.finditer(r"layout\(binding\s*=\s*(\d+)\)\s*uniform\s+\w+\s+(\w+);", text)}
-    expected = {"u_haze_table": frame_sky.HAZE_TABLE_UNIT, **sky_view.SKY_VIEW_UNITS, **tables.TABLE_UNITS,
-                **aerial_table.AERIAL_UNITS}
-    assert {k: declared.get(k) for k in expected} == expected
+def test_shaders_name_units_only_through_the_registry():
+    # Every sampler a frame's shader binds explicitly uses a UNIT_ define (numbers only in the
+    # table precompute, which runs on its own before any frame), and every UNIT_ it names exists.
+    defines = bindings.shader_defines()
     for path in RENDER.rglob("*.glsl"):
-        if path.name in ("atmosphere.glsl", "aerial_table.glsl", "precompute.glsl"):  # precompute runs on its own, before any frame
-            continue
-        for m in re.finditer(r"layout\(binding\s*=\s*(\d+)\)\s*uniform\s+sampler\w*\s+(\w+);", path.read_text()):
-            assert int(m.group(1)) not in frame_wide_units(), (path.name, m.group(2))
+        text = path.read_text()
+        for m in re.finditer(r"layout\(binding\s*=\s*(\w+)\)\s*uniform\s+sampler\w*\s+(\w+);", text):
+            if path.name == "precompute.glsl":
+                continue
+            assert m.group(1) in defines, (path.name, m.group(2), m.group(1))
+    glsl = bindings.glsl()
+    for name, value in defines.items():
+        assert f"#define {name} {value}" in glsl

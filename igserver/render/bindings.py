@@ -3,8 +3,8 @@
 Units 8 and up are **frame-wide**: the tables every lit pass reads (haze, sky view, atmosphere,
 shadow maps, aerial perspective) sit there for the whole frame, so no pass may bind anything else
 on them. Units 0-7 are **pass-local**: each pass binds what it reads there just before it draws.
-The shaders read the same numbers: every program is compiled with ``UNIT_<NAME>`` and
-``BLOCK_<NAME>`` defines from this table (``shader_defines``), and declares
+The shaders read the same numbers: ``glsl()`` makes ``#define UNIT_<NAME>`` and ``BLOCK_<NAME>``
+lines from these tables, included as ``generated/bindings.glsl``, and a shader declares
 ``layout(binding = UNIT_TRANSMITTANCE) uniform sampler2D ...``, so a number is written once.
 
 A texture bound to a unit stays bound until something else is bound there. ``use_texture`` keeps,
@@ -52,9 +52,15 @@ BLOCKS = {
 
 
 def shader_defines() -> dict[str, int]:
-    """``UNIT_<NAME>`` and ``BLOCK_<NAME>`` for every program of a context."""
+    """``UNIT_<NAME>`` and ``BLOCK_<NAME>``: the registry as the shaders see it."""
     return {**{f"UNIT_{k}": v for k, v in {**FRAME_UNITS, **PASS_UNITS}.items()},
             **{f"BLOCK_{k}": v for k, v in BLOCKS.items()}}
+
+
+def glsl() -> str:
+    """The registry as GLSL ``#define`` lines (once per program however often it is included)."""
+    lines = [f"#define {name} {value}" for name, value in shader_defines().items()]
+    return "#ifndef IGSERVER_BINDINGS\n#define IGSERVER_BINDINGS\n" + "\n".join(lines) + "\n#endif\n"
 
 
 def use_texture(texture, unit: int) -> None:

@@ -100,9 +100,10 @@ def glsl() -> str:
     body = "\n".join("    " + d for d in decls)
     plain = "\n".join("uniform " + d for d in decls)
     return (f"// Generated from igserver/render/frame_block.py (std140, {SIZE} bytes).\n"
+            '#include "generated/bindings.glsl"\n'
             f"#define MAX_LIGHTS {MAX_LIGHTS}\n"
             "#if defined(FRAME_BLOCK) && FRAME_BLOCK\n"
-            f"layout(std140, binding = {BLOCKS['FRAME']}) uniform FrameBlock {{\n{body}\n}};\n"
+            "layout(std140, binding = BLOCK_FRAME) uniform FrameBlock {\n" + body + "\n};\n"
             f"#else\n{plain}\n#endif\n")
 
 

@@ -33,7 +33,7 @@ def _frame_block_glsl() -> str:
 
 
 # GLSL made from Python tables (one declaration for both sides), included like package files.
-GENERATED = {"generated/frame_block.glsl": _frame_block_glsl}
+GENERATED = {"generated/frame_block.glsl": _frame_block_glsl, "generated/bindings.glsl": bindings.glsl}
 
 
 def expand(path: str, seen: frozenset[str] = frozenset()) -> str:
@@ -63,15 +63,14 @@ def assemble(path: str, stage: str, defines: dict[str, object] | None = None) ->
 class ProgramCache:
     """One compiled program per (files, defines); pipelines stay resident in the render process.
 
-    ``context_defines`` go into every program of this context (e.g. its depth clip range), with the
-    texture units and block binding points of render/bindings.py. Draw programs read the frame's
+    ``context_defines`` go into every program of this context (e.g. its depth clip range). Draw programs read the frame's
     uniform block (``FRAME_BLOCK`` 1, render/frame_block.py); compute programs fill tables with
     their own camera or sun and take those values as plain uniforms unless they ask for the block.
     """
 
     def __init__(self, ctx: moderngl.Context, context_defines: dict | None = None):
         self.ctx = ctx
-        self.context_defines = {**bindings.shader_defines(), **dict(context_defines or {})}
+        self.context_defines = dict(context_defines or {})
         self._programs: dict[tuple, moderngl.Program | moderngl.ComputeShader] = {}
 
     def program(self, vertex: str, fragment: str, defines: dict | None = None) -> moderngl.Program:

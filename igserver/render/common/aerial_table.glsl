@@ -17,9 +17,10 @@
 //
 // Needs common/frame.glsl and common/atmosphere.glsl before it. AERIAL_EXACT: the per-pixel
 // function instead (the reference the table is measured and tested against).
+#include "generated/bindings.glsl"
 #ifndef AERIAL_EXACT
-layout(binding = 18) uniform sampler3D u_aerial_tau;
-layout(binding = 19) uniform sampler3D u_aerial_source;
+layout(binding = UNIT_AERIAL_TAU) uniform sampler3D u_aerial_tau;
+layout(binding = UNIT_AERIAL_SOURCE) uniform sampler3D u_aerial_source;
 uniform vec4 u_aerial_map;  // d0 (m), log2(q), q, number of slices
 // The table's own frame (aerial_table.py: the camera's at the fill, its frustum widened by a guard
 // band, so a turning camera reuses the table): basis and frustum tangents left, right, bottom, top.

@@ -27,12 +27,12 @@ import weakref
 import moderngl
 import numpy as np
 
-from ..bindings import use_texture
+from ..bindings import FRAME_UNITS, use_texture
 from ..shaders import ProgramCache, set_uniforms, uniform_inputs
 from ..resident import resident
 from ..sky.frame_sky import _haze_tables
 
-AERIAL_UNITS = {"u_aerial_tau": 18, "u_aerial_source": 19}
+AERIAL_UNITS = {"u_aerial_tau": FRAME_UNITS["AERIAL_TAU"], "u_aerial_source": FRAME_UNITS["AERIAL_SOURCE"]}
 # (screen x nodes, screen y nodes, distance slices) over the view widened by AERIAL_GUARD on each
 # side: from the error-vs-time check in docs/quality.md ("Aerial-perspective table"); presets do not
 # change it (the fill runs only when the view leaves the table or the light or fog change).

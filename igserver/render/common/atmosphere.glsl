@@ -26,6 +26,7 @@
 //   L(x -> p) = [L_p T_c(x,p) + S_c(x,v) (1 - T_c(x,p)) / (1 - T_c(x,end))] T_h(x,p) + S_h (1 - T_h(x,p))
 // (c clear air, h haze). Define ATMOSPHERE_DIRECT_TABLES to evaluate the clear air per pixel from
 // the 4D tables instead (the reference of `igserver quality light` for the sky-view table's error).
+#include "generated/bindings.glsl"
 #include "sky/atmosphere_functions.glsl"
 
 uniform vec3 u_sky_zenith;      // cd/m^2
@@ -42,10 +43,10 @@ uniform float u_fog_scale_height; // m
 
 uniform int u_sky_model;           // 0 gradient, 1 precomputed
 uniform vec3 u_solar_illuminance;  // lux per channel above the atmosphere
-layout(binding = 12) uniform sampler2D u_transmittance_lut;
-layout(binding = 13) uniform sampler2D u_irradiance_lut;
-layout(binding = 14) uniform sampler3D u_scattering_lut;
-layout(binding = 15) uniform sampler3D u_single_mie_lut;
+layout(binding = UNIT_TRANSMITTANCE) uniform sampler2D u_transmittance_lut;
+layout(binding = UNIT_IRRADIANCE) uniform sampler2D u_irradiance_lut;
+layout(binding = UNIT_SCATTERING) uniform sampler3D u_scattering_lut;
+layout(binding = UNIT_SINGLE_MIE) uniform sampler3D u_single_mie_lut;
 
 bool use_precomputed() {
 #if defined(SKY_PRECOMPUTED)
@@ -238,9 +239,9 @@ vec3 clear_segment_optical_depth(vec3 rel) {
 // ---------------------------------------------------------------------------------------------
 // Sky-view table (per frame): see sky/sky_view_map.glsl for the direction <-> texel map.
 #include "sky/sky_view_map.glsl"
-layout(binding = 9) uniform sampler2D u_sky_view_radiance;   // rgb sky radiance (cd/m^2)
-layout(binding = 10) uniform sampler2D u_sky_view_inscatter; // rgb in-scattering of the whole ray
-layout(binding = 11) uniform sampler2D u_sky_view_tau;       // rgb optical depth (+1e4 into ground)
+layout(binding = UNIT_SKY_VIEW_RADIANCE) uniform sampler2D u_sky_view_radiance;   // rgb sky radiance (cd/m^2)
+layout(binding = UNIT_SKY_VIEW_INSCATTER) uniform sampler2D u_sky_view_inscatter; // rgb in-scattering of the whole ray
+layout(binding = UNIT_SKY_VIEW_TAU) uniform sampler2D u_sky_view_tau;       // rgb optical depth (+1e4 into ground)
 
 void clear_sky_lookup(vec3 dir, out vec3 sky, out vec3 inscatter, out vec3 tau_end, bool need_sky) {
 #ifdef ATMOSPHERE_DIRECT_TABLES
@@ -281,17 +282,13 @@ vec3 haze_segment_tau(float h0, vec3 rel) {
     float dz = rel.z + dot(rel.xy, rel.xy) / (2.0 * HAZE_EARTH_RADIUS_M);
     return haze_segment_tau_from(h0, haze_column(h0), length(rel), dz);
 }
-// Optical depth to infinity upward (z > 0, or grazing) on the round earth: the column over the
-// path's cosine slant_mu = (z + sqrt(z^2 + 8 H / (pi R))) / 2, H = column / density the local
-// scale length: the upper bound of Chapman's grazing function, exact overhead and at the horizon
-// (sqrt(pi R / 2H) airmasses, 91 for the 1.2 km haze), the same as HazeLayer.slant_mu that dims the
-// sun's light on surfaces and in the fog. (A floor sqrt(z^2 + 2H/R) gave sqrt(R/2H): 1.77x too
-// little haze on the horizon, and the sun's disk there up to 8x brighter than the light it casts.)
+// Optical depth to infinity upward (z > 0, or grazing): flat layer with a Chapman-like grazing
+// floor, z_eff = sqrt(z^2 + 2 H / R), H the local column height (the earth's curve lets a
+// horizontal ray out of the layer after sqrt(2 R H)).
 vec3 haze_tau_up(float h0, float z) {
     float c = haze_column(h0);
     float hc = c / max(haze_density(h0), 1e-6);
-    float zp = max(z, 0.0);
-    return u_haze_beta * (2.0 * c / (zp + sqrt(zp * zp + 8.0 * hc / (ATMO_PI * HAZE_EARTH_RADIUS_M))));
+    return u_haze_beta * (c / sqrt(z * z + 2.0 * hc / HAZE_EARTH_RADIUS_M));
 }
 float hg(float g, float nu) {
     // d sqrt(d), not pow(d, 1.5): llvmpipe computes pow as exp2(log2) (~9 % of the sky pass's per-pixel work)
@@ -301,7 +298,7 @@ float hg(float g, float nu) {
 // In-scattered radiance source S(h, dir) of the layer (cd/m^2), from the per-frame table of its
 // light against height (sky/haze.py source_table(): the two-stream model evaluated once per frame
 // at 64 heights; rows: diffuse down, up, sun beam, moon beam).
-layout(binding = 8) uniform sampler2D u_haze_table;
+layout(binding = UNIT_HAZE_TABLE) uniform sampler2D u_haze_table;
 uniform float u_haze_table_top;  // m, height of the table's last column
 // The direction's phase functions (sun, moon) come in as phases (haze_phases: once per ray in a march).
 vec2 haze_phases(vec3 dir) {

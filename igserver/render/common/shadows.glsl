@@ -8,16 +8,17 @@
 // Bias without acne or peter-panning at a grazing light: the depth pass uses slope-scaled
 // polygon offset, and the lookup moves the point along its normal by a fraction of a texel that
 // grows with the angle to the light (normal offset), so no large constant depth bias is needed.
+#include "generated/bindings.glsl"
 #ifndef SHADOW_TAPS
 #define SHADOW_TAPS 4
 #endif
 // KEY_SHADOW_MAP / SPOT_SHADOW_MAP: compile the lookup of a map only when the frame drew it
 // (surfaces.py); a run-time test alone still pays for the lookup on llvmpipe.
-uniform sampler2DShadow u_key_shadow_map;
+layout(binding = UNIT_SHADOW_KEY) uniform sampler2DShadow u_key_shadow_map;
 uniform mat4 u_key_shadow_matrix;
 uniform int u_key_shadow_light;      // SUN_LIGHT, MOON_LIGHT, or 0 when there is no map
 uniform float u_key_shadow_texel;    // m, world size of one texel
-uniform sampler2DShadow u_spot_shadow_map;
+layout(binding = UNIT_SHADOW_SPOT) uniform sampler2DShadow u_spot_shadow_map;
 uniform mat4 u_spot_shadow_matrix;
 uniform int u_spot_shadow_light;     // index of the spot light with the map, -1 none
 uniform float u_spot_shadow_texel;   // m per texel at 1 m from the spot light

@@ -5,8 +5,9 @@
 // filtering) at the centre of a 2x2 (or, at a block's odd edge, 2x1, 1x2 or 1x1) group of texels,
 // where the filter's weights are exactly equal: the group's mean in one fetch, a quarter of the
 // fetches of reading every texel.
+#include "generated/bindings.glsl"
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 1) in;
-layout(binding = 0) uniform sampler2D u_hdr;
+layout(binding = UNIT_HDR) uniform sampler2D u_hdr;
 layout(binding = 0, rgba32f) uniform writeonly image2D u_out;
 uniform int u_block;
 

@@ -16,7 +16,7 @@ import math
 import moderngl
 import numpy as np
 
-from ..bindings import use_texture
+from ..bindings import PASS_UNITS, use_texture
 from ..camera import cone_on_screen
 from ..passes import RenderPass
 from ..shaders import set_uniforms
@@ -25,7 +25,7 @@ from .halos import HaloTable, halo_radius, table_uniforms
 
 METER_CELLS = 32  # the meter works on at most this many cells across (32 x 18 at 16:9)
 MAX_HALOS = 8
-HALO_TABLE_UNIT = 3
+HALO_TABLE_UNIT = PASS_UNITS["HALO_TABLE"]
 HALO_SCALE = 2  # halos at half resolution, depth-aware upsampling (post/halos.frag.glsl): 65.9 dB vs full
 HALO_MIN_BETA = 1e-4  # 1/m (visibility < ~40 km): thinner air shows no halo worth 8 samples a pixel
 
@@ -106,7 +106,7 @@ class PostPass(RenderPass):
             set_uniforms(program, {"u_halos": 2, "u_distance": 1, "u_halo_far": halos["u_halo_far"]})
             use_texture(self._halo_target[0], 2)
             use_texture(targets.distance, 1)
-        use_texture(targets.hdr, 0)
+        use_texture(targets.hdr, PASS_UNITS["HDR"])
         targets.ldr_fbo.use()
         self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         self.fullscreen(program)
@@ -149,11 +149,11 @@ class PostPass(RenderPass):
         if getattr(self, "_meter_sampler", None) is None:  # bilinear over the target's nearest filter
             self._meter_sampler = self.ctx.sampler(filter=(moderngl.LINEAR, moderngl.LINEAR),
                                                    repeat_x=False, repeat_y=False)
-        use_texture(targets.hdr, 0)
-        self._meter_sampler.use(0)
+        use_texture(targets.hdr, PASS_UNITS["HDR"])
+        self._meter_sampler.use(PASS_UNITS["HDR"])
         tex.bind_to_image(0, read=False, write=True)
         prog.run((size[0] + 3) // 4, (size[1] + 3) // 4, 1)
-        self._meter_sampler.clear(0)
+        self._meter_sampler.clear(PASS_UNITS["HDR"])
         self.ctx.memory_barrier()
         cells = np.frombuffer(tex.read(), dtype=np.float32).reshape(-1, 4)[:, :3].astype(np.float64)
         cells = cells[np.all(np.isfinite(cells), axis=1)] / max(frame.exposure, 1e-30)

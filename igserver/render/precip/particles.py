@@ -51,6 +51,7 @@ from ...weather import (
 )
 from .. import presets
 from ..camera import CameraView
+from ..memo import Memo
 
 BLOCK = 4096  # particles per random block: the pool grows in blocks, so a prefix never changes
 SNOW_SPEED_SCATTER = (0.75, 1.2)  # per-flake factor on the Locatelli-Hobbs speed (riming, shape)
@@ -240,12 +241,23 @@ def _level_counts(n0: float, sizes: list[float]) -> list[int]:
     return [int(round(n0 * (size / sizes[0]) ** 3 / 4.0**lvl)) for lvl, size in enumerate(sizes)]
 
 
+TILES = Memo()  # the last view's tiles (keyed on every input of level_tiles)
+
+
+def _read_only(arrays: list[np.ndarray]) -> list[np.ndarray]:
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
+
+
 def particle_frame(scene: Scene, view: CameraView, settings: PrecipSettings, pool: ParticlePool) -> ParticleFrame:
     p = scene.weather.precipitation
     kind, rate, L = p.type, p.rate, settings.tile_size
     fade = settings.fade(kind)
     rho = visible_number_density(kind, rate)  # drops per m^3
-    tiles = level_tiles(view, L, settings.lod_distance, fade)
+    # The tiles are camera-relative: they follow the view's orientation and frustum, not its position.
+    tiles = TILES.get("level_tiles", (view.view_proj.tobytes(), L, settings.lod_distance, fade),
+                      lambda: _read_only(level_tiles(view, L, settings.lod_distance, fade)))
     sizes = [level_tile_size(L, lvl) for lvl in range(len(tiles))]
     n0 = float(particle_count(kind, rate, settings))
     counts = _level_counts(n0, sizes)

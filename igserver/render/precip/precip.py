@@ -93,7 +93,9 @@ class PrecipPass(RenderPass):
         # Per level: its entries in radiance[] (one per streak) start at first_streak.
         first_streak = np.cumsum([0] + [level.streaks for level in particles.levels])[:-1]
 
-        light = self.programs.compute("precip/precip_light.comp.glsl", local_light_defines(frame.lights))
+        # Run every frame: it reads the frame's block like the draw programs.
+        light = self.programs.compute("precip/precip_light.comp.glsl", {**local_light_defines(frame.lights),
+                                                                        "FRAME_BLOCK": 1})
         set_uniforms(light, frame.uniforms)
         set_uniforms(light, OPTICS[kind])
         for level, base in zip(particles.levels, first_streak):

@@ -11,8 +11,8 @@ layout(location = 0) out vec4 out_color;
 layout(location = 1) out float out_distance;
 
 #if defined(CIRRUS) && !defined(CIRRUS_PER_PIXEL)
-layout(binding = 7) uniform sampler2D u_cirrus_table;  // cirrus_table.glsl, drawn this frame:
-layout(binding = 6) uniform sampler2D u_cirrus_hide;   // the layer's light and its opacity, both x T
+layout(binding = UNIT_CIRRUS_TABLE) uniform sampler2D u_cirrus_table;  // cirrus_table.glsl, drawn this frame:
+layout(binding = UNIT_CIRRUS_HIDE) uniform sampler2D u_cirrus_hide; // the layer's light and its opacity, both x T
 // Composite of the table's layer over the radiance behind it: L (1 - alpha T) + rgb alpha T.
 vec3 composite_cirrus_table(vec3 radiance) {
     return radiance * (1.0 - texture(u_cirrus_hide, v_uv).rgb) + texture(u_cirrus_table, v_uv).rgb;

@@ -10,7 +10,7 @@ import numpy as np
 
 from ...astro import star_field
 from .. import depth
-from ..bindings import use_texture
+from ..bindings import PASS_UNITS, use_texture
 from ..passes import RenderPass
 from ..shaders import set_uniforms, uniform_inputs
 from .sky_view import SKY_VIEW_SIZE
@@ -19,10 +19,10 @@ STAR_POINT_PX = 2.0
 # The cirrus layer is evaluated once per frame on a grid this many times coarser per axis than the
 # frame (cirrus_table.glsl), 1 = per pixel in the sky pass (the reference for the picture error).
 CIRRUS_TABLE_SCALE = 2
-CIRRUS_TABLE_UNIT = 7   # (cloud radiance x alpha x T, alpha)
-CIRRUS_HIDE_UNIT = 6    # (alpha x T): how much of the sky behind the layer it hides, per channel
-SKY_HAZY_UNIT = 5       # the sky through the haze layer on the sky-view map (sky_hazy.glsl)
-SKY_HAZY_MOON_UNIT = 4  # its moon term, one column
+CIRRUS_TABLE_UNIT = PASS_UNITS["CIRRUS_TABLE"]    # (cloud radiance x alpha x T, alpha)
+CIRRUS_HIDE_UNIT = PASS_UNITS["CIRRUS_HIDE"]      # (alpha x T): how much of the sky behind the layer it hides
+SKY_HAZY_UNIT = PASS_UNITS["SKY_HAZY"]            # the sky through the haze layer on the sky-view map (sky_hazy.glsl)
+SKY_HAZY_MOON_UNIT = PASS_UNITS["SKY_HAZY_MOON"]  # its moon term, one column
 # Its size (azimuth from the sun, elevation): the clear sky-view table's, whose texel centres it
 # reads exactly; against haze_sky() per pixel within 1 level where it is used (hazy_table_holds).
 SKY_HAZY_SIZE = SKY_VIEW_SIZE

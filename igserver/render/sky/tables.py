@@ -22,12 +22,13 @@ from pathlib import Path
 import moderngl
 import numpy as np
 
-from ..bindings import use_texture
+from ..bindings import FRAME_UNITS, use_texture
 from ..shaders import ProgramCache, expand, set_uniforms
 from .atmosphere_model import AtmosphereParameters
 
 # Texture units reserved for the atmosphere tables in every pass.
-TABLE_UNITS = {"u_transmittance_lut": 12, "u_irradiance_lut": 13, "u_scattering_lut": 14, "u_single_mie_lut": 15}
+TABLE_UNITS = {"u_transmittance_lut": FRAME_UNITS["TRANSMITTANCE"], "u_irradiance_lut": FRAME_UNITS["IRRADIANCE"],
+               "u_scattering_lut": FRAME_UNITS["SCATTERING"], "u_single_mie_lut": FRAME_UNITS["SINGLE_MIE"]}
 PRECOMPUTE_SHADER = "sky/precompute.glsl"
 
 

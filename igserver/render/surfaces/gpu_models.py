@@ -15,7 +15,7 @@ import time
 import moderngl
 import numpy as np
 
-from ..bindings import use_texture, write_buffer
+from ..bindings import PASS_UNITS, use_texture, write_buffer
 from ...scene.model import MAX_ENTITIES
 from .gltf import model_path
 from .loader import MaterialData, ModelData, load_model
@@ -92,7 +92,8 @@ class GpuMaterial:
             use_texture(tex, unit)
 
 
-SAMPLER_UNITS = {"u_base_tex": 0, "u_mr_tex": 1, "u_normal_tex": 2, "u_occlusion_tex": 3, "u_emissive_tex": 4}
+SAMPLER_UNITS = {"u_base_tex": PASS_UNITS["BASE_TEX"], "u_mr_tex": PASS_UNITS["MR_TEX"], "u_normal_tex": PASS_UNITS["NORMAL_TEX"],
+                 "u_occlusion_tex": PASS_UNITS["OCCLUSION_TEX"], "u_emissive_tex": PASS_UNITS["EMISSIVE_TEX"]}
 
 
 class GpuPrimitive:

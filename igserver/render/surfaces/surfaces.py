@@ -21,8 +21,9 @@ import numpy as np
 
 from ...scene.model import Entity, Scene
 from .. import depth
-from ..bindings import use_texture
+from ..bindings import FRAME_UNITS, use_texture
 from ..camera import CameraView, body_to_world, gl_matrix
+from ..memo import Memo, view_key
 from ..common.aerial_table import frame_aerial_table
 from ..passes import RenderPass
 from ..shaders import set_uniforms
@@ -30,8 +31,8 @@ from .gltf import check_model
 from .gpu_models import INSTANCE_FLOATS, SAMPLER_UNITS, GpuModel, ModelCache, model_identity
 from .shadow_fit import ShadowProjection, fit_directional, fit_spot
 
-SHADOW_UNIT_KEY = 16   # texture units of the shadow maps: above the frame-wide 8..15 (haze, sky view, tables)
-SHADOW_UNIT_SPOT = 17
+SHADOW_UNIT_KEY = FRAME_UNITS["SHADOW_KEY"]  # the shadow maps' units (read by common/shadows.glsl)
+SHADOW_UNIT_SPOT = FRAME_UNITS["SHADOW_SPOT"]
 SPOT_SHADOW_RESOLUTION = 1024
 DEFAULT_SHADOW_TAPS = 4  # from `igserver quality surfaces`: 8 and 16 taps lower the error by < 1 % (docs/quality.md)
 SUN_LIGHT, MOON_LIGHT = -1, -2
@@ -48,6 +49,14 @@ class Batch:
     model: GpuModel
     rows: dict[str, np.ndarray] = field(default_factory=dict)
     caster_bounds: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+    _primitive_rows: dict = field(default_factory=dict)
+
+    def primitive_rows(self, use: str, p: int) -> np.ndarray:
+        """Primitive ``p``'s instance rows for ``use``, contiguous float32, made once per batch."""
+        key = (use, p)
+        if key not in self._primitive_rows:
+            self._primitive_rows[key] = np.ascontiguousarray(self.rows[use][:, p, :], dtype=np.float32)
+        return self._primitive_rows[key]
 
 
 def part_poses(entity: Entity) -> dict[str, np.ndarray]:
@@ -109,11 +118,20 @@ class SurfacesPass(RenderPass):
         # table's error studies and tests; IGSERVER_AERIAL_EXACT=1 sets it for a whole process.
         self.aerial_exact = os.environ.get("IGSERVER_AERIAL_EXACT") == "1"
         self._aerial_exact_frame = False  # this frame fell back to the per-pixel function
+        self.memo = Memo()
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
         return (scene.ground.enabled and not scene.ocean.enabled) or any(e.visible for e in scene.entities)
 
     # --- instances --------------------------------------------------------------------------
+    def _instances(self, scene: Scene, view: CameraView) -> dict[str, Batch]:
+        """The frame's batches, recomputed only when an input changes: the visible entities, the
+        models they draw (a reloaded file is another model object), the view and the shadow range."""
+        visible = tuple(e for e in scene.entities if e.visible)
+        models = tuple((name, id(self.models.get(name))) for name in sorted({e.model for e in visible}))
+        key = (visible, models, view_key(view), scene.shadows.distance)
+        return self.memo.get("batches", key, lambda: self._batches(scene, view))
+
     def _batches(self, scene: Scene, view: CameraView) -> dict[str, Batch]:
         groups: dict[str, list[Entity]] = {}
         for entity in scene.entities:
@@ -146,15 +164,22 @@ class SurfacesPass(RenderPass):
             self._shadow_maps[key] = (tex, self.ctx.framebuffer(depth_attachment=tex))
         return self._shadow_maps[key]
 
-    def _render_shadow_map(self, key: str, size: int, projection: ShadowProjection, batches) -> moderngl.Texture:
+    def _render_shadow_map(self, key: str, size: int, projection: ShadowProjection, batches,
+                           fit_key=None) -> moderngl.Texture:
         """Draw the casters into the map, unless it already holds exactly this: same projection,
-        same caster instances (camera-relative rows, so a moved camera redraws) and materials."""
+        same caster instances (camera-relative rows, so a moved camera redraws) and materials.
+        ``fit_key``: the inputs of the projection and the batches, when they name them all (the
+        signature is then computed once per change of them)."""
         tex, fbo = self._shadow_target(key, size)
-        digest = hashlib.blake2b(np.asarray(projection.view_proj, dtype=np.float64).tobytes(), digest_size=16)
-        for name, batch in sorted(batches.items()):
-            digest.update(name.encode())
-            digest.update(np.ascontiguousarray(batch.rows["shadow"]).tobytes())
-        signature = (size, digest.digest())
+
+        def signature_of():
+            digest = hashlib.blake2b(np.asarray(projection.view_proj, dtype=np.float64).tobytes(), digest_size=16)
+            for name, batch in sorted(batches.items()):
+                digest.update(name.encode())
+                digest.update(np.ascontiguousarray(batch.rows["shadow"]).tobytes())
+            return (size, digest.digest())
+
+        signature = signature_of() if fit_key is None else self.memo.get(f"{key}_shadow_signature", fit_key, signature_of)
         if self._shadow_signatures.get(key) == signature:
             self.shadow_maps_reused += 1
             return tex
@@ -194,9 +219,14 @@ class SurfacesPass(RenderPass):
         key = self._key_light(frame)
         if key is not None:
             which, direction = key
-            projection = fit_directional(bounds[:, :3], bounds[:, 3], direction, view.position,
-                                         scene.shadows.resolution, depth.zero_to_one(self.ctx))
-            tex = self._render_shadow_map("key", scene.shadows.resolution, projection, batches)
+            # The fit and what the map holds follow the casters (one batches value per change), the
+            # light's direction, the camera's position and the map's size.
+            fit_key = (self.memo.computed["batches"], tuple(np.asarray(direction, np.float64)),
+                       view.position.tobytes(), scene.shadows.resolution)
+            projection = self.memo.get("key_shadow_fit", fit_key, lambda: fit_directional(
+                bounds[:, :3], bounds[:, 3], direction, view.position, scene.shadows.resolution,
+                depth.zero_to_one(self.ctx)))
+            tex = self._render_shadow_map("key", scene.shadows.resolution, projection, batches, fit_key)
             use_texture(tex, SHADOW_UNIT_KEY)
             self._bound_shadow_maps.append((tex, SHADOW_UNIT_KEY))
             uniforms.update({"u_key_shadow_light": which, "u_key_shadow_texel": projection.texel})
@@ -208,7 +238,7 @@ class SurfacesPass(RenderPass):
             index, light = spot
             projection = fit_spot(view.relative(light.position), light.spot_dir, light.cos_outer, light.range,
                                   SPOT_SHADOW_RESOLUTION, depth.zero_to_one(self.ctx))
-            tex = self._render_shadow_map("spot", SPOT_SHADOW_RESOLUTION, projection, batches)
+            tex = self._render_shadow_map("spot", SPOT_SHADOW_RESOLUTION, projection, batches, None)
             use_texture(tex, SHADOW_UNIT_SPOT)
             self._bound_shadow_maps.append((tex, SHADOW_UNIT_SPOT))
             uniforms.update({"u_spot_shadow_light": index, "u_spot_shadow_texel": projection.texel,
@@ -256,7 +286,7 @@ class SurfacesPass(RenderPass):
                     continue
                 set_uniforms(program, prim.material.uniforms)
                 prim.material.bind()
-                prim.draw(program, use, stacked[:, p, :])
+                prim.draw(program, use, batch.primitive_rows(use, p))
 
     def _receiver_defines(self, frame) -> dict:
         """The frame's light terms, and shadow lookups only for the maps this frame drew."""
@@ -273,7 +303,7 @@ class SurfacesPass(RenderPass):
 
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
-        batches = self._batches(scene, view)
+        batches = self._instances(scene, view)
         receiver_uniforms = self._shadows(frame, batches, scene)
         aerial = None if self.aerial_exact else frame_aerial_table(frame)
         self._aerial_exact_frame = aerial is None  # a camera high over the ground: per pixel

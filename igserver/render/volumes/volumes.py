@@ -39,9 +39,10 @@ from ...assets import AssetError, resolve_asset
 from ...scene.model import Scene
 from .. import presets
 from ..camera import CameraView
+from ..memo import Memo, view_key
 from ..passes import RenderPass
 from ..shaders import set_uniforms
-from .effects import NOISE_PERIOD, NOISE_SCALE, Volume, visible_volumes
+from .effects import NOISE_PERIOD, NOISE_SCALE, Volume, fade_level, visible_volumes
 from .fire_lights import fire_light
 from .profiles import FIRE_SMOKE_ALBEDO, SMOKE_ALBEDO, load_profile
 
@@ -215,6 +216,7 @@ class VolumesPass(RenderPass):
 
     def __init__(self, ctx, programs):
         super().__init__(ctx, programs)
+        self.memo = Memo()
         self.stats = {"modelled": 0, "drawn": 0, "voxels": 0}
         self._slots: dict[tuple, _Slot] = {}
         self._profiles: OrderedDict[tuple, moderngl.Texture] = OrderedDict()  # LRU, at most MAX_PROFILE_TEXTURES
@@ -460,7 +462,11 @@ class VolumesPass(RenderPass):
         settings = self.knobs(frame)
         self._frame += 1
         self.stats = {"modelled": 0, "drawn": 0, "voxels": 0}
-        volumes = visible_volumes(scene, view)
+        # The volumes follow the effects, their fade levels now, the wind that bends them and the view.
+        t = scene.time.sim_time
+        key = (tuple(scene.effects), tuple(fade_level(e, t) for e in scene.effects), scene.weather.wind_speed,
+               scene.weather.wind_direction, view_key(view))
+        volumes = self.memo.get("visible_volumes", key, lambda: visible_volumes(scene, view))
         textures = [self._models_for(vol, frame, settings) for vol in volumes]
         scale = max(int(settings.scale), 1)
         if settings.lod:

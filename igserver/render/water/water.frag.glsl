@@ -2,6 +2,7 @@
 // and moon glitter and local lights through the project's GGX lobe, detail slopes from the summed
 // normal maps, depth-dependent colour in the shallows, foam where the surface is compressed, aerial
 // perspective; no water inside hulls.
+#include "generated/bindings.glsl"
 #include "common/frame.glsl"
 #include "common/brdf.glsl"
 #include "common/lights.glsl"
@@ -47,7 +48,7 @@ uniform vec2 u_foam_edge;       // J above / below it where the foam starts / is
 uniform vec4 u_foam_frame;      // xy: unit downwind direction; zw: 1 / streak length, 1 / width (1/m)
 uniform vec2 u_foam_offset;     // noise coordinates of the camera, drifted downwind, mod FOAM_PERIOD (CPU)
 uniform float u_foam_period;    // noise cells per side of the tabulated noise
-uniform sampler2D u_foam_noise; // the streak noise, about uniform on [0, 1] (water/foam_noise.frag.glsl)
+layout(binding = UNIT_FOAM_NOISE) uniform sampler2D u_foam_noise; // the streak noise, about uniform on [0, 1] (water/foam_noise.frag.glsl)
 
 // Foam: the J edge gives each point's foam fraction f; the streak noise (tabulated, about uniform u
 // on [0, 1]) dithers it — white where f exceeds u — through a ramp of width FOAM_SOFT, scaled so

@@ -26,7 +26,8 @@ from ...scene.model import Scene
 from ...water import sea_surface
 from ...water.spectrum import WaveSet
 from ...water.surface import SeaSurface, whitecap_coverage
-from ..bindings import use_texture, write_buffer
+from ..bindings import FRAME_UNITS, PASS_UNITS, use_texture, write_buffer
+from ..memo import Memo
 from ..camera import CameraView, body_to_world
 from ..frame import local_light_defines
 from .. import presets
@@ -48,12 +49,12 @@ DETAIL_MIN_CYCLES = 5.0
 DETAIL_RATIO = 7.7
 DETAIL_MIN_WAVES = 4
 # Texture units bound for the water draw (the frame keeps 8..15: haze table, sky-view table, 4D tables).
-DETAIL_UNIT0 = 1  # 1, 2, 3
-FIELD_UNIT = 4
-FIELD_SCALAR_UNIT = 5
-SKY_REFLECT_UNIT = 6
-AIR_T_UNIT = 7
-AIR_S_UNIT = 0
+DETAIL_UNIT0 = PASS_UNITS["SEA_DETAIL0"]  # and the next two
+FIELD_UNIT = PASS_UNITS["SEA_FIELD"]
+FIELD_SCALAR_UNIT = PASS_UNITS["SEA_FIELD_SCALAR"]
+SKY_REFLECT_UNIT = PASS_UNITS["SEA_SKY_REFLECT"]
+AIR_T_UNIT = PASS_UNITS["SEA_AIR_T"]
+AIR_S_UNIT = PASS_UNITS["SEA_AIR_S"]
 SKY_REFLECT_SIZE = (128, 128)  # the upper hemisphere on a disk (sea_tables.glsl): 0.45 deg per texel at the horizon
 AIR_SIZE = (64, 96)  # azimuth x log distance: 5.6 deg, ~10 % distance steps past AIR_D0
 AIR_D0 = 10.0  # m
@@ -412,7 +413,7 @@ FOAM_STREAK_FADE = 0.75  # cells a pixel spans where the streaks have faded to t
 FOAM_DRIFT = 0.03  # × wind speed: the surface drift that carries the streaks downwind
 FOAM_PERIOD = 64.0  # noise cells per side of the tabulated noise: 1.5 km along the wind, 192 m across
 FOAM_NOISE_SIZE = 256  # texels per side: 4 per noise cell (bilinear; the shader fades the streaks before it minifies)
-FOAM_NOISE_UNIT = 20  # past the frame's 8..15, the shadow maps' 16, 17 and the aerial table's 18, 19
+FOAM_NOISE_UNIT = FRAME_UNITS["FOAM_NOISE"]
 
 
 def foam_frame(scene: Scene, view: CameraView) -> dict:
@@ -543,6 +544,8 @@ class WaterPass(RenderPass):
         self._instances = None
         self._tables: SeaTables | None = None
         self._selection = None  # (key, sea, LodSelection) of the last select()
+        self._selection_version = 0  # counts select()'s recomputations: a key part for what follows it
+        self.memo = Memo()
         self.exact_atmosphere = False  # the atmosphere per pixel/vertex instead of the tables (quality study)
         self.skip_minified_maps = True  # False: every block reads every detail map (tests' reference)
         self.skip_faded_streaks = True  # False: every block reads the foam's streak noise (tests' reference)
@@ -671,7 +674,6 @@ class WaterPass(RenderPass):
         phases = np.zeros(MAX_WAVES, dtype=np.float32)
         phases[:n] = sea.phase_offsets(t, cam_xy)[:n]
         u = {"u_wave_count": n, "u_wave_norm": float(max(n, 1)), "u_steepness": sea.steepness,
-             "u_second_order": sea.second_order, "u_sea_depth": sea.reference_depth,
              "u_cam_height": float(view.position[2] - scene.ocean.level),
              "u_level_z": float(scene.ocean.level - view.position[2]),
              "u_patch_quads": float(lod.PATCH_QUADS)}
@@ -708,7 +710,32 @@ class WaterPass(RenderPass):
                                fans=sea.field is None,  # a field's depth and surf vary per vertex even where flat
                                coarse_sides=self.coarse_flat_sides)
         self._selection = (key, sea, selection)
+        self._selection_version += 1
         return selection
+
+    def _draw_plan(self, sea, selection, hulls, tiles, view, level_z: float, used_maps: int):
+        """Per block: near a hull, detail maps read, foam streaks; the draw groups they make."""
+        # Blocks whose footprint (grown by the waves' reach) touches no hull are drawn by the program
+        # without the per-fragment hull test (and its discard, which also turns off early depth tests).
+        near_hull = blocks_near_hulls(selection.nodes, hulls, 2.0 * selection.error_sphere + 1.0)
+        flat = selection.flat  # blocks carrying no wave: drawn as fans (lod.fan_indices)
+        # Detail maps read per block: the later (finer) ones are fully minified far enough away.
+        maps = (minified_maps_from(selection, sea, tiles, view, -level_z) if self.skip_minified_maps
+                else np.full(len(selection.nodes), used_maps, dtype=int))
+        # The foam's streak noise only where a pixel is small enough to show it.
+        streaks = (foam_streaks_needed(selection, sea, view, -level_z) if self.skip_faded_streaks
+                   else np.ones(len(selection.nodes), dtype=bool))
+        # Draw groups: program (hull test, maps read, streaks) x index shape (the full patch, or a fan
+        # with its shared flat sides as one segment: lod.fan_indices), in the order hulls, shape (full
+        # patches first: the near blocks), maps, streaks; one instanced draw each.
+        shape = np.where(flat, selection.coarse_sides.astype(int), -1) + 1  # 0: full patch, 1 + mask: fan
+        group = ((near_hull.astype(int) * (len(lod.SIDES) ** 2 + 1) + shape) * (used_maps + 1) + maps) * 2 + streaks
+        groups = []  # (program key, fan mask or -1, blocks, slot: the group's id, so a slot keeps its shape)
+        for g in np.unique(group):
+            first = int(np.argmax(group == g))
+            key = (bool(near_hull[first]), int(maps[first]), bool(streaks[first]))
+            groups.append((key, int(shape[first]) - 1, selection.nodes[group == g], int(g)))
+        return near_hull, maps, streaks, flat, groups
 
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
@@ -726,29 +753,17 @@ class WaterPass(RenderPass):
         table_uniforms = self._tables.fill(self, frame, level_z, 1.5 * float(selection.reach) + abs(level_z))
         used_maps = sum(1 for _, waves in tiles if len(waves))
         waves = self.wave_uniforms(sea, scene, view)  # once per frame, for each program drawn
-        # Blocks whose footprint (grown by the waves' reach) touches no hull are drawn by the program
-        # without the per-fragment hull test (and its discard, which also turns off early depth tests).
-        near_hull = blocks_near_hulls(selection.nodes, hulls, 2.0 * selection.error_sphere + 1.0)
-        flat = selection.flat  # blocks carrying no wave: drawn as fans (lod.fan_indices)
-        # Detail maps read per block: the later (finer) ones are fully minified far enough away.
-        maps = (minified_maps_from(selection, sea, tiles, view, -level_z) if self.skip_minified_maps
-                else np.full(len(selection.nodes), used_maps, dtype=int))
+        # The draw plan follows the selection (one object per view and sea state), the hulls, the
+        # tiles' sizes (not their phases), the view's pixel size and the knobs: a still camera over
+        # an animating sea plans once.
+        plan_key = (self._selection_version, b"".join(h.tobytes() for h in hulls),
+                    tuple((size, len(w)) for size, w in tiles), view.tangents, view.width, view.height, level_z,
+                    self.skip_minified_maps, self.skip_faded_streaks)
+        near_hull, maps, streaks, flat, groups = self.memo.get(
+            "draw_plan", plan_key, lambda: self._draw_plan(sea, selection, hulls, tiles, view, level_z, used_maps))
         # Tile averages of the maps some block does not read (empty maps average 0).
         means = detail_means(tiles) if np.any(maps < used_maps) else np.zeros((DETAIL_MAPS, 4))
         self._update_detail(sea, t, resolution, tiles, int(maps.max()) if len(maps) else 0)
-        # The foam's streak noise only where a pixel is small enough to show it.
-        streaks = (foam_streaks_needed(selection, sea, view, -level_z) if self.skip_faded_streaks
-                   else np.ones(len(selection.nodes), dtype=bool))
-        # Draw groups: program (hull test, maps read, streaks) x index shape (the full patch, or a fan
-        # with its shared flat sides as one segment: lod.fan_indices), in the order hulls, shape (full
-        # patches first: the near blocks), maps, streaks; one instanced draw each.
-        shape = np.where(flat, selection.coarse_sides.astype(int), -1) + 1  # 0: full patch, 1 + mask: fan
-        group = ((near_hull.astype(int) * (len(lod.SIDES) ** 2 + 1) + shape) * (used_maps + 1) + maps) * 2 + streaks
-        groups = []  # (program key, fan mask or -1, blocks, slot: the group's id, so a slot keeps its shape)
-        for g in np.unique(group):
-            first = int(np.argmax(group == g))
-            key = (bool(near_hull[first]), int(maps[first]), bool(streaks[first]))
-            groups.append((key, int(shape[first]) - 1, selection.nodes[group == g], int(g)))
         shared = self._frame_uniforms(frame, sea, waves, tiles, selection, hulls, table_uniforms) if groups else None
         programs = {}
         for key, _, nodes, _ in groups:
