@@ -9,7 +9,7 @@ import pytest
 from PIL import Image
 
 from igserver.client import AsyncIGClient, IGClient, IGError
-from igserver.client.core import main
+from igserver.client.cli import main
 from igserver.protocol.runtime import ServerSettings
 from igserver.protocol.testing import LoopbackServer
 from igserver.scene import Scene, save_scene
@@ -31,7 +31,8 @@ def test_sync_client(server):
     with IGClient(server.url) as ig:
         assert ig.health()["status"] == "ok" and ig.wait_ready()["ready"]
         scene = small_scene(host_frame=5, weather={"wind_speed": 3.0})
-        assert ig.put_state(scene) == scene
+        # the scene gives no sim_time: the clock runs on (free), so the accepted state differs only there
+        assert ig.put_state(scene).model_copy(update={"time": scene.time}) == scene
         assert ig.patch_state({"camera": {"pitch": 10.0}}).camera.pitch == 10.0
         assert ig.get_state().weather.wind_speed == 3.0
         with pytest.raises(IGError) as info:
@@ -175,7 +176,7 @@ def test_cli_record_stops_cleanly_on_ctrl_c(server, tmp_path):
     import time
 
     out = tmp_path / "live.mjpg"
-    process = subprocess.Popen([sys.executable, "-m", "igserver.client.core", "--url", server.url, "record",
+    process = subprocess.Popen([sys.executable, "-m", "igserver.client.cli", "--url", server.url, "record",
                                 "--mjpeg", str(out), "--frames", "0"], stderr=subprocess.PIPE, text=True,
                                env={**os.environ, "PYTHONFAULTHANDLER": "1"})
     deadline = time.monotonic() + 60
@@ -211,3 +212,64 @@ def test_async_client_has_the_sync_methods(server):
             assert len(jpegs) == 2 and all(j[:2] == b"\xff\xd8" for j in jpegs)
 
     asyncio.run(scenario())
+
+
+# --------------------------------------------------------------------------- the IG clock: send and bench leave it be
+
+def test_send_without_sim_time_keeps_the_clock_free(server, tmp_path):
+    scene_file = tmp_path / "no_sim_time.toml"
+    scene_file.write_text(f'[camera]\nwidth = {W}\nheight = {H}\n\n[atmosphere]\nmodel = "gradient"\n')
+    with IGClient(server.url) as ig:
+        ig.set_clock(mode="free", paused=False, rate=1.0)
+        before = ig.clock()["sim_time"]
+        assert main(["--url", server.url, "send", str(scene_file)]) == 0
+        clock = ig.clock()
+        assert clock["mode"] == "free" and clock["sim_time"] >= before  # not host mode at sim_time 0
+        ig.put_state(small_scene())  # the library alike: a Scene whose sim_time was never given
+        assert ig.clock()["mode"] == "free"
+        # a scene that gives sim_time hands the clock to the host, at that time
+        scene_file.write_text(scene_file.read_text() + "\n[time]\nsim_time = 50.0\n")
+        assert main(["--url", server.url, "send", str(scene_file)]) == 0
+        clock = ig.clock()
+        assert clock["mode"] == "host" and clock["sim_time"] == 50.0
+        ig.set_clock(mode="free")
+
+
+@pytest.mark.parametrize("clock", [{"mode": "free", "paused": False, "rate": 2.0},
+                                   {"mode": "free", "paused": True, "sim_time": 77.0},
+                                   {"mode": "host", "sim_time": 1234.5}])
+def test_cli_bench_restores_the_clock(server, clock):
+    with IGClient(server.url) as ig:
+        ig.set_clock(**clock)
+        before = ig.clock()
+        try:
+            assert main(["--url", server.url, "bench", "--frames", "2", "--modes", "http"]) == 0
+            after = ig.clock()
+        finally:
+            ig.set_clock(mode="free", paused=False, rate=1.0)
+    assert (after["mode"], after["paused"], after["rate"]) == (before["mode"], before["paused"], before["rate"])
+    if before["mode"] == "host" or before["paused"]:
+        assert after["sim_time"] == before["sim_time"]
+    else:
+        assert after["sim_time"] >= before["sim_time"]  # running on, not set back
+
+
+def test_sync_and_async_share_each_call():
+    """Each call is written once (igserver/client/steps.py): the blocking and asyncio classes differ in
+    their I/O only."""
+    from igserver.client import AsyncFrameStream, FrameStream
+    from igserver.client.steps import operation
+
+    io_only = {"close", "mjpeg", "stream"}
+    calls = {n for n in dir(IGClient) if not n.startswith("_") and isinstance(getattr(IGClient, n), operation)}
+    assert {"health", "wait_ready", "put_state", "render", "clock", "set_clock", "water_height"} <= calls
+    public = {n for n in dir(IGClient) if not n.startswith("_") and callable(getattr(IGClient, n))}
+    assert public - calls - {"ws_url", "auth_headers"} == io_only
+    for name in calls:
+        assert getattr(IGClient, name) is getattr(AsyncIGClient, name), name
+    for name in ("send_patch", "send_state", "ack", "recv", "water_height"):
+        assert getattr(FrameStream, name) is getattr(AsyncFrameStream, name), name
+    import igserver.client.cli as cli
+    import igserver.client.core as core  # the former module path: installed igclient scripts name it
+
+    assert core.main is cli.main and core.IGClient is IGClient

@@ -16,7 +16,7 @@ import msgpack
 import pytest
 from PIL import Image
 
-from igserver.client.core import iter_multipart_jpegs
+from igserver.client import iter_multipart_jpegs
 from igserver.protocol.runtime import ServerSettings
 from igserver.protocol.testing import LoopbackServer
 from igserver.scene import Scene

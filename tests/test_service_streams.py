@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from websockets.sync.client import connect
 
-from igserver.client.core import IGClient, IGError, iter_multipart_jpegs
+from igserver.client import IGClient, IGError, iter_multipart_jpegs
 from igserver.protocol.runtime import ServerSettings
 from igserver.protocol.testing import LoopbackServer
 from igserver.scene import Scene

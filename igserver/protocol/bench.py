@@ -33,7 +33,7 @@ def free_port() -> int:
 @contextlib.contextmanager
 def server_process(width: int, height: int, scene: str | None = None, port: int | None = None):
     """A real igserver on loopback in a child process; yields its URL once /v1/ready says so."""
-    from igserver.client.core import IGClient
+    from igserver.client import IGClient
 
     port = port or free_port()
     command = [sys.executable, "-m", "igserver.protocol", "--port", str(port), "--width", str(width),
@@ -66,7 +66,8 @@ def server_process(width: int, height: int, scene: str | None = None, port: int 
 
 
 def run_service_bench(argv: list[str] | None = None) -> int:
-    from igserver.client.core import IGClient, format_summary, latency_bench, summarize
+    from igserver.client import IGClient
+    from igserver.client.latency import format_summary, latency_bench, summarize
 
     from .imaging import compare_jpeg_encoders
 
