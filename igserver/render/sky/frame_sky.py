@@ -15,7 +15,7 @@ import numpy as np
 from ...astro.ephemeris import direction_enu, refraction_deg
 from ...scene.model import Scene
 from ...weather import effective_visibility, wind_heading
-from ..bindings import FRAME_UNITS
+from ..bindings import FRAME_UNITS, use_texture
 from .atmosphere_model import (KOSCHMIEDER, PRESETS, SOLAR_ILLUMINANCE, AtmosphereParameters, atmosphere_parameters,
                                ground_extinction_550_per_m, turbidity_class)
 from .daylight import Daylight, daylight
@@ -179,7 +179,7 @@ def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
         light, horizontal, part, table = hit
         uniforms.update(part)
         if table is not None:
-            haze_table_texture(ctx, table, key).use(HAZE_TABLE_UNIT)
+            use_texture(haze_table_texture(ctx, table, key), HAZE_TABLE_UNIT)
         uniforms["u_haze_table"] = HAZE_TABLE_UNIT
         uniforms["u_sky_model"] = 1
         uniforms["u_fog_beta"] = float(haze.beta[1])
