@@ -55,3 +55,17 @@ def test_shaders_name_units_only_through_the_registry():
     glsl = bindings.glsl()
     for name, value in defines.items():
         assert f"#define {name} {value}" in glsl
+
+
+def test_every_texture_bind_goes_through_the_binding_record():
+    # use_texture skips a bind its record says is done already: a texture bound behind its back
+    # (``tex.use(unit)``) would leave the record stale and a later pass reading the wrong table.
+    direct = []
+    for path in list(RENDER.rglob("*.py")) + list((RENDER.parent / "quality").rglob("*.py")):
+        if path.name == "bindings.py":
+            continue
+        for number, line in enumerate(path.read_text().splitlines(), 1):
+            if re.search(r"\.use\((location\s*=\s*)?\w", line) and "sampler" not in line and "_halo_table" not in line \
+                    and "matplotlib" not in line:
+                direct.append(f"{path.name}:{number}: {line.strip()}")
+    assert not direct, direct
