@@ -8,7 +8,8 @@ north at 10 m/s with the eyepoint behind and above it; the time of day runs from
 second; at 1 s the visibility drops and rain starts; at 2 s a crate (entity 2) appears ahead and a fire is
 started on it by Component Control; HAT/HOT requests under the ownship go out at 10 Hz. It prints the
 Start of Frame rate, the IG mode and frame counters, and the HAT/HOT answers: the tool to check that an
-installation speaks CIGI. ``--sync`` marks the timestamps valid (the host's frames then drive sim_time).
+installation speaks CIGI. ``--sync`` marks the timestamps valid (the host's frames then drive sim_time)
+and runs in lockstep: each host frame is sent when the IG's next Start of Frame has arrived.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ class Summary:
     responses: list = field(default_factory=list)
     counts: Counter = field(default_factory=Counter)
     errors: Counter = field(default_factory=Counter)
+    sof_arrived: threading.Event = field(default_factory=threading.Event)
 
     def sof_rate(self) -> float:
         """Hz over the SOFs received (0 when fewer than two)."""
@@ -71,13 +73,15 @@ def scenario(frame: int, rate: float, hour: int, sync: bool) -> list:
     return packets
 
 
-def receive(sock: socket.socket, summary: Summary, stop: threading.Event, verbose: bool) -> None:
+def receive(sock: socket.socket, summary: Summary, stop: threading.Event, verbose: bool, capture=None) -> None:
     sock.settimeout(0.1)
     while not stop.is_set():
         try:
-            data, _ = sock.recvfrom(65536)
+            data, sender = sock.recvfrom(65536)
         except (socket.timeout, OSError):
             continue
+        if capture is not None:
+            capture.add(data, sender[:2], sock.getsockname()[:2])
         try:
             message = parse_ig_message(data)
         except Malformed as exc:
@@ -88,6 +92,7 @@ def receive(sock: socket.socket, summary: Summary, stop: threading.Event, verbos
             if isinstance(packet, StartOfFrame):
                 summary.sof.append(packet)
                 summary.sof_times.append(time.monotonic())
+                summary.sof_arrived.set()
             elif isinstance(packet, (HatHotResponse, HatHotExtendedResponse)):
                 summary.responses.append(packet)
                 if verbose:
@@ -107,7 +112,7 @@ def run(ig: tuple[str, int], listen_port: int = 8005, seconds: float = 10.0, rat
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         sock.bind(("127.0.0.1" if ig[0] in ("127.0.0.1", "localhost") else "0.0.0.0", listen_port))
     summary, stop = Summary(), threading.Event()
-    reader = threading.Thread(target=receive, args=(sock, summary, stop, verbose), daemon=True)
+    reader = threading.Thread(target=receive, args=(sock, summary, stop, verbose, capture), daemon=True)
     reader.start()
     start = time.monotonic()
     frame = 0
@@ -117,11 +122,15 @@ def run(ig: tuple[str, int], listen_port: int = 8005, seconds: float = 10.0, rat
                                  timestamp=int(frame / rate * 100_000) & 0xFFFFFFFF)]
             packets += scenario(frame, rate, hour, sync) + (list(extra(frame)) if extra else [])
             data = build(packets, order)
+            summary.sof_arrived.clear()
             sock.sendto(data, ig)
             if capture is not None:
                 capture.add(data, sock.getsockname()[:2], ig)
             frame += 1
-            time.sleep(max(0.0, start + frame / rate - time.monotonic()))
+            if sync:  # synchronous: the next host frame answers the IG's next Start of Frame
+                summary.sof_arrived.wait(2.0)
+            else:
+                time.sleep(max(0.0, start + frame / rate - time.monotonic()))
         time.sleep(0.3)  # the answers to the last requests
     finally:
         stop.set()

@@ -75,11 +75,12 @@ class CigiListener(asyncio.DatagramProtocol):
 
     # -- frames
     def frame_started(self, *_args) -> None:
-        """Called at each frame start (before the render is submitted): extrapolate, then send SOF."""
+        """Called at each frame start (its state chosen, the render not yet submitted): SOF, then extrapolate."""
         t0 = time.perf_counter()
-        self.engine.extrapolate()
         self._send_sof(self.runtime.ready())
         self.engine.counters.sof_delay_ms.observe((time.perf_counter() - t0) * 1e3)
+        # entities with a Rate Control move on for the frames after this one (this one's state is chosen)
+        self.engine.extrapolate()
 
     def _send_sof(self, ready: bool) -> None:
         self.last_sof = time.monotonic()
@@ -103,8 +104,11 @@ class CigiListener(asyncio.DatagramProtocol):
             if self._subscription is not None and now - self.last_message > HOST_TIMEOUT_S:
                 self._subscription.__exit__(None, None, None)
                 self._subscription = None
-            if now - self.last_sof >= HEARTBEAT_S:
-                self._send_sof(self.runtime.ready())
+            ready = self.runtime.ready()
+            # no frame started lately: tell the host anyway (Standby while precomputing), but not while a
+            # frame renders (its SOF went out; a synchronous host would run ahead of the frames)
+            if now - self.last_sof >= HEARTBEAT_S and (not ready or self.runtime.gateway.busy_since is None):
+                self._send_sof(ready)
 
     def close(self) -> None:
         if self._heartbeat is not None:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import socket
 import struct
+import threading
 import time
 from pathlib import Path
 
@@ -34,14 +35,16 @@ class PcapWriter:
 
     def __init__(self, path: str | Path):
         self._file = open(path, "wb")
+        self._lock = threading.Lock()  # a host's sender and receiver threads write to one capture
         self._file.write(struct.pack("<IHHiIII", 0xA1B2C3D4, 2, 4, 0, 0, 65535, 1))
 
     def add(self, payload: bytes, src: tuple[str, int], dst: tuple[str, int], stamp: float | None = None) -> None:
         frame = udp_frame(payload, src, dst)
         stamp = time.time() if stamp is None else stamp
         seconds = int(stamp)
-        self._file.write(struct.pack("<IIII", seconds, int((stamp - seconds) * 1e6), len(frame), len(frame)))
-        self._file.write(frame)
+        with self._lock:
+            self._file.write(struct.pack("<IIII", seconds, int((stamp - seconds) * 1e6), len(frame), len(frame)))
+            self._file.write(frame)
 
     def close(self) -> None:
         self._file.close()

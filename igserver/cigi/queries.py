@@ -152,7 +152,10 @@ def hat_hot(scene: Scene, session: Session, types: TypeMap, p: HatHotRequest):
     frame = LocalFrame.of(scene.location)
     point = request_point(frame, session, p.entity_id, p.entity_relative, p.lat, p.lon, p.alt)
     lsn = session.host_frame & 0xF
-    found = [] if point is None else surfaces(scene, boxes(scene, session, types), point[0], point[1])
+    # relative to an entity (the ownship), the entity's own box is not a surface under it
+    own = p.entity_id if p.entity_relative else None
+    others = [b for b in boxes(scene, session, types) if b.number is None or b.number != own]
+    found = [] if point is None else surfaces(scene, others, point[0], point[1])
     if not found:
         if p.request_type == 2:
             return HatHotExtendedResponse(request_id=p.request_id, valid=False, host_frame_lsn=lsn)
