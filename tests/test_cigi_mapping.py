@@ -253,7 +253,7 @@ def test_hat_hot_ground_and_entities_and_line_of_sight():
                           elevation=45.0, max_range=100.0), frame=2)
     hot, hat, above, seg, down, up = parse_ig_message(e.start_of_frame(True)).packets[1:]
     assert hot.height == pytest.approx(3.0) and hat.height == pytest.approx(10.5)
-    assert above.height == pytest.approx(20.0 + 0.5)  # relative to the crate: its own box is not under it
+    assert above.height == pytest.approx(22.0 + 0.5)  # 20 m above the crate (at 2 m): its own box is not under it
     start = LocalFrame.of(e.store.scene.location).to_enu(LAT0 - 0.0001, LON0, 0)[1]
     assert isinstance(seg, LosResponse) and seg.valid and seg.entity_valid and seg.entity_id == 1
     assert seg.range == pytest.approx(-start - 0.5, abs=1e-6)
