@@ -259,3 +259,12 @@ def test_hat_hot_ground_and_entities_and_line_of_sight():
     assert seg.range == pytest.approx(-start - 0.5, abs=1e-6)
     assert down.valid and not down.entity_valid and down.range == pytest.approx(10.5)
     assert up.visible and not up.valid
+
+
+def test_docs_settings_table_is_current():
+    from pathlib import Path
+
+    from igserver.protocol.settings import settings_table
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "cigi.md").read_text(encoding="utf-8")
+    assert settings_table("cigi") in doc, "docs/cigi.md settings table out of date: paste settings_table('cigi')"
