@@ -177,3 +177,14 @@ def test_frame_block_bytes_follow_the_frame_and_only_it(renderer):
     assert block.writes == writes
     renderer.render(apply_patch(scene, {"camera": {"heading": 10.0}}))
     assert block.writes == writes + 1
+
+
+@pytest.mark.parametrize("name", ["demo", "night_fire"])
+def test_a_stream_creates_no_gl_object(renderer, name):
+    """Across volume keyframes (modelled at a capped rate: a new 3D texture's worth of work a few
+    times a second) the textures are reused, not made."""
+    scene = apply_patch(load_scene(name), {"camera": {"width": 64, "height": 36}})
+    _stream(renderer, scene, 6)
+    with GLCallCounter() as calls:
+        _stream(renderer, scene, 24, t0=scene.time.sim_time + 0.2)
+    assert calls.created() == 0, {k: v for k, v in calls.by_name.items() if k.startswith("Context.")}

@@ -41,6 +41,7 @@ from .. import presets
 from ..camera import CameraView
 from ..memo import Memo, view_key
 from ..passes import RenderPass
+from ..texture_pool import TexturePool
 from ..shaders import set_uniforms
 from .effects import NOISE_PERIOD, NOISE_SCALE, Volume, fade_level, visible_volumes
 from .fire_lights import fire_light
@@ -164,9 +165,10 @@ def screen_rect(volumes: list[Volume], view: CameraView, width: int, height: int
 class _Model:
     """One modelled 3D texture and the state (and keyframe) it was modelled for."""
 
-    def __init__(self, texture: moderngl.Texture, size: tuple[int, int, int]):
+    def __init__(self, texture: moderngl.Texture, size: tuple[int, int, int], pool: TexturePool):
         self.texture = texture
         self.size = size
+        self.pool = pool
         self.state: tuple | None = None
         self.key: int | None = None  # keyframe index (capped rate), None = exact tau
         self.done_z = 0  # z slices modelled so far (a keyframe ahead is modelled over several frames)
@@ -180,7 +182,7 @@ class _Model:
         return self.done_z >= self.size[2]
 
     def release(self) -> None:
-        self.texture.release()
+        self.pool.give(self.texture)
 
 
 class _Slot:
@@ -192,12 +194,12 @@ class _Slot:
         self.last_time: float | None = None  # sim_time of the last frame that used it
         self.shadows: OrderedDict[tuple, moderngl.Texture] = OrderedDict()  # smoke: inputs -> (t_sun, t_sky)
 
-    def release(self) -> None:
+    def release(self, pool: TexturePool) -> None:
         for m in self.models:
             m.release()
         self.models = []
         for tex in self.shadows.values():
-            tex.release()
+            pool.give(tex)
         self.shadows.clear()
 
 
@@ -217,6 +219,7 @@ class VolumesPass(RenderPass):
     def __init__(self, ctx, programs):
         super().__init__(ctx, programs)
         self.memo = Memo()
+        self.pool = TexturePool(ctx)  # keyframes' and smoke shadows' 3D textures, reused
         self.stats = {"modelled": 0, "drawn": 0, "voxels": 0}
         self._slots: dict[tuple, _Slot] = {}
         self._profiles: OrderedDict[tuple, moderngl.Texture] = OrderedDict()  # LRU, at most MAX_PROFILE_TEXTURES
@@ -335,10 +338,7 @@ class VolumesPass(RenderPass):
         if reuse is None or reuse.size != size:
             if reuse is not None:
                 reuse.release()
-            texture = self.ctx.texture3d(size, 4, dtype="f2")
-            texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
-            texture.repeat_x = texture.repeat_y = texture.repeat_z = False
-            model = _Model(texture, size)
+            model = _Model(self.pool.take(size, 4, (moderngl.LINEAR, moderngl.LINEAR)), size, self.pool)
         else:
             model = reuse
         smoke = vol.kind == "smoke"
@@ -395,8 +395,7 @@ class VolumesPass(RenderPass):
         if tex is not None:
             shadows.move_to_end(key)
             return tex
-        tex = self.ctx.texture3d(model.size, 2, dtype="f2")
-        tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        tex = self.pool.take(model.size, 2, (moderngl.NEAREST, moderngl.NEAREST))
         program = self.programs.compute("volumes/model.comp.glsl", {"SMOKE": 1, "SHADOWS": 1})
         set_uniforms(program, {**u, "u_z_first": 0})
         use_texture(self._profile_texture(model.vol), 0)
@@ -405,7 +404,7 @@ class VolumesPass(RenderPass):
         self.ctx.memory_barrier()
         shadows[key] = tex
         while len(shadows) > MAX_SHADOW_TEXTURES:
-            shadows.popitem(last=False)[1].release()
+            self.pool.give(shadows.popitem(last=False)[1])
         self.stats["shadows"] = self.stats.get("shadows", 0) + 1
         return tex
 
@@ -606,7 +605,7 @@ class VolumesPass(RenderPass):
     def _evict(self) -> None:
         """Free the textures of effects not seen for a while (gone, out of view, inactive)."""
         for key in [k for k, s in self._slots.items() if self._frame - s.last_frame > EVICT_AFTER_FRAMES]:
-            self._slots[key].release()
+            self._slots[key].release(self.pool)
             del self._slots[key]
 
 
