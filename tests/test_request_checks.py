@@ -82,12 +82,20 @@ def test_effect_route_errors_and_detail_give_one_pointer(client):
     assert_pointers_agree(bad, "#/effects/0/profile")
 
 
-def test_effect_pointer_prefix_is_a_whole_index(client):
-    # effect 1's errors are rewritten, not those of effects 10-19 (a prefix "#/effects/1" matches both)
+def test_effect_pointer_prefix_is_a_whole_index(client, tmp_path, monkeypatch):
+    # effect 10's profile asset disappears: changing effect 1 then fails on effect 10, whose pointer
+    # stays its own ("#/effects/1" is a prefix of "#/effects/10/profile" as text, not as a pointer)
+    from PIL import Image
+
+    (tmp_path / "profiles").mkdir()
+    Image.new("RGBA", (8, 16)).save(tmp_path / "profiles" / "gone.png")
+    monkeypatch.setenv("IGSERVER_ASSETS", str(tmp_path))
     for index in range(11):
-        client.post("/v1/effects", json={"id": f"e{index}"}).raise_for_status()
-    bad = client.patch("/v1/effects/e1", json={"intensity": 99.0}).json()
-    assert_pointers_agree(bad, "#/intensity")
+        client.post("/v1/effects", json={"id": f"e{index}", **({"profile": "gone"} if index == 10 else {})}
+                    ).raise_for_status()
+    (tmp_path / "profiles" / "gone.png").unlink()
+    bad = client.patch("/v1/effects/e1", json={"intensity": 2.0}).json()
+    assert_pointers_agree(bad, "#/effects/10/profile")
 
 
 @pytest.mark.parametrize("bathymetry", [
