@@ -189,3 +189,29 @@ def test_an_invisible_halo_is_not_drawn(renderer):
     frame = build_frame(renderer.ctx, scene, None)
     assert frame.lights, "the lamp must be there for this test to mean anything"
     assert halo_uniforms(frame)["u_halo_count"] == 0
+
+
+def test_rain_glows_with_half_its_extinction(renderer):
+    # The harbour fire in 8 mm/h rain (rain_harbour): the air alone sees 20 km; the rain adds
+    # beta_p = 0.365 R^0.63 /km (weather.py, extinction efficiency 2). Half of that is diffraction
+    # into lambda/D ~ 0.03 deg around each beam (1 mm drops at 0.55 um), inside the light's own
+    # pixel: the glow of the fire and the lamp in the rain comes from the air's extinction plus the
+    # other half only. Reference: the layer's extinction at the camera with and without the rain
+    # (Koschmieder for the air, Marshall-Palmer for the rain); exact up to float rounding.
+    from igserver.weather import precipitation_extinction
+
+    def layer_beta(scene):
+        frame = build_frame(renderer.ctx, scene, None)
+        haze = frame.resources["haze"]
+        return float(haze.beta[1] * haze.density(frame.camera_altitude - scene.location.altitude)), frame
+
+    wet = load_scene("rain_harbour")
+    dry = apply_patch(wet, {"weather": {"precipitation": {"type": "none"}}})
+    rain = precipitation_extinction("rain", 8.0)
+    beta_dry, frame_dry = layer_beta(dry)
+    beta_wet, frame_wet = layer_beta(wet)
+    assert beta_wet - beta_dry == pytest.approx(rain, rel=5e-3)  # the layer's density 4 m up: e^(-4/1200)
+    uniforms = halo_uniforms(frame_wet)
+    assert uniforms["u_halo_count"] >= 1
+    assert uniforms["u_halo_beta"] == pytest.approx(beta_wet - 0.5 * rain, rel=1e-5)
+    assert halo_uniforms(frame_dry)["u_halo_beta"] == pytest.approx(beta_dry, rel=1e-6)

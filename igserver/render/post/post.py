@@ -16,6 +16,7 @@ import math
 import moderngl
 import numpy as np
 
+from ...weather import precipitation_extinction
 from ..bindings import PASS_UNITS, use_texture
 from ..camera import cone_on_screen
 from ..passes import RenderPass
@@ -39,6 +40,18 @@ _LINEAR = np.geomspace(1e-7, 64.0, 20000)
 DISPLAY_SLOPE = float(np.max(np.diff(displayed(_LINEAR)) / np.diff(_LINEAR)))
 
 
+def glow_extinction(scene, beta: float) -> float:
+    """1/m, the part of the layer's extinction ``beta`` at the camera that makes lights glow. Rain
+    drops and snow flakes are large against the wavelength: of their extinction (efficiency 2,
+    weather.precipitation_extinction) half is diffraction into ~lambda/D = 0.5 um / 1 mm = 0.03 deg
+    around the beam, inside the light's own pixel: it neither lights the air around a lamp or a
+    fire nor dims the paths of the glow. The glow sees the air's extinction and the other half
+    (reflection and refraction by the drops). At most half of ``beta`` goes: a host whose
+    visibility already holds the rain may send less extinction than the rain alone has."""
+    p = scene.weather.precipitation
+    return max(beta - 0.5 * precipitation_extinction(p.type, p.rate), 0.5 * beta)
+
+
 def halo_uniforms(frame, exposure_correction: float = 1.0) -> dict:
     """The brightest lights whose fog halos can show (tonemap.glsl), with the fog at the camera.
     ``exposure_correction``: the metered exposure over the frame's provisional one (the post pass
@@ -47,7 +60,7 @@ def halo_uniforms(frame, exposure_correction: float = 1.0) -> dict:
     if haze is None or not frame.lights:
         return {"u_halo_count": 0}
     h = frame.camera_altitude - frame.scene.location.altitude
-    beta = float(haze.beta[1] * haze.density(h))
+    beta = glow_extinction(frame.scene, float(haze.beta[1] * haze.density(h)))
     if beta < HALO_MIN_BETA:
         return {"u_halo_count": 0}
     # A light shows a halo when the cone of view rays where its halo's radiance can reach the
