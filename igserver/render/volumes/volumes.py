@@ -188,18 +188,19 @@ class _Model:
 class _Slot:
     """An effect's modelled textures: one (every frame) or two keyframes (capped rate)."""
 
-    def __init__(self):
+    def __init__(self, pool: TexturePool):
+        self.pool = pool
         self.models: list[_Model] = []
         self.last_frame = 0
         self.last_time: float | None = None  # sim_time of the last frame that used it
         self.shadows: OrderedDict[tuple, moderngl.Texture] = OrderedDict()  # smoke: inputs -> (t_sun, t_sky)
 
-    def release(self, pool: TexturePool) -> None:
+    def release(self) -> None:
         for m in self.models:
             m.release()
         self.models = []
         for tex in self.shadows.values():
-            pool.give(tex)
+            self.pool.give(tex)
         self.shadows.clear()
 
 
@@ -272,7 +273,7 @@ class VolumesPass(RenderPass):
 
     def _models_for(self, vol: Volume, frame, settings: VolumeSettings) -> tuple[moderngl.Texture, moderngl.Texture, float]:
         """(texture, next texture, blend weight of the next) for this frame, modelling what is missing."""
-        slot = self._slots.setdefault(vol.key, _Slot())
+        slot = self._slots.setdefault(vol.key, _Slot(self.pool))
         slot.last_frame = self._frame
         size = texture_size(vol, frame.view, settings)
         static = self._static_state(vol, frame, settings, size)
@@ -605,7 +606,7 @@ class VolumesPass(RenderPass):
     def _evict(self) -> None:
         """Free the textures of effects not seen for a while (gone, out of view, inactive)."""
         for key in [k for k, s in self._slots.items() if self._frame - s.last_frame > EVICT_AFTER_FRAMES]:
-            self._slots[key].release(self.pool)
+            self._slots[key].release()
             del self._slots[key]
 
 
