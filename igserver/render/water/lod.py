@@ -47,6 +47,7 @@ from ..camera import CameraView
 
 PATCH_QUADS = 8  # G: quads per block side
 SPACING_PER_WAVE = 8.0  # the finest vertex spacing: this fraction of the shortest mesh wave (see select)
+SLOPE_SHOWN = 0.02  # k·A from which a wave tilts the surface by 1.1° and moves J by the foam's J edge (0.02)
 MAX_LEVELS = 24
 MORPH_START = 0.5  # morph over the outer half of each level's ring
 MORPH_MARGIN = 6.0  # ranges[l] ≥ 6·S_l: the ring is wide enough for the neighbour rule (see above)
@@ -180,9 +181,17 @@ def select(view: CameraView, cam_height: float, k: np.ndarray, amplitude: np.nda
     sphere = float(np.sum(amplitude))
     h_abs = abs(cam_height)
     # Finest spacing: 1/SPACING_PER_WAVE of the shortest wave, but no finer than 4 pixels straight below
-    # the camera (h·tan(fov/2)/(H_px/2) per pixel), and between 12.5 cm and 64 m.
-    kmax = float(np.max(k)) if len(k) else 1.0
+    # the camera (h·tan(fov/2)/(H_px/2) per pixel), and between 12.5 cm and 64 m. A sea that shows no
+    # relief (significant height 4·√(Σ A²/2) under ``lod_error_px`` even straight below, where it is
+    # nearest) made of gentle waves (every k·A under SLOPE_SHOWN) sets no spacing (64 m): the vertex
+    # shader fades its waves and their slopes and compression go to the shading (roughness, foam
+    # probability), as for distant waves. Shallow water shortens waves as it lowers them (over 1 cm:
+    # 0.6 m waves, Hs 6 mm, k·A ≤ 0.013) and following them cost more as the depth fell.
     px = max(h_abs, 1.0) * math.tan(math.radians(fov_y_deg) / 2.0) / (view.height / 2.0)
+    k, amplitude = np.asarray(k, dtype=np.float64), np.asarray(amplitude, dtype=np.float64)
+    shown = (4.0 * math.sqrt(0.5 * float(np.sum(amplitude**2))) >= lod_error_px * px
+             or bool(np.any(k * amplitude >= SLOPE_SHOWN)))
+    kmax = float(np.max(k)) if len(k) and shown else 2.0 * math.pi / (64.0 * SPACING_PER_WAVE)
     spacing = 2.0 ** round(math.log2(min(max(2.0 * math.pi / kmax / SPACING_PER_WAVE, 4.0 * px, 0.125), 64.0)))
     s0 = spacing * PATCH_QUADS
     pixels_per_rad = (view.height / 2.0) / math.tan(math.radians(fov_y_deg) / 2.0)
