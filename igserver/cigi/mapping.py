@@ -10,16 +10,16 @@ render (regional weather, sun/moon enables) are kept in the session and counted 
 from __future__ import annotations
 
 import dataclasses
-import struct
 from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from ..scene.model import Scene
 from . import environment
+from .components import component
 from .codec import Malformed, Packet
 from .datagram import Message
-from .geo import LocalFrame
+from .geo import LocalFrame, angles, cigi_body, rotation
 from .packets_host import (ArticulatedPartControl, ComponentControl, ConformalClampedEntityControl,
                            EntityControl, HatHotRequest, IGControl, LosSegmentRequest, LosVectorRequest,
                            RateControl, ShortArticulatedPartControl, ShortComponentControl, ViewControl,
@@ -27,19 +27,7 @@ from .packets_host import (ArticulatedPartControl, ComponentControl, ConformalCl
 from .session import ENTITY_PREFIX, CigiEntity, Session, ViewAttachment, entity_id, owned_by
 from .types import TypeMap
 
-EFFECT_COMPONENTS = range(1, 64)  # Component Control (class 0 = entity) ids of volumetric effects
-LIGHT_COMPONENTS = range(64, 128)  # ... and of point lights
-EFFECT_TYPES = ("fire", "smoke", "gas_burner")  # data1 of an effect component
-ENTITY_CLASS = 0
 ATTITUDE_KEYS = ("heading", "pitch", "roll")
-
-
-def word_float(word: int) -> float:
-    """A Component Control data word read as the float32 it carries; non-finite makes the message malformed."""
-    value = struct.unpack("<f", struct.pack("<I", word))[0]
-    if value != value or value in (float("inf"), float("-inf")):
-        raise Malformed("non_finite", f"component data word 0x{word:08x} is not a finite float")
-    return value
 
 
 @dataclass
@@ -204,9 +192,7 @@ def rate_control(work: Work, p: RateControl) -> None:
         work.plan.skipped["rate_control_part"] += 1
         return
     if p.local:  # body axes (forward, right, down) -> ENU through the entity's attitude now
-        from .geo import cigi_body, rotation
-
-        velocity = rotation(*work.session.world_attitude(p.entity_id)[1]) @ cigi_body(p.x_rate, p.y_rate, p.z_rate)
+        velocity = work.session.world_pose(p.entity_id)[1] @ cigi_body(p.x_rate, p.y_rate, p.z_rate)
         entity.velocity = tuple(float(v) for v in velocity)
     else:  # world axes: x north, y east, z down
         entity.velocity = (p.y_rate, p.x_rate, -p.z_rate)
@@ -268,67 +254,6 @@ def short_articulated_part(work: Work, p: ShortArticulatedPartControl) -> None:
             item, name = found
             _set_dof(item["parts"][name], select, value)
             work.put("entities", item)
-
-
-# -- components: effects and lights on entities ---------------------------------------------------------
-
-def component(work: Work, p: ComponentControl | ShortComponentControl) -> None:
-    if p.component_class != ENTITY_CLASS or (p.component_id not in EFFECT_COMPONENTS
-                                             and p.component_id not in LIGHT_COMPONENTS):
-        work.plan.skipped[f"component_class_{p.component_class}"] += 1
-        return
-    work.entity(p.instance_id, "Component Control")
-    words = [p.data1, p.data2, getattr(p, "data3", 0), getattr(p, "data4", 0), getattr(p, "data5", 0)]
-    if p.component_id in EFFECT_COMPONENTS:
-        _effect(work, p, words)
-    else:
-        _light(work, p, words)
-    work.moved = True  # place it at its entity
-
-
-def _effect(work: Work, p, words: list[int]) -> None:
-    key = f"{entity_id(p.instance_id)}.fx{p.component_id}"
-    if p.component_state == 2:
-        work.drop("effects", lambda i: i != key)
-        return
-    if p.component_state not in (0, 1):
-        raise Malformed("out_of_range", f"effect component state {p.component_state} (0 stop, 1 start, 2 remove)")
-    if words[0] >= len(EFFECT_TYPES):
-        raise Malformed("out_of_range", f"effect type {words[0]} (0 fire, 1 smoke, 2 gas burner)")
-    diameter, intensity, fade = (word_float(w) for w in words[1:4])
-    item = dict(work.item("effects", key) or {"id": key, "seed": p.instance_id * 64 + p.component_id})
-    item.update(type=EFFECT_TYPES[words[0]], active=p.component_state == 1, emits_smoke=bool(words[4] & 1))
-    # a zero word keeps the model's default (a Short Component Control carries data 1-2 only)
-    for name, value in (("diameter", diameter), ("intensity", intensity), ("fade", fade)):
-        if value:
-            item[name] = value
-    work.put("effects", item)
-
-
-def _light(work: Work, p, words: list[int]) -> None:
-    key = f"{entity_id(p.instance_id)}.light{p.component_id}"
-    lights = work.session.lights
-    if p.component_state == 2:
-        work.drop("lights", lambda i: i != key)
-        lights.pop(key, None)
-        return
-    if p.component_state not in (0, 1):
-        raise Malformed("out_of_range", f"light component state {p.component_state} (0 off, 1 on, 2 remove)")
-    intensity, range_m, height = word_float(words[0]), word_float(words[2]), word_float(words[3])
-    # the intensity while on is remembered: "off" is intensity 0, "on" again restores it
-    memory = dict(lights.get(key) or {"intensity": 1000.0, "height": 0.0})
-    lights[key] = memory
-    if intensity:
-        memory["intensity"] = intensity
-    memory["height"] = height  # m above the entity's origin
-    item = dict(work.item("lights", key) or {"id": key})
-    item["intensity"] = memory["intensity"] if p.component_state == 1 else 0.0
-    if words[1]:
-        rgb = words[1] & 0xFFFFFF
-        item["color"] = [(rgb >> 16) / 255.0, (rgb >> 8 & 0xFF) / 255.0, (rgb & 0xFF) / 255.0]
-    if range_m:
-        item["range"] = range_m
-    work.put("lights", item)
 
 
 # -- the eyepoint ---------------------------------------------------------------------------------------
@@ -394,8 +319,6 @@ def place_everything(work: Work) -> None:
                 work.put(kind, dict(item, position=[x, y, z]))
     view = session.view
     if view is not None and view.entity in session.entities:
-        from .geo import angles, cigi_body, rotation
-
         origin, matrix = session.world_pose(view.entity)
         eye = origin + matrix @ cigi_body(*view.offset)
         heading, pitch, roll = angles(matrix @ rotation(*view.attitude))
