@@ -4,6 +4,7 @@ readiness with precompute progress, and graceful shutdown with open streams."""
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import os
@@ -224,38 +225,66 @@ def test_render_over_time_limit_is_abandoned_and_state_falls_back(server, http):
     http.patch("/v1/clock", json={"paused": True})
     http.patch("/v1/state", json={"camera": {"heading": 0.0}}).raise_for_status()
     png(http.get("/v1/frame", params={"format": "png"}))  # a good state, rendered
-    service, restarts = server.service, server.service.restarts
-    last_rendered_heading = 0.0  # the state a hung render falls back to
-    for attempt in range(5):
-        heading = 10.0 + attempt
-        revision = int(http.patch("/v1/state", json={"camera": {"heading": heading}}).headers["x-ig-revision"])
-        result = {}
+    service, restarts, pid = server.service, server.service.restarts, server.service.pid
+    revision = int(http.patch("/v1/state", json={"camera": {"heading": 10.0}}).headers["x-ig-revision"])
+    # a state that hangs the renderer: its render overruns the time limit while the process runs
+    service.render_timeout_s = 1e-4
+    try:
+        answer = http.get("/v1/frame")
+    finally:
+        service.render_timeout_s = 3.0
+    assert answer.status_code == 503 and answer.json()["kind"] == "render_unavailable", (
+        answer.status_code, answer.headers, server.runtime.pump.subscribers)
+    assert "time limit" in answer.json()["detail"]
+    ready = http.get("/v1/ready").json()
+    assert ready["fault"]["revision"] == revision
+    # the hung state is not rendered again: the accepted state is the last one that rendered
+    assert http.get("/v1/state").json()["camera"]["heading"] == 0.0
+    wait_until_ready(http, 60)
+    assert service.restarts == restarts + 1 and service.pid != pid
+    assert http.get("/v1/frame").status_code == 200
+    assert http.get("/v1/ready").json()["fault"] is None  # recovered: nothing is wrong now
+
+
+def stop_while_rendering(server, http, patch: dict) -> tuple[threading.Thread, dict, int]:
+    """Accept ``patch`` and SIGSTOP the render process while it renders that state for a GET /v1/frame
+    (running in the returned thread; its answer lands in the dict). Returns the stopped pid."""
+    service = server.service
+    for _ in range(10):
+        wait_until_ready(http, 60)
+        http.patch("/v1/state", json=patch).raise_for_status()
+        result: dict = {}
         getter = threading.Thread(target=lambda: result.update(r=http.get("/v1/frame")))
         getter.start()
         deadline = time.monotonic() + 5
         while service.rendering_since is None and getter.is_alive() and time.monotonic() < deadline:
             time.sleep(0.0005)
-        if service.rendering_since is None:
-            getter.join()
-            if result["r"].status_code == 200:
-                last_rendered_heading = heading  # it rendered: now the state to fall back to
-            continue  # the frame was done before we could stop it: try again
-        pid = service.pid
-        os.kill(pid, signal.SIGSTOP)  # the render hangs (as a poisoned state would)
-        getter.join(30)
-        break
-    else:
-        pytest.skip("could not catch a render in flight")
-    answer = result["r"]
-    assert answer.status_code == 503 and answer.json()["kind"] == "render_unavailable"
-    assert "time limit" in answer.json()["detail"]
-    ready = http.get("/v1/ready").json()
-    assert ready["fault"]["revision"] == revision
-    # the hung state is not rendered again: the accepted state is the last one that rendered
-    assert http.get("/v1/state").json()["camera"]["heading"] == last_rendered_heading
+        if service.rendering_since is not None:
+            pid = service.pid
+            os.kill(pid, signal.SIGSTOP)
+            return getter, result, pid
+        getter.join()
+        patch = {"camera": {"heading": patch["camera"]["heading"] + 0.5}}  # a new state: rendered again
+    pytest.skip("could not catch a render in flight")
+
+
+def test_a_state_rendering_when_the_process_is_stopped_is_kept_and_rendered_after_restart(server, http):
+    http.patch("/v1/clock", json={"paused": True})
+    http.patch("/v1/state", json={"camera": {"heading": 0.0}}).raise_for_status()
+    png(http.get("/v1/frame", params={"format": "png"}))
+    restarts = server.service.restarts
+    getter, result, pid = stop_while_rendering(server, http, {"camera": {"heading": 44.0}})
+    heading = http.get("/v1/state").json()["camera"]["heading"]
+    try:
+        getter.join(30)  # the watchdog restarts a process stopped longer than the render time limit (3 s)
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGCONT)
+    assert result["r"].status_code == 200, result["r"].text  # rendered by the new process
+    assert server.service.restarts == restarts + 1 and server.service.pid != pid
+    assert http.get("/v1/state").json()["camera"]["heading"] == heading  # the valid state was kept
     wait_until_ready(http, 60)
-    assert service.restarts == restarts + 1 and service.pid != pid
-    assert http.get("/v1/frame").status_code == 200
+    assert http.get("/v1/ready").json()["fault"] is None
 
 
 def test_watchdog_notices_a_stopped_render_process(server, http):

@@ -109,6 +109,7 @@ class RenderGateway:
         self.store: StateStore | None = None  # set by the runtime: falls back on a failed render
         self.fault: dict | None = None  # the last abandoned state: {"revision", "detail", "fallback_revision"}
         self.recovering = False  # restarting the render process after an abandoned render
+        self.rendered_revision = -1  # the newest revision a frame came back for
         # frames in flight when the service has them (the render process's does; test doubles may not)
         self.pipelined = callable(getattr(service, "submit", None))
 
@@ -193,10 +194,20 @@ class RenderGateway:
             self.metrics.pass_ms.observe(ms, **{"pass": name})
         if self.store is not None:
             self.store.mark_rendered(revision)
+        self.rendered_revision = max(self.rendered_revision, revision)
+        if self.fault is not None and self.fault["revision"] == revision:
+            self.fault = None  # it rendered after all: no longer a fault to report
         return EncodedFrame(frame, revision, accepted_at, call_ms)
 
     def _abandon(self, revision: int, exc: RenderError) -> None:
         """Fall back from a state that cannot render, and get the render process back in the background."""
+        if revision == self.rendered_revision:
+            # this state has rendered: the process failed, not the state (it was killed, stopped, starved of
+            # memory by something else): the state stays, the process is restarted if it is gone
+            log.error("render of revision %d failed (%s); it had rendered, so it stays", revision, exc)
+            if isinstance(exc, RenderTimeout) or not self.service.alive:
+                self.recover_in_background()
+            return
         fallback = self.store.fall_back(revision) if self.store is not None else None
         if fallback is None and not isinstance(exc, RenderTimeout):
             return  # nothing better to show, and the process is up: keep the state, report the error
@@ -217,6 +228,7 @@ class RenderGateway:
                 self.service.ensure_started()
                 if scene is not None:  # warm up: ready means the next frame comes in normal frame time
                     self.service.render(scene, timed=False)
+                self.fault = None  # recovered: /v1/ready reports what is wrong now, the log what was
             except Exception as error:  # the next render retries the start
                 log.error("render process recovery failed: %s", error)
             finally:

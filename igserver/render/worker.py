@@ -462,7 +462,16 @@ class RenderService:
         deadline = time.monotonic() + self.render_timeout_s
         while True:
             remaining = deadline - time.monotonic()
-            if remaining <= 0 or not self._conn.poll(remaining):
+            if remaining > 0 and self._conn.poll(min(remaining, HEARTBEAT_S)):
+                pass
+            elif self.os_state() in ("T", "t"):
+                # stopped by the OS (SIGSTOP, a debugger): not the render's time, nor its state's fault; the
+                # watchdog kills a process stopped too long, and the render is sent again to the new one
+                deadline = time.monotonic() + self.render_timeout_s
+                continue
+            elif remaining > HEARTBEAT_S:
+                continue  # one slice of the wait, not all of it
+            else:
                 waited = time.monotonic() - self.rendering_since
                 log.error("render abandoned after %.1f s without an answer: killing the render process", waited)
                 self._terminate()
