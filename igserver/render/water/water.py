@@ -674,6 +674,7 @@ class WaterPass(RenderPass):
         phases = np.zeros(MAX_WAVES, dtype=np.float32)
         phases[:n] = sea.phase_offsets(t, cam_xy)[:n]
         u = {"u_wave_count": n, "u_wave_norm": float(max(n, 1)), "u_steepness": sea.steepness,
+             "u_second_order": sea.second_order, "u_sea_depth": sea.reference_depth,
              "u_cam_height": float(view.position[2] - scene.ocean.level),
              "u_level_z": float(scene.ocean.level - view.position[2]),
              "u_patch_quads": float(lod.PATCH_QUADS)}
