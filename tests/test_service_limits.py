@@ -51,7 +51,7 @@ class FakeRenderService:
     def ensure_started(self):
         self.start()
 
-    def kill_for_test(self):
+    def kill(self):
         self.alive = False
 
     def set_state(self, scene):
@@ -423,3 +423,56 @@ def test_sigterm_with_a_half_closed_websocket_client_exits_0_without_a_traceback
         if server.poll() is None:
             server.kill()
             server.wait()
+
+
+# --------------------------------------------------------------------------- profile images
+
+
+def png_header_only(width: int, height: int) -> bytes:
+    """A PNG that announces ``width`` x ``height`` in a few bytes (a decompression bomb's header)."""
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 6, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(b"\0" * 64)) + chunk(b"IEND", b"")
+
+
+def test_profile_images_over_the_pixel_bound_are_refused_at_validation(tmp_path, monkeypatch):
+    from PIL import Image
+
+    profiles = tmp_path / "profiles"
+    profiles.mkdir()
+    (profiles / "bomb.png").write_bytes(png_header_only(20000, 10000))
+    Image.new("RGBA", (64, 65), (255, 200, 120, 255)).save(profiles / "over.png")
+    Image.new("RGBA", (64, 64), (255, 200, 120, 255)).save(profiles / "fits.png")
+    (profiles / "text.png").write_text("not an image")
+    monkeypatch.setenv("IGSERVER_ASSETS", str(tmp_path))
+    with FakeServer(ServerSettings(max_profile_pixels=64 * 64)) as srv, httpx.Client(base_url=srv.url) as http:
+        before = http.get("/v1/state")
+        for name, detail in (("bomb", "20000 x 10000 px"), ("over", "64 x 65 px"), ("text", "not a PNG")):
+            answer = http.put("/v1/state", json={**SCENE, "effects": [{"id": "f", "profile": name}]})
+            assert answer.status_code == 422, answer.text
+            error = answer.json()["errors"][0]
+            assert error["pointer"] == "#/effects/0/profile" and detail in error["detail"]
+            assert http.get("/v1/state").headers["x-ig-revision"] == before.headers["x-ig-revision"]
+        assert http.put("/v1/state", json={**SCENE, "effects": [{"id": "f", "profile": "fits"}]}).status_code == 200
+        assert http.get("/v1/frame").status_code == 200
+
+
+def test_the_default_profile_bound_is_1024_by_1024(tmp_path, monkeypatch):
+    from igserver.assets.images import DEFAULT_MAX_PROFILE_PIXELS
+    from igserver.scene.model import Effect
+
+    assert ServerSettings().max_profile_pixels == DEFAULT_MAX_PROFILE_PIXELS == 1024 * 1024
+    profiles = tmp_path / "profiles"
+    profiles.mkdir()
+    (profiles / "big.png").write_bytes(png_header_only(1024, 1025))
+    (profiles / "max.png").write_bytes(png_header_only(1024, 1024))
+    monkeypatch.setenv("IGSERVER_ASSETS", str(tmp_path))
+    create_app(FakeRenderService(Scene()), settings=ServerSettings())  # the app sets the bound the model checks
+    Effect(id="f", profile="max")
+    with pytest.raises(ValueError, match="1024 x 1025 px"):
+        Effect(id="f", profile="big")

@@ -24,6 +24,7 @@ from fastapi_offline import FastAPIOffline
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import compile_path
 
+from ..assets.images import set_profile_pixel_limit
 from ..scene.model import Scene
 from .codec import MSGPACK, PROBLEM_JSON, PROBLEM_MSGPACK, encode, negotiate
 from .openapi import complete_schema
@@ -112,6 +113,7 @@ def create_app(
 
         service = RenderService(scene or Scene(), device_index=device_index)
     runtime = IGRuntime(service, scene, settings)
+    set_profile_pixel_limit(runtime.settings.max_profile_pixels)  # the scene model checks profiles with it
 
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI):

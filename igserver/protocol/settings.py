@@ -15,6 +15,7 @@ from typing import Annotated
 from pydantic import Field, SecretStr, field_validator, model_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
+from ..assets.images import DEFAULT_MAX_PROFILE_PIXELS
 from .codec import Limits
 
 # Host names that always mean this machine. A browser can only reach a loopback-bound server under one of
@@ -97,7 +98,7 @@ class ServerSettings(BaseSettings):
         4, ge=1, le=1024,
         description="water-height queries answered at once (REST and WebSocket); more are answered 503 with Retry-After")
     max_profile_pixels: int = Field(
-        1024 * 1024, ge=1, le=4096 * 4096,
+        DEFAULT_MAX_PROFILE_PIXELS, ge=1, le=4096 * 4096,
         description="pixels of a profile image (width x height, read from its header): a larger one is refused (422)")
 
     @field_validator("allowed_hosts", "allowed_origins", "cigi_allow", mode="before")

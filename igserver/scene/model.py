@@ -18,6 +18,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from pydantic_core import InitErrorDetails, PydanticCustomError
 
 from ..assets import ASSET_NAME_PATTERN, AssetError, resolve_asset
+from ..assets.images import ImageError, check_profile_image
 
 from ..assets import ASSET_NAME_PATTERN
 
@@ -292,8 +293,9 @@ class Effect(Strict):
         # the host names an asset; the server's asset directory decides which file (docs/design.md#service)
         if value is not None:
             try:
-                resolve_asset("profiles", value, (".png",))
-            except AssetError as exc:
+                # its size from the header: one too big for memory is refused here, not at render time
+                check_profile_image(value, resolve_asset("profiles", value, (".png",)))
+            except (AssetError, ImageError) as exc:
                 raise ValueError(str(exc)) from None
         return value
 

@@ -127,7 +127,7 @@ def load_profile(kind: str, path: str | None) -> np.ndarray:
     if path:
         try:
             profile = _image_profile(path, os.path.getmtime(path)).copy()
-        except (OSError, ValueError):
+        except Exception:  # changed on disk since it was validated (a bomb, a broken file): never fail a frame
             profile = procedural(kind)
         if kind == "smoke":
             lum = profile[..., :3] @ np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
