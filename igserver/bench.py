@@ -14,8 +14,9 @@ Besides, per scene, after those frames:
   for the driver is not counted, on either side.
 - **GL calls** (``gl_calls``) and **GL objects created** (``gl_objects_created``) per frame, counted
   at moderngl's boundary in the same instrumented frames; objects created must be 0 in steady state.
-- **fps in flight** (``fps_in_flight``): a loop of ``frames`` frames through ``Renderer.submit``
-  (each frame's pixels are copied out while the next is drawn), frames / wall s, readback included.
+- **fps in flight** (``fps_in_flight``): frames through ``Renderer.submit`` (each frame's pixels are
+  copied out while the next is drawn), frames / wall s, readback included; ``fps_sync`` the same through
+  ``render`` (draw, then read): blocks of each alternating twice, so both see the same machine load.
 - **GPU ms per pass** (``gpu_pass_ms``), where GL timer queries work: each pass bracketed by a
   ``ctx.query(time=True)`` in one more pass of frames. llvmpipe has no GPU clock (its queries read 0):
   there the row says why not (``gpu_timer``).
@@ -112,16 +113,28 @@ def _instrumented(renderer, scenes) -> dict:
             "gl_calls": int(statistics.median(calls)), "gl_objects_created": max(created)}
 
 
-def _in_flight_fps(renderer, scenes) -> float:
-    """Frames per second through ``Renderer.submit``: each frame read while the next is drawn."""
+def _throughput(renderer, scenes) -> tuple[float, float]:
+    """Frames per second one after another (``render``) and in flight (``submit``: each frame read while
+    the next is drawn), in 4 blocks of ``scenes`` alternating, so both see the same load."""
     renderer.submit(scenes[0])  # the readback ring's buffers are made here, not in the timed loop
     renderer.collect()
-    start = time.perf_counter()
-    for s in scenes:
-        renderer.submit(s)
-    while renderer.in_flight:
-        renderer.collect()
-    return len(scenes) / (time.perf_counter() - start)
+    k = len(scenes) // 4
+    seconds = {"sync": 0.0, "in_flight": 0.0}
+    frames = dict.fromkeys(seconds, 0)
+    for block in range(4):
+        mode = ("sync", "in_flight", "in_flight", "sync")[block]
+        chunk = scenes[block * k:(block + 1) * k]
+        start = time.perf_counter()
+        for s in chunk:
+            if mode == "sync":
+                renderer.render(s)
+            else:
+                renderer.submit(s)
+        while renderer.in_flight:
+            renderer.collect()
+        seconds[mode] += time.perf_counter() - start
+        frames[mode] += k
+    return frames["sync"] / seconds["sync"], frames["in_flight"] / seconds["in_flight"]
 
 
 def bench_scene(renderer, scene, frames: int, warmup: int = 3, gpu_timer: str | None = "not asked") -> dict:
@@ -152,7 +165,9 @@ def bench_scene(renderer, scene, frames: int, warmup: int = 3, gpu_timer: str | 
     # The same clock steps again, after the frames above: the world is as warm as in a stream.
     later = [apply_patch(scene, {"time": {"sim_time": t0 + (warmup + frames + i) / 30.0}}) for i in range(frames)]
     extra = _instrumented(renderer, later)
-    extra["fps_in_flight"] = _in_flight_fps(renderer, later)
+    n = 4 * max(frames // 4, 2)  # 4 blocks of at least 2 frames: one frame in flight while one is drawn
+    stream = [apply_patch(scene, {"time": {"sim_time": t0 + (warmup + frames + i) / 30.0}}) for i in range(n)]
+    extra["fps_sync"], extra["fps_in_flight"] = _throughput(renderer, stream)
     if gpu_timer is None:
         gpu: dict[str, list[float]] = {}
         with PassTimers(renderer) as timers:
@@ -246,7 +261,8 @@ def run(scenes: list[str], resolutions: list[tuple[int, int]], frames: int, assi
                 gpu = ("  |  GPU ms: " + "  ".join(f"{k} {v:.3f}" for k, v in row["gpu_pass_ms"].items())
                        if "gpu_pass_ms" in row else "")
                 print(f"{name:18s} {width}x{height} {preset:6s}  frame {row['frame_ms']['median']:.2f} "
-                      f"({row['frame_ms']['p99']:.2f})  fps in flight {row['fps_in_flight']:.1f}  Python "
+                      f"({row['frame_ms']['p99']:.2f})  fps in flight {row['fps_in_flight']:.1f} (one after another "
+                      f"{row['fps_sync']:.1f})  Python "
                       f"{row['python_ms']['median']:.2f} ms  GL calls {row['gl_calls']}  GL objects made "
                       f"{row['gl_objects_created']}  sum-of-passes {row['total_ms']['median']:.2f} "
                       f"({row['total_ms']['p99']:.2f})  |  {passes}{extra}  |  cpu ms calling thread/workers: {cpu}{gpu}",
