@@ -110,11 +110,12 @@ def test_peak_frequency_from_the_fetch_laws():
         fetch_limited = 2 * math.pi * 3.5 * G / wind * chi ** -0.33
         assert fetch_limited > 0.855 * G / wind
         assert peak_omega(hs, wind) == pytest.approx(fetch_limited, rel=1e-12)
-    # A sea higher than its wind can raise (PM fully developed Hs = 0.21 (1.026 U)²/g: 2.25 m at 10 m/s)
-    # is older than the wind: it peaks at the PM frequency of the wind that does raise it fully developed.
-    u_dev = math.sqrt(20.0 * G / 0.21) / 1.026
-    assert peak_omega(20.0, 10.0) == pytest.approx(0.877 * G / (1.026 * u_dev))  # 0.855 g/U10
-    assert peak_omega(0.0, 0.0) == pytest.approx(0.877 * G / 1.026)  # no sea: the 1 m/s shape
+    # A sea higher than its wind can raise (the calibration's rule: PM fully developed Hs with the
+    # rough-sea U19.5 = 1.075 U, 0.21 (1.075 U)²/g: 2.48 m at 10 m/s) is older than the wind: it peaks at
+    # the PM frequency of the wind that does raise it fully developed.
+    u_dev = math.sqrt(20.0 * G / 0.21) / 1.075
+    assert peak_omega(20.0, 10.0) == pytest.approx(0.855 * G / u_dev)
+    assert peak_omega(0.0, 0.0) == pytest.approx(0.855 * G / 1.0)  # no sea: the 1 m/s shape
 
 
 @pytest.mark.parametrize("wind", [0.5, 1.0, 2.0, 3.0, 5.0])
@@ -166,12 +167,12 @@ def test_slopes_match_cox_munk_after_calibration():
 
 
 def test_detail_band_keeps_a_floor_of_capillary_roughness():
-    """Where the mesh band alone is steeper than Cox–Munk (a 0.4 m/s sea here: the table's 0.04 m on the
+    """Where the mesh band alone is steeper than Cox–Munk (a 0.5 m/s sea here: the table's 0.05 m on the
     peak of the wind that raises it), the detail band keeps a quarter of the calm-sea slope (0.25 × 0.003)
     rather than vanishing: the sea is never a mirror."""
-    mesh, detail = wave_bands(sea_spectrum(0.4, 0.0, None), 24, 36)
-    assert _mss(mesh) > 0.003 + 5.12e-3 * 0.4
-    assert _mss(calibrate_detail(mesh, detail, 0.4)) == pytest.approx(0.25 * 0.003, rel=1e-12)
+    mesh, detail = wave_bands(sea_spectrum(0.5, 0.0, None), 24, 36)
+    assert _mss(mesh) > 0.003 + 5.12e-3 * 0.5
+    assert _mss(calibrate_detail(mesh, detail, 0.5)) == pytest.approx(0.25 * 0.003, rel=1e-12)
     empty = WaveSet(*(np.zeros(0) for _ in range(2)), np.zeros((0, 2)), np.zeros(0), np.zeros(0))
     assert calibrate_detail(mesh, empty, 1.0).n == 0
 

@@ -63,7 +63,11 @@ GOLDEN = 0.6180339887498949
 
 U195_PER_U10 = 1.026  # U(19.5 m) / U(10 m): neutral log profile, drag coefficient 1.3e-3 (Stewart 2008)
 PM_HS = 0.21  # g·Hs/U19.5² of the Pierson–Moskowitz fully developed sea
-PM_OMEGA = 0.877  # ω_p·U19.5/g of the same sea: (4β/5)^¼ with β = 0.74
+PM_OMEGA_U10 = 0.855  # ω_p·U10/g of the same sea: 0.877·g/U19.5 ((4β/5)^¼, β = 0.74) with U19.5 = 1.026 U10
+# The WMO calibration's light-wind rule (peak_omega) reads "a sea older than its wind" where the table's
+# height passes 0.21·(1.075 U)²/g (U19.5 = 1.075 U10: the log profile over a rough sea, z₀ ≈ 1 mm): the
+# rule the default seas were calibrated with, kept so that they stay as they were.
+OLDER_SEA_U195_PER_U10 = 1.075
 # JONSWAP growth in the 10 m wind (module docstring): g·Hs/U² = JS_HS·χ^½, U·f_p/g = JS_FP·χ^JS_FP_POW,
 # τ = g·t/U = JS_DURATION·χ^⅔.
 JS_HS, JS_FP, JS_FP_POW, JS_DURATION = 1.6e-3, 3.5, -0.33, 68.8
@@ -76,7 +80,7 @@ def pm_fully_developed_hs(wind: float) -> float:
 
 def pm_peak_omega(wind: float) -> float:
     """Pierson–Moskowitz fully developed peak ω_p = 0.877 g/U19.5 = 0.855 g/U10 (rad/s)."""
-    return PM_OMEGA * G / (U195_PER_U10 * max(wind, 1e-9))
+    return PM_OMEGA_U10 * G / max(wind, 1e-9)
 
 
 def growth(wind: float, fetch_m: float | None, duration_s: float | None) -> tuple[float, float]:
@@ -122,14 +126,15 @@ SHAPE_MIN_WIND = 1.0  # m/s: the spectrum's shape (for the ripples of a glassy s
 def peak_omega(hs: float, wind: float) -> float:
     """JONSWAP fetch-limited peak (rad/s) implied by (Hs, U), not below the fully developed PM peak.
 
-    Below about 9.7 m/s the WMO probable height exceeds what the wind itself can raise (PM fully
-    developed Hs = 0.0225 U²: 0.023 m at 1 m/s against the table's 0.1 m): such a sea is older than the
+    Below about 5.5 m/s the WMO probable height exceeds what the wind itself can raise (PM fully
+    developed Hs, here with U19.5 = 1.075 U10 (OLDER_SEA_U195_PER_U10) = 0.0248 U²: 0.025 m at 1 m/s
+    against the table's 0.1 m): such a sea is older than the
     local wind, and a peak at the wind's own PM frequency would carry that height on 0.8 m waves (mean
     square slope 0.12 at 1 m/s, 15× Cox–Munk's 0.008). Its peak is then the PM peak of the wind that
     does raise that height fully developed."""
     wind = max(wind, SHAPE_MIN_WIND)
-    if hs > pm_fully_developed_hs(wind):
-        wind = math.sqrt(hs * G / PM_HS) / U195_PER_U10  # inverse of pm_fully_developed_hs
+    if hs > PM_HS * (OLDER_SEA_U195_PER_U10 * wind) ** 2 / G:
+        wind = math.sqrt(hs * G / PM_HS) / OLDER_SEA_U195_PER_U10  # the wind that raises hs fully developed
     pm = pm_peak_omega(wind)
     if hs <= 0.0:
         return pm
