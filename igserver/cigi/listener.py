@@ -84,9 +84,10 @@ class CigiListener(asyncio.DatagramProtocol):
 
     def _send_sof(self, ready: bool) -> None:
         self.last_sof = time.monotonic()
-        message = self.engine.start_of_frame(ready)
-        if self.host is None or self.transport is None:
+        if self.host is None or self.transport is None:  # nobody to tell yet: the frame still counts
+            self.engine.ig_frame = (self.engine.ig_frame + 1) & 0xFFFFFFFF
             return
+        message = self.engine.start_of_frame(ready)
         self.transport.sendto(message, self.host)
         if self.capture is not None:
             self.capture.add(message, self.transport.get_extra_info("sockname")[:2], self.host)
