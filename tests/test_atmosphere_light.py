@@ -445,3 +445,40 @@ def test_snowfall_horizon_is_no_darker_than_the_sky_above_it(renderer):
     horizon = lum[row(3.0):row(0.5) + 1].mean()
     above = lum[row(26.0):row(20.0) + 1].mean()
     assert horizon > 0.85 * above, (horizon, above)
+
+
+def _fog_from_above(pitch: float, fov: float) -> Scene:
+    from igserver.scene import apply_patch
+    from igserver.scene.files import load_scene
+    return apply_patch(load_scene("sea_beaufort5"), {
+        "atmosphere": {"visibility": 300.0, "fog_top": 150.0, "visibility_transition": 0.0},
+        "time": {"utc": "2026-06-21T11:40:00Z"},
+        "camera": {"position": [0.0, 0.0, 500.0], "pitch": pitch, "fov_y": fov, "width": 64, "height": 36,
+                   "exposure_ev": 15.0}})
+
+
+def test_fog_top_from_above_has_no_bright_edge_and_reflects_its_flux(renderer):
+    # A 150 m fog (visibility 300 m: optical depth 2.1) under a sun 70 deg up, seen from 500 m.
+    # (1) Its far edge, 0.6-0.7 deg below the horizon (2 deg field: 0.06 deg a row): rays that graze
+    # the top run level through it for kilometres. Their light is the top's, gathered where their
+    # first optical depth lies; gathered at the fog's bottom it drew a line 1.7x the sky above and
+    # the fog below. Bound: 1.1x the brighter of the two (the edge lies between them).
+    renderer.render(_fog_from_above(-0.66, 2.0))
+    frame = build_frame(renderer.ctx, _fog_from_above(-0.66, 2.0))
+    lum = (renderer.read_hdr()[..., :3] / frame.exposure) @ LUMA
+    rows = lum.mean(axis=1)
+    assert rows[12:22].max() < 1.1 * max(rows[8], rows[30]), np.round(rows).tolist()
+    # (2) Looking 20 deg down, the fog top's luminance against the layer's own reflected flux
+    # (HazeLayer.fluxes: the two-stream model checked against Monte Carlo in `igserver quality
+    # fog`) as a Lambertian surface, F_up / pi. Bounds 0.8-1.25: the reflection of a thin
+    # forward-scattering layer is not Lambertian (brighter toward grazing views and the sun's side).
+    s = _fog_from_above(-20.0, 30.0)
+    renderer.render(s)
+    frame = build_frame(renderer.ctx, s)
+    lum = (renderer.read_hdr()[..., :3] / frame.exposure) @ LUMA
+    haze = frame.resources["haze"]
+    flux = haze.fluxes(haze.top + 8.0 * haze.edge, np.asarray(frame.uniforms["u_haze_sun"]),
+                       float(frame.celestial.sun_dir[2]), np.asarray(frame.uniforms["u_haze_sky"]))
+    lambertian = float(LUMA @ flux["up"]) / math.pi
+    top = float(lum[14:22].mean())
+    assert 0.8 < top / lambertian < 1.25, (top, lambertian)

@@ -339,10 +339,35 @@ struct HazeRay {
     vec3 sun;   // x the sun's phase
     vec3 moon;  // x the moon's phase
 };
+// Where a ray from above a fog layer (one with a top) gathers its in-scattering: where its optical depth from the
+// camera reaches 1/2 (half the first optical depth, as haze_effective_height inside the layer).
+// Down to height h a ray of slope mu (< 0) has crossed the column C(h) (haze_column) at the local
+// slope s(h) = sqrt(mu^2 - 2 (h0 - h) / R) (small angles on the sphere), over the round-earth
+// cosine (s + sqrt(s^2 + 8 H / (pi R))) / 2 of the edge's scale H (haze_tau_up), so
+//     C(h) = 0.5 slant / beta,   h = t + H ln(H / C) above the top t,  t + H - C below it,
+// a fixed point reached in three steps from the top; never below the ray's lowest point h_min.
+// Looking steeply down it lies a few metres into the fog's top; at its far edge, where rays run
+// level for kilometres through the edge's tail, tens of metres above it. (The halfway point of a
+// path of 1e7 m put the source at the fog's bottom, lit by twice its top's diffuse light: a bright
+// line along the far edge.)
+float haze_limb_height(float h0, float mu, float h_min) {
+    float top = u_haze_top, edge = u_haze_edge;
+    // Haze (no top: one exponential from the ground) and a camera inside the fog: as before.
+    if (top <= 0.0 || h0 <= top + edge) return max(h0 + mu * 0.5 * haze_first_depth_run(h0), h_min);
+    float floor_term = 8.0 * edge / (ATMO_PI * HAZE_EARTH_RADIUS_M);
+    float h = top;
+    for (int i = 0; i < 3; ++i) {
+        float s = sqrt(max(mu * mu - 2.0 * (h0 - h) / HAZE_EARTH_RADIUS_M, 0.0));
+        float c = 0.25 * (s + sqrt(s * s + floor_term)) / max(u_haze_beta.g, 1e-12);
+        h = max(c <= edge ? top + edge * log(edge / c) : top + edge - c, h_min);
+    }
+    return min(h, h0);
+}
 HazeRay haze_ray(vec3 dir) {
     float h0 = haze_height();
     vec3 tau;
     float d;
+    float h_source = -1.0;  // set where the ray's source height is not haze_effective_height's
     if (dir.z < 0.0 && h0 > 0.0) {
         // On the sphere (radius R, camera at r0 = R + h0): a downward ray meets the layer's base
         // only below the dip; above it, it passes a lowest point h_min at s = -r0 mu and climbs out
@@ -358,6 +383,7 @@ HazeRay haze_ray(vec3 dir) {
             float h_min = max(r0 * sqrt(max(1.0 - mu * mu, 0.0)) - HAZE_EARTH_RADIUS_M, 0.0);
             tau = haze_segment_tau(h0, dir * s_t) + haze_tau_up(h_min, 0.0);
             d = 1e30;
+            h_source = haze_limb_height(h0, mu, h_min);
         }
     } else if (dir.z < 0.0) {
         d = 1e30;
@@ -368,7 +394,8 @@ HazeRay haze_ray(vec3 dir) {
     }
     HazeRay ray;
     ray.transmittance = exp(-min(tau, vec3(80.0)));
-    haze_source_terms(haze_effective_height(h0, dir, min(d, 1e7)), dir.z, ray.sun, ray.moon, ray.diffuse);
+    haze_source_terms(h_source >= 0.0 ? h_source : haze_effective_height(h0, dir, min(d, 1e7)), dir.z,
+                      ray.sun, ray.moon, ray.diffuse);
     vec3 scattered = one_minus_exp(tau);
     ray.sun *= scattered;
     ray.moon *= scattered;
@@ -524,7 +551,10 @@ void aerial_ray_terms(AerialRay ray, float d, vec3 tau_clear, out vec3 tau, out 
         float dz = ray.dir.z * d + d * d * (1.0 - ray.dir.z * ray.dir.z) / (2.0 * HAZE_EARTH_RADIUS_M);
         tau_h = haze_segment_tau_from(ray.haze_h0, ray.haze_col0, d, dz);
         t_h = exp(-min(tau_h, vec3(80.0)));
-        float h = ray.haze_h0 + ray.dir.z * 0.5 * min(d, ray.haze_run);
+        // From above the layer, a downward ray gathers just under the top it crosses (haze_limb_height).
+        float h = u_haze_top > 0.0 && ray.haze_h0 > u_haze_top + u_haze_edge && ray.dir.z < 0.0
+                ? haze_limb_height(ray.haze_h0, ray.dir.z, 0.0)
+                : ray.haze_h0 + ray.dir.z * 0.5 * min(d, ray.haze_run);
         s_haze = haze_source_phased(h, ray.dir, ray.haze_phases)
                * mix(1.0 - t_h, tau_h * (1.0 - 0.5 * tau_h), lessThan(tau_h, vec3(1e-3)));
     }
