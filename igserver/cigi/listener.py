@@ -153,3 +153,19 @@ async def start_cigi(runtime) -> CigiListener:
     log.info("CIGI 3.3 on udp %s:%d (IG messages to port %d)", settings.cigi_bind,
              listener.transport.get_extra_info("sockname")[1], settings.cigi_host_port)
     return listener
+
+
+def udp_bind_problem(host: str, port: int) -> str | None:
+    """Why ``host:port`` cannot be bound for UDP now (None when it can): ``igserver serve`` asks before it
+    starts, so a taken CIGI port is one line and exit status 2, like a taken TCP port."""
+    import socket
+
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    probe = socket.socket(family, socket.SOCK_DGRAM)
+    try:
+        probe.bind((host, port))
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    finally:
+        probe.close()
+    return None

@@ -224,6 +224,15 @@ def serve(
         print(f"igserver: cannot listen on {host}:{port}: {exc.strerror or exc} "
               "(another igserver running? pick another --port)", file=sys.stderr)
         return 2
+    if settings.cigi:
+        from ..cigi.listener import udp_bind_problem
+
+        problem = udp_bind_problem(settings.cigi_bind, settings.cigi_port)
+        if problem:
+            sock.close()
+            print(f"igserver: cannot listen for CIGI on udp {settings.cigi_bind}:{settings.cigi_port}: {problem} "
+                  "(another IG running? pick another --cigi-port)", file=sys.stderr)
+            return 2
     app = create_app(service, scene=scene, settings=settings, device_index=device_index)
     server = uvicorn.Server(uvicorn_config(app, host, port))
     shown = f"[{host}]" if ":" in host else host
