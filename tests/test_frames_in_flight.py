@@ -6,6 +6,7 @@ sim_time of the scene it was drawn from, also when the host changes the state ev
 
 import threading
 import time
+from pathlib import Path
 
 import httpx
 import msgpack
@@ -13,6 +14,7 @@ import numpy as np
 import pytest
 from websockets.sync.client import connect
 
+import igserver
 from igserver.client.core import IGClient
 from igserver.protocol.runtime import ServerSettings
 from igserver.protocol.testing import LoopbackServer
@@ -36,9 +38,12 @@ def _pipelined(renderer, scenes) -> list:
     return out
 
 
-@pytest.mark.parametrize("name", ["demo", "night_fire"])
+EXAMPLES = sorted(p.stem for p in (Path(igserver.__file__).parent / "scenes").glob("*.toml"))
+
+
+@pytest.mark.parametrize("name", EXAMPLES)
 def test_frames_in_flight_are_bit_identical_and_tagged_exactly(renderer, name):
-    scenes = _states(apply_patch(load_scene(name), {"camera": {"width": 96, "height": 54}}), 4)
+    scenes = _states(apply_patch(load_scene(name), {"camera": {"width": 96, "height": 54}}), 3)
     # the same eased state (fog, eye adaptation) at the start of both runs
     renderer.frame_state = FrameState()
     sync = [renderer.render(s) for s in scenes]
