@@ -118,9 +118,12 @@ def test_fields_are_validated(field, bad):
     assert Ocean(**{field: None}).model_dump()[field] is None
 
 
-def test_sea_state_excludes_growth():
-    """A WMO sea-state code sets the height itself: with a fetch or duration it is ambiguous, refused."""
-    with pytest.raises(ValidationError):
-        Ocean(sea_state=5, fetch_km=100.0)
-    with pytest.raises(ValidationError):
-        Ocean(sea_state=5, duration_h=3.0)
+def test_sea_state_takes_precedence():
+    """A WMO sea-state code sets the height itself (as a CIGI host's wave control does, whatever the scene
+    file said): fetch and duration are then ignored, not an error."""
+    with_growth = sea_surface(Ocean(enabled=True, sea_state=5, fetch_km=10.0, duration_h=1.0), Weather(wind_speed=20.0))
+    plain = sea_surface(Ocean(enabled=True, sea_state=5), Weather(wind_speed=20.0))
+    assert with_growth.spectrum == plain.spectrum
+    ocean = Ocean(enabled=True, fetch_km=10.0)
+    ocean.sea_state = 6  # assignment is validated: accepted
+    assert sea_surface(ocean, Weather(wind_speed=20.0)).spectrum.hs == pytest.approx(5.0)

@@ -245,10 +245,11 @@ class Ocean(Strict):
     fetch_km: float | None = Field(
         None, ge=0.1, le=10_000.0, description="km, distance the wind has blown over open water (0.1 to 10000): "
         "the wind sea grows by the JONSWAP fetch law, capped at the Pierson-Moskowitz fully developed sea; "
-        "None = not limiting (both None: the WMO/Beaufort probable height of the wind)")
+        "None = not limiting (both None: the WMO/Beaufort probable height of the wind); a sea_state overrides it")
     duration_h: float | None = Field(
         None, ge=0.1, le=1000.0, description="h, how long the wind has blown (0.1 to 1000): the JONSWAP "
-        "duration law; None = not limiting (with fetch_km also None: the WMO/Beaufort probable height)")
+        "duration law; None = not limiting (with fetch_km also None: the WMO/Beaufort probable height); a "
+        "sea_state overrides it")
     level: float = Field(0.0, ge=-500.0, le=9000.0, description="m, mean water level (ENU z)")
     bathymetry: Bathymetry = Field(default_factory=Bathymetry)
     swell: Swell = Field(default_factory=Swell)
@@ -257,12 +258,6 @@ class Ocean(Strict):
     wave_count: int = Field(24, ge=4, le=64, description="Gerstner waves displaced by the mesh (and the queries)")
     lod_error: float = Field(1.0, ge=0.25, le=16.0, description="px, screen-space error bound of the sea mesh LOD")
     detail_resolution: int = Field(128, ge=32, le=512, description="texels per side of each detail normal map (the nearest power of two is used)")
-
-    @model_validator(mode="after")
-    def _growth(self) -> "Ocean":
-        if self.sea_state is not None and (self.fetch_km is not None or self.duration_h is not None):
-            raise ValueError("ocean.sea_state sets the height itself: leave fetch_km and duration_h unset with it")
-        return self
 
 
 class Effect(Strict):
