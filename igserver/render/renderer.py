@@ -20,6 +20,7 @@ from .context import capabilities, create_context, make_current, release_context
 from .frame import FrameState, build_frame
 from .graph import FrameGraph
 from .readback import ReadbackRing
+from .scaling import Upscaler, scaled_scene
 from .shaders import ProgramCache
 from .targets import Targets
 
@@ -64,6 +65,10 @@ class Renderer:
         self._targets: Targets | None = None
         self.frames_rendered = 0
         self.auto_quality: presets.AutoQuality | None = None
+        # internal render scale (render/scaling.py): below 1 the passes draw at scale x the requested
+        # size and the upscale pass makes the requested size; 1.0 = no scaled targets, no extra pass
+        self.render_scale = 1.0
+        self._upscaler: Upscaler | None = None
         self.frame_state = FrameState()  # eased fog, eye adaptation: carried between frames
         # submit(): frames drawn whose pixels are still being copied out (pixel buffers of the ring)
         self.frames_in_flight = frames_in_flight
@@ -153,9 +158,12 @@ class Renderer:
         """Every pass of ``scene`` queued into the LDR target; the frame's result without its pixels."""
         start = time.perf_counter()
         make_current(self._ctx)
-        frame = build_frame(self.ctx, scene, self.frame_state)
-        frame.quality = self.quality_for(scene)
-        targets = self.targets_for(scene.camera.width, scene.camera.height)
+        quality = self.quality_for(scene)
+        scale = self.render_scale
+        drawn_scene = scaled_scene(scene, scale) if scale < 1.0 else scene
+        frame = build_frame(self.ctx, drawn_scene, self.frame_state)
+        frame.quality = quality
+        targets = self.targets_for(drawn_scene.camera.width, drawn_scene.camera.height)
         names = self.graph.plan(scene, frame.view)
         targets.scene_fbo.use()
         targets.scene_fbo.clear(0.0, 0.0, 0.0, 1.0, depth=depth.CLEAR_DEPTH)
@@ -179,12 +187,22 @@ class Renderer:
                 pass_ms[name] = (time.perf_counter() - t0) * 1e3
                 own = (time.thread_time() - own0) * 1e3
                 pass_cpu[name] = (own, (time.process_time() - cpu0) * 1e3 - own)
+        output = targets  # what the readback reads: the LDR target, or the upscaled frame
+        if drawn_scene is not scene:
+            if self._upscaler is None:
+                self._upscaler = Upscaler(self.ctx, self.programs)
+            t0 = time.perf_counter()
+            output = self._upscaler.execute(targets.ldr, (scene.camera.width, scene.camera.height))
+            gl_calls.flush()
+            if timed:
+                self.ctx.finish()
+                pass_ms["upscale"] = (time.perf_counter() - t0) * 1e3
         self.frames_rendered += 1
         quality = frame.quality.name if isinstance(frame.quality, presets.Rung) else frame.quality
         result = RenderResult(None, names, pass_ms, 0.0, quality, ev100=frame.ev100,
                               illuminance_lux=frame.illuminance_lux, pass_cpu_ms=pass_cpu,
                               host_frame=scene.host_frame, sim_time=scene.time.sim_time)
-        return _Drawn(result, targets, start, time.perf_counter(), timed, scene.quality.preset == "auto")
+        return _Drawn(result, output, start, time.perf_counter(), timed, scene.quality.preset == "auto")
 
     def read_hdr(self) -> np.ndarray:
         """The last frame's pre-exposed linear HDR colour (float32, top row first), for quality tools."""
@@ -204,4 +222,6 @@ class Renderer:
             self._targets.release()
         if self._readback is not None:
             self._readback.release()
+        if self._upscaler is not None:
+            self._upscaler.release()
         release_context(self._ctx)
