@@ -343,3 +343,32 @@ def test_noise_range_continuity_and_period(renderer):
     axis = np.corrcoef(v0, _noise(renderer, base + [0.3, 0.0, 0.0]))[0, 1]
     diag = np.corrcoef(v0, _noise(renderer, base + np.array([0.3, 0.3, 0.3]) / np.sqrt(3.0)))[0, 1]
     assert abs(axis - diag) < 0.03
+
+
+def test_pool_fire_base_is_opaque(renderer, no_fire_lights):
+    # A 3 m pool fire by day seen from 8 m (no wind, fire lights off): what the flame's base lets
+    # through of the ground behind it, from two renders that differ only in the ground's colour,
+    # T = (flame over bright - flame over dark) / (bright - dark), on the axis 1 m up. Reference: a
+    # pool fire's soot makes its luminous zone optically thick; its absorption coefficient is a
+    # property of the fuel per metre (Babrauskas, SFPE Handbook: k = 1.7-3.5 /m for gasoline,
+    # kerosene, fuel oils), so across a 3 m base k D ~ 6 and T ~ e^-6 = 0.0025. Bound 0.1: the
+    # profile's soft density and the turbulence thin the flame along some rays.
+    from igserver.render.camera import make_view
+
+    def scene(ground, fire=True):
+        return fire_scene(effects=[{"id": "f", "type": "fire", "diameter": 3.0}] if fire else [],
+                          camera={"position": [0.0, -8.0, 1.7], "pitch": 5.0, "exposure_ev": 14.0},
+                          time={"utc": "2026-09-15T10:00:00Z", "sim_time": 100.0},
+                          ground={"enabled": True, "level": 0.0, "color": ground})
+    s = scene([0.8, 0.8, 0.8])
+    view = make_view(s.camera)
+    clip = view.view_proj @ np.append(view.relative([0.0, 0.0, 1.0]), 1.0)
+    col, row = int((clip[0] / clip[3] * 0.5 + 0.5) * W), int((0.5 - clip[1] / clip[3] * 0.5) * H)
+    patch = (slice(row - 1, row + 2), slice(col - 1, col + 2))
+
+    def lum(sc):
+        return float((render_hdr(renderer, sc)[1][patch] @ np.array([0.2126, 0.7152, 0.0722])).mean())
+    bright, dark = lum(scene([0.8, 0.8, 0.8])), lum(scene([0.05, 0.05, 0.05]))
+    bg_bright, bg_dark = lum(scene([0.8, 0.8, 0.8], False)), lum(scene([0.05, 0.05, 0.05], False))
+    transmittance = (bright - dark) / (bg_bright - bg_dark)
+    assert transmittance < 0.1, (transmittance, bright, dark, bg_bright, bg_dark)

@@ -50,7 +50,13 @@ from .profiles import FIRE_SMOKE_ALBEDO, SMOKE_ALBEDO, load_profile
 MAX_SHADOW_TEXTURES = 3  # per smoke effect: the keyframes in flight (k, k + 1, k + 2) may differ in a fade
 MAX_PROFILE_TEXTURES = 32  # profile textures kept resident (LRU); each is small, their number is not
 FIRE_LUMINANCE = 2.0e4  # cd/m^2 of profile colour 1 at intensity 1 (a candle is ~1e4, large flames more)
-FIRE_SIGMA_D = 1.5  # extinction of fire density 1 times the diameter: optical depth across the core
+FIRE_SIGMA_D = 1.5  # extinction of a gas burner's density 1 times its diameter: a premixed flame, thin
+# A pool fire's soot absorbs (and emits) per metre of flame, a property of the fuel: k = 1.7-3.5 /m
+# for gasoline, kerosene and fuel oils (Babrauskas, SFPE Handbook, the k beta of the burning-rate
+# law). Across a base of diameter D the optical depth is k D: a 3 m fire's base is opaque (e^-6),
+# a 0.3 m one translucent (e^-0.6), and the intermittent tips, where the profile thins, let light
+# through. (A fixed optical depth of 1.5 per diameter left every fire a translucent ghost.)
+FLAME_ABSORPTION = 2.0  # 1/m at profile density 1
 SMOKE_SIGMA_D = 3.0
 ROUGHNESS = {"fire": 0.6, "gas_burner": 0.12, "smoke": 0.35}
 EVICT_AFTER_FRAMES = 120
@@ -160,6 +166,16 @@ def screen_rect(volumes: list[Volume], view: CameraView, width: int, height: int
     x0, y0 = max(int(math.floor(x0)) - pad, 0), max(int(math.floor(y0)) - pad, 0)
     x1, y1 = min(int(math.ceil(x1)) + pad, width), min(int(math.ceil(y1)) + pad, height)
     return x0, y0, max(x1 - x0, 0), max(y1 - y0, 0)
+
+
+def _extinction(vol: Volume, smoke: bool) -> float:
+    """1/m, the extinction of the volume's density 1: smoke per its plume's diameter, a pool
+    fire's flame per metre (FLAME_ABSORPTION), a gas burner per its diameter."""
+    if smoke:
+        return SMOKE_SIGMA_D / max(vol.effect.diameter, 1e-3)
+    if vol.kind == "fire":
+        return FLAME_ABSORPTION
+    return FIRE_SIGMA_D / max(vol.effect.diameter, 1e-3)
 
 
 class _Model:
@@ -344,7 +360,7 @@ class VolumesPass(RenderPass):
             model = reuse
         smoke = vol.kind == "smoke"
         sun = tuple(float(x) for x in frame.celestial.sun_dir) if smoke else None
-        sigma = (SMOKE_SIGMA_D if smoke else FIRE_SIGMA_D) / max(vol.effect.diameter, 1e-3)
+        sigma = _extinction(vol, smoke)
         model.done_z = 0
         model.smoke = smoke
         model.slot = self._slots[vol.key]
@@ -570,7 +586,7 @@ class VolumesPass(RenderPass):
                 "u_step": max(step, 1e-4),
                 "u_voxel": max(min(voxel, step), 1e-4),
                 "u_pixel_angle": pixel_angle,
-                "u_sigma": (SMOKE_SIGMA_D if smoke else FIRE_SIGMA_D) / max(vol.effect.diameter, 1e-3),
+                "u_sigma": _extinction(vol, smoke),
                 "u_jitter_offset": jitter_offset,
                 "u_layer_range": dither,
             }
