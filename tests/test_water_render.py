@@ -241,7 +241,7 @@ def test_pier_piles_and_the_boat_keep_the_sea_out():
     """Each pile of the demo pier is its own hull box (the piles are one glTF node of many pieces): the
     sea stays out of every pile and shows between them; the moored boat's hull is kept beside 20 piles."""
     from igserver.render.camera import make_view
-    from igserver.render.water.water import hull_boxes, model_hulls
+    from igserver.render.water.hulls import hull_boxes, model_hulls
     from igserver.scene import load_scene
 
     piles = model_hulls("pier")
@@ -262,7 +262,7 @@ def test_pier_piles_and_the_boat_keep_the_sea_out():
 def test_only_blocks_near_a_hull_pay_for_the_hull_test():
     # A 10 m x 4 m x 6 m hull box centred 50 m ahead: the fragment hull test (and its discard) is
     # needed only on blocks whose footprint comes within the margin of the box's footprint.
-    from igserver.render.water.water import blocks_near_hulls
+    from igserver.render.water.hulls import blocks_near_hulls
     box = np.diag([5.0, 2.0, 3.0, 1.0])
     box[:3, 3] = (50.0, 0.0, -1.0)
     nodes = np.array([[40.0, -8.0, 16.0, 0],     # contains the box
@@ -394,8 +394,8 @@ def test_detail_maps_keep_each_waves_direction_and_length(wind):
     # direction and 14 % in length; waves too short for every map go to the roughness, none is lost.
     import math
 
-    from igserver.render.water.water import (DETAIL_MAPS, DETAIL_MIN_WAVES, _detail_bands, detail_tiles,
-                                              detail_unresolved_var)
+    from igserver.render.water.detail import (DETAIL_MAPS, DETAIL_MIN_WAVES, _detail_bands, detail_tiles,
+                                               detail_unresolved_var)
 
     scene = sea_scene(weather={"wind_speed": wind})
     sea = sea_surface(scene.ocean, scene.weather)
@@ -428,7 +428,7 @@ def test_drawn_foam_is_calibrated_to_monahans_coverage(wind):
     # fraction W = 3.84e-6 U^3.41 (1.8 % at 12 m/s, 16 % at 22.6) over the sea's area. Checked on fresh
     # points and instants, not the calibration's: within 25 % (the field is correlated over a
     # wavelength: a few hundred independent samples below the threshold at 12 m/s).
-    from igserver.render.water.water import FOAM_EDGE, drawn_foam_threshold, foam_mean
+    from igserver.render.water.foam import FOAM_EDGE, drawn_foam_threshold, foam_mean
     from igserver.water.surface import whitecap_coverage
 
     scene = sea_scene(weather={"wind_speed": wind})
@@ -501,7 +501,7 @@ def test_minified_detail_maps_leave_the_picture(renderer):
     # Far blocks read the tile average of the detail maps that are minified there (the sampler would
     # read the 2x2 level or coarser: each wave averaged to <= 13 % of its slope) instead of sampling
     # them: the picture must not move by more than a level.
-    from igserver.render.water.water import detail_means, detail_tiles
+    from igserver.render.water.detail import detail_means, detail_tiles
 
     scene = sea_scene(camera={"position": [0.0, 0.0, 30.0], "pitch": -15.0, "width": 160, "height": 90})
     water = renderer.graph.passes["water"]
@@ -534,7 +534,7 @@ def test_detail_maps_are_the_waves_at_the_texel_centres(resolution):
     # detail_map_levels sums the tile's waves by an inverse FFT: at every texel centre it must equal
     # the direct sum of their slopes (aliased waves included: at 32 texels the finest waves of a band,
     # 38.5 cycles a tile, are past Nyquist), and each mip level the mean of 2x2 texels of the one above.
-    from igserver.render.water.water import detail_map_levels, detail_tiles
+    from igserver.render.water.detail import detail_map_levels, detail_tiles
 
     scene = sea_scene(weather={"wind_speed": 22.6})
     sea = sea_surface(scene.ocean, scene.weather)
@@ -561,7 +561,7 @@ def test_hull_boxes_follow_the_entities_and_the_camera():
     # hull_boxes is memoised on the visible entities' models and poses, the camera position and the
     # sea level: each of those must still move the boxes (against a cold computation every time).
     from igserver.render.camera import make_view
-    from igserver.render.water.water import _hull_boxes, hull_boxes
+    from igserver.render.water.hulls import _hull_boxes, hull_boxes
     from igserver.scene import load_scene
 
     scene = load_scene("demo")
@@ -586,7 +586,7 @@ def test_hull_boxes_follow_the_entities_and_the_camera():
 
 
 def model_has_hull(model: str) -> bool:
-    from igserver.render.water.water import model_hulls
+    from igserver.render.water.hulls import model_hulls
     return model == "patrol_boat" and bool(model_hulls(model))
 
 
@@ -600,7 +600,7 @@ def test_blocks_near_hulls_matches_the_corner_test_for_turned_boxes():
     # The footprint of a turned, tilted box from its matrix (centre ± Σ|column|) against the
     # footprint of its 8 corners, for random boxes and blocks: the same blocks.
     from igserver.render.camera import body_to_world
-    from igserver.render.water.water import blocks_near_hulls
+    from igserver.render.water.hulls import blocks_near_hulls
 
     rng = np.random.default_rng(3)
     hulls = []

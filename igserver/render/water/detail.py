@@ -1,0 +1,227 @@
+"""The sea's detail normal maps: the short waves of the detail band on three tiles of growing size,
+as slope maps with their mip chains made on the CPU for the frame's time, and what each LOD block
+must read of them (the finer tiles are minified to their mean far enough away)."""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+
+from ...water.spectrum import WaveSet
+from ...water.surface import SeaSurface
+from ..camera import CameraView
+from . import lod
+from .foam import FOAM_STREAK_FADE, FOAM_STREAK_SIZE
+
+DETAIL_MAPS = 3
+# The detail band is split by wavelength into DETAIL_MAPS maps, each covering a ratio DETAIL_RATIO of
+# wavelengths on a tile DETAIL_MIN_CYCLES times its longest wave: a wave snapped to the tile's lattice
+# of (m, n) cycles (rounding moves it by ≤ √0.5 cycle) keeps its direction within asin(0.71 / 5) ≈ 8°
+# and its wavelength within 14 % (a wave of 1–2 cycles snaps to 0°, 45° or 90°, and the map shows a
+# square lattice), and the shortest spans 38.5 cycles, 3.3 texels each at the medium 128² maps. Not a
+# whole ratio: the tiles never repeat in step. Waves shorter than the finest map's band go to the
+# roughness (``detail_unresolved_var``).
+DETAIL_MIN_CYCLES = 5.0
+DETAIL_RATIO = 7.7
+DETAIL_MIN_WAVES = 4
+
+
+def _detail_bands(sea: SeaSurface) -> tuple[np.ndarray, np.ndarray]:
+    """Per detail map, the longest wavelength of its band (m); per detail wave, its map (DETAIL_MAPS:
+    roughness only). The finest bands holding fewer than DETAIL_MIN_WAVES waves go to the roughness:
+    a tile of so few waves shows its period as a regular ripple, and costs a texture read per pixel
+    for under 4/36 of the detail band's slope variance (its waves carry equal shares)."""
+    wavelengths = 2.0 * math.pi / sea.detail.k
+    tops = float(np.max(wavelengths)) * 1.0001 / DETAIL_RATIO ** np.arange(DETAIL_MAPS)
+    band = np.minimum(np.floor(np.log(tops[0] / wavelengths) / math.log(DETAIL_RATIO)), DETAIL_MAPS).astype(int)
+    for c in range(DETAIL_MAPS - 1, 0, -1):
+        few = band == c
+        if np.count_nonzero(few) >= DETAIL_MIN_WAVES:
+            break
+        band[few] = DETAIL_MAPS
+    return tops, band
+
+
+def detail_tiles(sea: SeaSurface, t: float) -> list[tuple[float, np.ndarray]]:
+    """Per detail map: (tile side L in m, waves (m, n, A k, phase) snapped to that tile's lattice)."""
+    d: WaveSet = sea.detail
+    if d.n == 0:
+        return [(1.0, np.zeros((0, 4)))] * DETAIL_MAPS
+    tops, band = _detail_bands(sea)
+    tiles = []
+    for c, top in enumerate(tops):
+        size = DETAIL_MIN_CYCLES * top
+        pick = band == c
+        cycles = np.rint(d.k[pick, None] * d.direction[pick] * size / (2.0 * math.pi))
+        k_snap = np.linalg.norm(cycles, axis=1) * 2.0 * math.pi / size
+        omega = np.sqrt(9.80665 * k_snap)
+        phase = np.mod(d.phase[pick] - np.mod(omega * t, 2.0 * math.pi), 2.0 * math.pi)
+        tiles.append((size, np.column_stack([cycles, d.amplitude[pick] * k_snap, phase])))
+    return tiles
+
+
+def detail_map_levels(waves: np.ndarray, resolution: int) -> list[np.ndarray]:
+    """One detail map and its mip chain, level 0 (``resolution``² texels, a power of two) first:
+    (sx, sy, sx², sy²) per texel, float32 (numpy has no fast float16 conversion: 3 ms a 128² map),
+    rows along the tile's y.
+
+    The texel (i, j) holds the slopes at its centre u = (i + ½) / N, v = (j + ½) / N of the tile's
+    waves (m, n, A k, phase) (``detail_tiles``): s = Σ g cos θ, g = A k (m, n) / |(m, n)| the slope
+    amplitude, θ = 2π (m u + n v) + phase = 2π (m i + n j) / N + ψ, ψ = phase + π (m + n) / N.
+    Both components at once as sx + i sy = Σ (gx + i gy) (e^{iθ} + e^{−iθ}) / 2: an inverse DFT of
+    N² coefficients (gx + i gy) e^{±iψ} / 2 placed at the bins ±(m, n) mod N — exact at the texel
+    centres, aliasing included, in O(N² log N) whatever the wave count. Each mip level is the mean of
+    2×2 texels of the one above (float32): what the sampler's trilinear filter reads,
+    and E[s²] − E[s]² of a level is the slope variance it no longer resolves (LEAN mapping)."""
+    n_side = int(resolution)
+    mn = waves[:, 0:2]
+    g = waves[:, 2:3] * mn / np.linalg.norm(mn, axis=1, keepdims=True)
+    half = 0.5 * (g[:, 0] + 1j * g[:, 1])
+    psi = waves[:, 3] + math.pi * (mn[:, 0] + mn[:, 1]) / n_side
+    m, n = mn[:, 0].astype(int), mn[:, 1].astype(int)
+    spectrum = np.zeros((n_side, n_side), dtype=complex)
+    np.add.at(spectrum, (n % n_side, m % n_side), half * np.exp(1j * psi))
+    np.add.at(spectrum, (-n % n_side, -m % n_side), half * np.exp(-1j * psi))
+    s = np.fft.ifft2(spectrum, norm="forward")  # Σ X e^{+2πi (m i + n j) / N}, no 1/N² factor
+    level = np.stack([s.real, s.imag, s.real * s.real, s.imag * s.imag], axis=-1).astype(np.float32)
+    levels = [level]
+    while level.shape[0] > 1:
+        level = 0.25 * (level[0::2, 0::2] + level[0::2, 1::2] + level[1::2, 0::2] + level[1::2, 1::2])
+        levels.append(level)
+    return levels
+
+
+def detail_unresolved_var(sea: SeaSurface) -> float:
+    """Mean-square slope of the detail waves shorter than every map's band: roughness only."""
+    if sea.detail.n == 0:
+        return 0.0
+    _, band = _detail_bands(sea)
+    lost = band >= DETAIL_MAPS
+    return float(np.sum((sea.detail.amplitude[lost] * sea.detail.k[lost]) ** 2) / 2.0)
+
+
+def detail_means(tiles: list[tuple[float, np.ndarray]]) -> np.ndarray:
+    """Per detail map, its average over the tile (sx, sy, sx², sy²): what the map's 1×1 mip level holds
+    (float64 here; the map's is the float32 mean of its texels, within its rounding). Over the texel
+    grid a lattice wave averages to zero, and a product of two averages to half the cosine of their
+    phase difference when they share a lattice point (or of the phase sum for opposite points)."""
+    means = np.zeros((DETAIL_MAPS, 4))
+    for c, (_, waves) in enumerate(tiles):
+        if not len(waves):
+            continue
+        mn = waves[:, 0:2]
+        g = waves[:, 2:3] * mn / np.linalg.norm(mn, axis=1, keepdims=True)  # slope amplitude vectors
+        phi = waves[:, 3]
+        same = np.all(mn[:, None] == mn[None], axis=2)
+        opposite = np.all(mn[:, None] == -mn[None], axis=2)
+        w = 0.5 * (same * np.cos(phi[:, None] - phi[None]) + opposite * np.cos(phi[:, None] + phi[None]))
+        means[c, 2] = g[:, 0] @ w @ g[:, 0]
+        means[c, 3] = g[:, 1] @ w @ g[:, 1]
+    return means
+
+
+@functools.lru_cache(maxsize=16)
+def _min_pixel_angle(tangents: tuple[float, float, float, float], w: int, h: int) -> float:
+    left, right, bottom, top = tangents
+
+    def ray(x: float, y: float) -> tuple[float, float, float]:
+        r = (left + (x + 0.5) / w * (right - left), bottom + (y + 0.5) / h * (top - bottom), 1.0)
+        n = math.sqrt(r[0] * r[0] + r[1] * r[1] + 1.0)
+        return r[0] / n, r[1] / n, 1.0 / n
+
+    def angle(a, b) -> float:
+        c = (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+        return math.atan2(math.sqrt(c[0] ** 2 + c[1] ** 2 + c[2] ** 2), a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
+
+    angles = []
+    for x, dx in ((0, 1), (w - 1, -1)):
+        for y, dy in ((0, 1), (h - 1, -1)):
+            a = ray(x, y)
+            angles += [angle(a, ray(x + dx, y)), angle(a, ray(x, y + dy))]
+    return min(angles)
+
+
+@functools.lru_cache(maxsize=16)
+def _min_pixel_angle_any(tangents: tuple[float, float, float, float], w: int, h: int) -> float:
+    left, right, bottom, top = tangents
+    # A step of one pixel in any direction on the image plane turns the ray by at least the step in
+    # tangent times 1 / (1 + t^2), t the tangent's length: the radial direction at the corner farthest
+    # from the axis is the least. 0.99: the finite step against this derivative.
+    t2 = max(abs(left), abs(right)) ** 2 + max(abs(bottom), abs(top)) ** 2
+    return 0.99 * min((right - left) / w, (top - bottom) / h) / (1.0 + t2)
+
+
+def min_pixel_angle(view: CameraView) -> float:
+    """The smallest angle (rad) between the rays of two neighbouring pixels anywhere on the screen
+    (at the frame's corners, where a pixel subtends the least)."""
+    return _min_pixel_angle(tuple(float(t) for t in view.tangents), int(view.width), int(view.height))
+
+
+def minified_maps_from(selection: lod.LodSelection, sea: SeaSurface, tiles, view: CameraView,
+                       cam_height: float) -> np.ndarray:
+    """Per block, how many detail maps (a prefix: the finer tiles come later) the shader must read;
+    every later map is minified there to its tile average (``detail_means``) within a small residual,
+    so it is replaced by that constant (a texture read a pixel fewer where it holds).
+
+    Minified: the texel footprint ρ (texels per pixel, the larger of the two screen axes) is at least
+    N/2, so the sampler reads the 2×2 level or coarser: a box of half a tile averages each of the
+    tile's waves (≥ DETAIL_MIN_CYCLES = 5 cycles a tile) to at most 2/(5π) = 13 % of its slope, the
+    variance channels keep the whole tile's (the roughness is the same). Measured against every map
+    read (sea_beaufort5 at 2 m, 30 m, 1 km, 640x360): max 1 level, mean 0.0015 (the bound below is
+    pessimistic: at a quarter tile it is still max 1, mean 0.003); at 2N (the exact 1×1 level, the
+    rule before the tiles grew to 5 cycles) the blocks reading both maps from 1 km were 151 of 370,
+    now 40. For a point of the block at distance ≥ d, two neighbouring
+    pixels' rays (angle ≥ δ, ``min_pixel_angle``) meet the surface ≥ d·sin δ apart; a mesh of slope
+    ≤ s moves that apart ≥ 1/√(1+s²) of it horizontally, the rest point (the maps' coordinate) moves
+    ≥ 1/(1+s) of that (the Gerstner horizontal displacement's gradient is ≤ Σ b k ≤ s), and
+    llvmpipe's ρ (largest derivative component) is ≥ 1/√2 of the length: ρ ≥ N/L · d sin δ /
+    (√2 √(1+s²) (1+s)); d from the block's square, less the error sphere ΣA horizontally and
+    vertically. s per block: the slope of the waves its level's spacing keeps (fades, gerstner.glsl)
+    plus the earth's tilt at the reach. Only in uniform depth (over a field k, A and Q vary per
+    point; every map is read there)."""
+    n_blocks = len(selection.nodes)
+    used = sum(1 for _, waves in tiles if len(waves))
+    if sea.field is not None or n_blocks == 0:
+        return np.full(n_blocks, used, dtype=int)
+    footprint = rest_spacing(selection, sea, cam_height, min_pixel_angle(view)) / math.sqrt(2.0)
+    count = np.zeros(n_blocks, dtype=int)
+    for c, (size, waves) in enumerate(tiles):
+        if len(waves):
+            count = np.where(footprint / size < 0.5, c + 1, count)  # ρ/N = footprint / L < 1/2: still read
+    return count
+
+
+def rest_spacing(selection: lod.LodSelection, sea: SeaSurface, cam_height: float, pixel_angle: float) -> np.ndarray:
+    """Per block, a lower bound (m) on the distance between the rest points (the detail maps' and the
+    foam's coordinates) of two rays ``pixel_angle`` apart (``minified_maps_from`` has the argument;
+    uniform depth only)."""
+    nodes = selection.nodes.astype(np.float64)
+    w = sea.waves
+    level = nodes[:, 3].astype(int)
+    spacing = selection.finest_spacing * 2.0 ** np.arange(int(level.max()) + 1)
+    x = w.k[None] * spacing[:, None]
+    fade = 1.0 - np.clip((x - 0.5 * math.pi) / (0.5 * math.pi), 0.0, 1.0) ** 2 * (
+        3.0 - 2.0 * np.clip((x - 0.5 * math.pi) / (0.5 * math.pi), 0.0, 1.0))  # 1 − smoothstep(π/2, π, kΔ)
+    slope = (np.sum(w.amplitude * w.k * fade, axis=1) + selection.reach / lod.EARTH_RADIUS)[level]
+    sphere = selection.error_sphere
+    gap = np.maximum(np.maximum(nodes[:, :2], -(nodes[:, :2] + nodes[:, 2:3])), 0.0)  # camera at (0, 0)
+    d = np.hypot(np.maximum(np.hypot(gap[:, 0], gap[:, 1]) - sphere, 0.0), max(abs(cam_height) - sphere, 0.0))
+    return d * math.sin(pixel_angle) / (np.sqrt(1.0 + slope**2) * (1.0 + slope))
+
+
+def foam_streaks_needed(selection: lod.LodSelection, sea: SeaSurface, view: CameraView,
+                        cam_height: float) -> np.ndarray:
+    """Per block, whether the foam's streak noise can show there (water.frag.glsl foam_cover): the
+    shader fades the streaks to their mean where a pixel spans FOAM_STREAK_FADE of a noise cell,
+    contrast = clamp(1.5 - 2 |fwidth(q)|, 0, 1) with q the rest point in cells (24 m along the wind,
+    3 m across). |fwidth(q)| >= its across-wind part (|a.dx| + |a.dy|) / 3 >= sigma_min / 3, sigma_min
+    the least stretch of the pixel -> rest-point map in any direction, which ``rest_spacing`` bounds
+    with the least angle a one-pixel step in any direction turns a ray (``_min_pixel_angle_any``).
+    Where that bound reaches 0.75 cells the contrast is exactly 0: the block is drawn without the
+    noise's fetch (the frame is the same). Over a bathymetry field every block keeps it."""
+    if sea.field is not None or len(selection.nodes) == 0:
+        return np.ones(len(selection.nodes), dtype=bool)
+    angle = _min_pixel_angle_any(tuple(float(t) for t in view.tangents), int(view.width), int(view.height))
+    return rest_spacing(selection, sea, cam_height, angle) < FOAM_STREAK_FADE * FOAM_STREAK_SIZE[1]
