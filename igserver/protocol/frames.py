@@ -10,9 +10,10 @@ keeps their order (set_state before the render that follows it) without extra lo
 
 Frames in flight: the pump submits a state and gets the frame drawn before it back (``submit``), so
 the render process draws frame N+1 while frame N's pixels are copied out and the server encodes and
-sends N; the stream's rate is set by the slowest of those, not by their sum. When no new frame is due
-the pump takes the frame in flight at once (``collect``): a host that waits for each frame sees the
-same latency as before, and a saturated stream at most one frame interval more.
+sends N; the stream's rate is set by the slowest of those, not by their sum. Whenever the pump would
+wait instead of drawing (no new state, or the ``max_fps`` cap) it takes the frame in flight at once
+(``collect``): a host that waits for each frame sees the same latency as before, and a saturated
+stream at most one frame interval more.
 """
 
 from __future__ import annotations
@@ -348,6 +349,9 @@ class FramePump:
                 await self.store.wait_for_change(latest.revision, wait - since)
                 continue
             if since < self.min_interval:
+                if gateway.in_flight:  # a frame waits in flight only while the next one draws, not for the cap
+                    await self._take(gateway.collect())
+                    continue
                 await asyncio.sleep(self.min_interval - since)
             scene, revision, accepted_at = self.store.scene, self.store.revision, self.store.accepted_at
             last_render = time.perf_counter()
