@@ -138,3 +138,54 @@ def test_viewer_shows_readiness_and_clock(server, page):
     page.evaluate("document.getElementById('clockPause').click()")
     page.wait_for("!document.getElementById('clock').textContent.includes('paused')")
     assert httpx.get(server.url + "/v1/clock").json()["paused"] is False
+
+
+def mouse(page, kind: str, x: float, y: float) -> None:
+    page.send("Input.dispatchMouseEvent", type=kind, x=x, y=y, button="left", buttons=1 if kind != "mouseReleased" else 0,
+              clickCount=1)
+
+
+def test_viewer_slider_drag_is_not_reset_by_the_refresh(server, page):
+    httpx.patch(server.url + "/v1/state", json={"weather": {"wind_speed": 6.0}}).raise_for_status()
+    page.wait_for("document.getElementById('wind').value === '6'")
+    x, y, width, height = page.evaluate(
+        "(() => { const w = document.getElementById('wind'); w.scrollIntoView({block: 'center'});"
+        " const r = w.getBoundingClientRect(); return [r.x, r.y, r.width, r.height]; })()")
+    y += height / 2
+    mouse(page, "mousePressed", x + 0.075 * width, y)  # near 6 m/s
+    for fraction in (0.2, 0.4, 0.55):  # dragged to ~44 m/s, and held there
+        mouse(page, "mouseMoved", x + fraction * width, y)
+    dragged = page.evaluate("document.getElementById('wind').value")
+    assert 35 <= float(dragged) <= 50, dragged
+    # the label follows the drag, and the once-a-second refresh leaves the held slider alone
+    page.wait_for(f"document.getElementById('windOut').textContent === {json.dumps(dragged)}", timeout=5)
+    time.sleep(1.6)
+    assert page.evaluate("document.getElementById('wind').value") == dragged
+    assert page.evaluate("document.getElementById('windOut').textContent") == dragged
+    mouse(page, "mouseReleased", x + 0.55 * width, y)
+    deadline = time.monotonic() + 10
+    while state(server)["weather"]["wind_speed"] != float(dragged):
+        assert time.monotonic() < deadline, state(server)["weather"]
+        time.sleep(0.1)
+    time.sleep(1.5)  # refreshed since: the server's value, the same
+    assert page.evaluate("document.getElementById('wind').value") == dragged
+
+
+def test_viewer_slider_ranges_come_from_the_schema(server, page):
+    page.wait_for("document.getElementById('wind').dataset.ranged === 'schema'")
+    assert page.evaluate("document.getElementById('wind').max") == "80"
+    httpx.patch(server.url + "/v1/state", json={"weather": {"wind_speed": 72.0}}).raise_for_status()
+    page.wait_for("document.getElementById('wind').value === '72'")  # not clamped to a range of its own
+    assert page.evaluate("document.getElementById('windOut').textContent") == "72"
+    low, high = page.evaluate("[document.getElementById('vis').min, document.getElementById('vis').max]")
+    assert 10 ** float(low) == pytest.approx(50) and 10 ** float(high) == pytest.approx(200_000)
+    httpx.patch(server.url + "/v1/state", json={"weather": {"wind_speed": 6.0}}).raise_for_status()
+
+
+def test_viewer_shows_one_line_for_one_mistake(server, page):
+    page.evaluate("(() => { const f = document.querySelector('tr[data-effect=\"pool_fire\"] input');"
+                  " f.value = 9999; f.dispatchEvent(new Event('change')); })()")
+    text = page.wait_for("(() => { const t = document.getElementById('error').textContent; return t.includes('422') && t; })()")
+    lines = [line for line in text.splitlines() if line.strip()]
+    assert len(lines) == 2 and lines[1].startswith("#/fade:"), lines  # what was asked and what was wrong
+    page.evaluate("document.querySelector('tr[data-effect=\"pool_fire\"] input').blur()")
