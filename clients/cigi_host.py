@@ -104,9 +104,9 @@ def receive(sock: socket.socket, summary: Summary, stop: threading.Event, verbos
 
 def run(ig: tuple[str, int], listen_port: int = 8005, seconds: float = 10.0, rate: float = 60.0,
         sync: bool = False, order: str = BIG, hour: int = 12, capture=None, verbose: bool = False,
-        sock: socket.socket | None = None, extra=None) -> Summary:
+        sock: socket.socket | None = None, extra=None, first_frame: int = 0) -> Summary:
     """Play the scenario for ``seconds``; ``sock``: an already bound socket (tests); ``extra(frame)``:
-    more packets for a frame (tests)."""
+    more packets for a frame (tests); ``first_frame``: the host frame number of the first frame."""
     own = sock is None
     if own:
         sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -118,7 +118,7 @@ def run(ig: tuple[str, int], listen_port: int = 8005, seconds: float = 10.0, rat
     frame = 0
     try:
         while frame < seconds * rate:
-            packets = [IGControl(host_frame=frame, ig_mode=1, timestamp_valid=sync,
+            packets = [IGControl(host_frame=(first_frame + frame) & 0xFFFFFFFF, ig_mode=1, timestamp_valid=sync,
                                  timestamp=int(frame / rate * 100_000) & 0xFFFFFFFF)]
             packets += scenario(frame, rate, hour, sync) + (list(extra(frame)) if extra else [])
             data = build(packets, order)

@@ -65,8 +65,9 @@ class CigiEngine:
         self._dumped: tuple[int, dict] | None = None  # (revision, its scene as a JSON tree)
 
     # -- host messages
-    def handle(self, data: bytes) -> Plan | None:
-        """Apply one host datagram; returns its plan, or None when it was rejected (counted, logged once per kind)."""
+    def handle(self, data: bytes, defer: bool = False) -> Plan | None:
+        """Apply one host datagram; returns its plan, or None when it was rejected (counted, logged once per
+        kind). Its queries are answered here, or with ``defer`` left to the caller (``answer(plan)``)."""
         try:
             message = parse(data)
             scene = self.store.scene
@@ -95,10 +96,17 @@ class CigiEngine:
         for what, count in plan.skipped.items():
             c.skipped.inc(count, what=what)
         if plan.queries:
-            now = self.store.scene
-            for request in plan.queries:
-                self.pending.append(answer(now, self.session, self.types, request))
+            plan.answers_to = (self.store.scene, self.session)  # the state the answers are about
+            if not defer:
+                self.answer(plan)
         return plan
+
+    def answer(self, plan: Plan) -> None:
+        """Answer ``plan``'s queries (they go out with the next Start of Frame). Thread-safe: the scene
+        and session it reads are snapshots that are replaced, never changed (the listener runs it off the
+        event loop: the first query on a new sea builds its spectrum)."""
+        scene, session = plan.answers_to
+        self.pending.extend(answer(scene, session, self.types, request) for request in plan.queries)
 
     def _tree(self, scene: Scene) -> dict:
         """``scene`` as a JSON tree, dumped once per state revision (only the clock's sim_time moves)."""

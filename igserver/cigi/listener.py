@@ -44,6 +44,9 @@ class CigiListener(asyncio.DatagramProtocol):
         self._subscription = None
         self._heartbeat: asyncio.Task | None = None
         self.capture = None  # a PcapWriter-like object with add(payload, src, dst): tests and tools
+        # the IG's readiness as of the last heartbeat (<= HEARTBEAT_S old): asking the render process at a
+        # frame start (it reads /proc) would cost the SOF its sub-millisecond start
+        self.ready = False
 
     # -- asyncio
     def connection_made(self, transport) -> None:
@@ -57,7 +60,7 @@ class CigiListener(asyncio.DatagramProtocol):
         if self.capture is not None:
             self.capture.add(data, (addr[0], addr[1]), self.transport.get_extra_info("sockname")[:2])
         try:
-            plan = self.engine.handle(data)
+            plan = self.engine.handle(data, defer=True)
         except Exception:  # never let a datagram stop the listener
             log.exception("CIGI datagram could not be handled")
             self.engine.counters.datagrams.inc(result="rejected")
@@ -69,6 +72,14 @@ class CigiListener(asyncio.DatagramProtocol):
             self.host = (addr[0], self.host_port)
         self.last_message = time.monotonic()
         self._keep_frames_flowing()
+        if plan.queries:  # numpy work (a new sea builds its spectrum) off the event loop, as REST queries
+            asyncio.get_running_loop().run_in_executor(None, self._answer, plan)
+
+    def _answer(self, plan) -> None:
+        try:
+            self.engine.answer(plan)
+        except Exception:  # a query must not take the listener down
+            log.exception("CIGI query could not be answered")
 
     def error_received(self, exc) -> None:  # ICMP port unreachable from a host not listening yet
         log.debug("CIGI socket: %s", exc)
@@ -77,7 +88,7 @@ class CigiListener(asyncio.DatagramProtocol):
     def frame_started(self, *_args) -> None:
         """Called at each frame start (its state chosen, the render not yet submitted): SOF, then extrapolate."""
         t0 = time.perf_counter()
-        self._send_sof(self.runtime.ready())
+        self._send_sof(self.ready)
         self.engine.counters.sof_delay_ms.observe((time.perf_counter() - t0) * 1e3)
         # entities with a Rate Control move on for the frames after this one (this one's state is chosen)
         self.engine.extrapolate()
@@ -105,7 +116,7 @@ class CigiListener(asyncio.DatagramProtocol):
             if self._subscription is not None and now - self.last_message > HOST_TIMEOUT_S:
                 self._subscription.__exit__(None, None, None)
                 self._subscription = None
-            ready = self.runtime.ready()
+            self.ready = ready = self.runtime.ready()
             # no frame started lately: tell the host anyway (Standby while precomputing), but not while a
             # frame renders (its SOF went out; a synchronous host would run ahead of the frames)
             if now - self.last_sof >= HEARTBEAT_S and (not ready or self.runtime.gateway.busy_since is None):

@@ -39,6 +39,7 @@ class Plan:
     skipped: Counter = field(default_factory=Counter)  # honoured packet types with unsupported contents
     ig_mode: int = 1
     replaced: bool = False  # a database load replaced the whole scene
+    answers_to: tuple | None = None  # (scene, session) the queries are answered against, once accepted
 
 
 class Work:
