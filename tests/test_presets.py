@@ -1,5 +1,6 @@
-"""Quality presets: the knob table, the one-knob ladder between levels, the auto
-controller's hysteresis, and the preset from the scene model (= the protocol) and the CLI."""
+"""Quality presets: the knob table, the one-knob ladder between levels, the auto preset in the
+renderer (the controller itself: test_overload.py), and the preset from the scene model (= the
+protocol) and the CLI."""
 
 from __future__ import annotations
 
@@ -52,41 +53,27 @@ def test_ladder_changes_one_knob_per_rung():
         assert all(presets.knobs(p, rung) == presets.knobs(p, level) for p in presets.registered())
 
 
-def test_auto_steps_down_over_target_and_holds_between():
-    auto = presets.AutoQuality(target_ms=40.0)
-    start = auto.index
-    for _ in range(presets.WINDOW_FRAMES):
-        auto.observe(60.0)
-    assert auto.index == start - 1  # one rung, not a jump to low
-    for _ in range(presets.HOLD_FRAMES - 1):
-        auto.observe(60.0)
-    assert auto.index == start - 1  # held: the new rung's times are not in yet
-    # The window after the hold still holds the slow frames: one more rung down, then frames
-    # between UP_FRACTION x target and the target: hysteresis, no change however long.
-    for _ in range(10 * presets.WINDOW_FRAMES):
-        auto.observe(35.0)
-    assert auto.index == start - 2
-    settled = auto.index
-    # Fast frames: climbs back one rung per hold period.
-    for _ in range(presets.WINDOW_FRAMES + presets.HOLD_FRAMES):
-        auto.observe(5.0)
-    assert auto.index > settled
-
-
 def test_auto_preset_adapts_in_the_renderer(renderer):
+    from igserver.render import overload
+
     scene = tiny({"ground": {"enabled": False}, "quality": {"preset": "auto", "target_ms": 1.0}}, 16, 16)
-    renderer.auto_quality = None
-    first = renderer.render(scene).quality
-    for _ in range(presets.WINDOW_FRAMES + 1):
+    renderer.frame_quality = overload.FrameQuality()
+    first = renderer.render(scene)
+    for _ in range(overload.DOWN_FRAMES + 1):
         result = renderer.render(scene)
-    # A 1 ms target cannot be met on llvmpipe: the controller stepped down from medium.
-    assert first == "medium" and result.quality != "medium"
-    assert renderer.auto_quality.index < [r.name for r in presets.ladder()].index("medium")
+    # A 1 ms target cannot be met on llvmpipe: the controller stepped down from medium at scale 1
+    # to the cheapest point, and says the target is not met.
+    assert first.overload["scale"] == 1.0 and first.overload["rungs"]["volumes"] == "medium"
+    assert result.overload["scale"] == 0.5 and result.overload["met"] is False
+    assert renderer.frame_quality.controller.index == 0
 
 
 def test_preset_and_target_in_the_scene_model():
     assert Scene.model_validate({"quality": {"preset": "auto", "target_ms": 33.3}}).quality.preset == "auto"
-    for bad in ({"preset": "ultra"}, {"target_ms": 0.0}, {"target_ms": float("nan")}, {"target_ms": "fast"}):
+    assert Scene.model_validate({"quality": {"target_fps": 25}}).quality.target_fps == 25.0
+    assert Scene().quality.target_fps == 0.0  # off by default
+    for bad in ({"preset": "ultra"}, {"target_ms": 0.0}, {"target_ms": float("nan")}, {"target_ms": "fast"},
+                {"target_fps": 4.0}, {"target_fps": 241.0}, {"target_fps": -1.0}, {"target_fps": float("nan")}):
         with pytest.raises(ValidationError):
             Scene.model_validate({"quality": bad})
 

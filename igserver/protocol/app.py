@@ -218,6 +218,8 @@ def serve(
         scene = apply_patch(scene, {"camera": size})
     if preset:
         scene = apply_patch(scene, {"quality": {"preset": preset}})
+    if settings.target_fps:
+        scene = apply_patch(scene, {"quality": {"target_fps": settings.target_fps}})
     try:
         sock = listening_socket(host, port)
     except OSError as exc:

@@ -16,6 +16,7 @@ from pydantic import Field, SecretStr, field_validator, model_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
 from ..assets.images import DEFAULT_MAX_PROFILE_PIXELS
+from ..scene.model import TargetFps
 from .codec import Limits
 
 # Host names that always mean this machine. A browser can only reach a loopback-bound server under one of
@@ -53,6 +54,10 @@ class ServerSettings(BaseSettings):
         default_factory=list,
         description="browser origins (scheme://host:port) allowed besides the server's own, for writes and WebSocket")
     max_fps: float = Field(60.0, gt=0, le=1000, description="stream render rate cap (frames/s)")
+    target_fps: TargetFps = Field(
+        0.0, description="frame rate the initial scene holds by trading detail for time (its quality.target_fps; "
+        "render/overload.py); 0 = off, else 5-240")
+
     keepalive_s: float = Field(1.0, gt=0, le=60, description="a static scene is re-rendered and re-sent this often (s)")
     jpeg_quality: int = Field(85, ge=1, le=100, description="JPEG quality of streams")
     limits: Limits = Field(default_factory=Limits, description="message bounds (body bytes, depth, string, array, map)")

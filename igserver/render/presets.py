@@ -1,23 +1,20 @@
-"""Quality presets: ``low``, ``medium``, ``high`` map to every pipeline's knobs; ``auto`` picks
-the highest level whose measured frame time fits a target, at run time (docs/design.md#quality).
+"""Quality presets: ``low``, ``medium``, ``high`` map to every pipeline's knobs; ``auto`` lets the
+overload controller (render/overload.py) choose the knobs and the render scale per frame to hold a
+frame rate (docs/design.md#quality).
 
 Each pipeline registers its knobs per level (``register``), chosen from its error-vs-time curve in
 ``igserver quality`` (the report marks the points). A pass reads its knobs with
 ``knobs(name, frame.quality)``; ``frame.quality`` is the level in force for this frame (the scene's
-``quality.preset``, or the auto controller's current rung).
+``quality.preset``, or the controller's current rung).
 
-Auto without popping: the controller does not jump between presets. It walks a ladder of rungs from
-``low`` to ``high`` in which neighbouring rungs differ in ONE knob of ONE pipeline (``ladder``),
-one rung per decision, with hysteresis (step down when the median frame time over a window exceeds
-the target, step up only when it is below ``UP_FRACTION`` of it, and never twice within
-``HOLD_FRAMES``); volume textures blend between models (volumes.py), so a changed knob fades in,
-and a changed march resolution dissolves from the old to the new over a few frames (volumes.py).
+No popping: the controller moves along a ladder of rungs from ``low`` to ``high`` in which
+neighbouring rungs differ in ONE knob of ONE pipeline (``ladder``), with hysteresis; volume
+textures blend between models (volumes.py), so a changed knob fades in, and a changed march
+resolution dissolves from the old to the new over a few frames (volumes.py).
 """
 
 from __future__ import annotations
 
-import statistics
-from collections import deque
 from dataclasses import dataclass, fields, is_dataclass, replace
 from typing import Any
 
@@ -88,45 +85,3 @@ def ladder() -> list[Rung]:
         else:
             rungs.append(Rung(hi, current))  # identical levels: a rung of its own all the same
     return rungs
-
-
-WINDOW_FRAMES = 15  # frame times in the median a decision looks at
-HOLD_FRAMES = 15  # frames after a change before the next one (the new rung's times fill the window)
-UP_FRACTION = 0.75  # step up only below 75 % of the target: the next rung costs more
-
-
-class AutoQuality:
-    """The ``auto`` preset: one rung per decision, hysteresis, a hold time after each change."""
-
-    def __init__(self, target_ms: float, start: str = "medium"):
-        self.target_ms = target_ms
-        self.rungs = ladder()
-        names = [r.name for r in self.rungs]
-        self.index = names.index(start) if start in names else 0
-        self._times: deque[float] = deque(maxlen=WINDOW_FRAMES)
-        self._hold = 0
-        self.changes = 0
-
-    @property
-    def rung(self) -> Rung:
-        return self.rungs[self.index]
-
-    def observe(self, frame_ms: float) -> None:
-        """Record one frame's time (render + readback) and maybe move one rung."""
-        self._times.append(frame_ms)
-        if self._hold > 0:
-            self._hold -= 1
-            return
-        if len(self._times) < WINDOW_FRAMES:
-            return
-        median = statistics.median(self._times)
-        if median > self.target_ms and self.index > 0:
-            self._move(-1)
-        elif median < UP_FRACTION * self.target_ms and self.index < len(self.rungs) - 1:
-            self._move(+1)
-
-    def _move(self, step: int) -> None:
-        self.index += step
-        self.changes += 1
-        self._hold = HOLD_FRAMES
-        self._times.clear()

@@ -19,6 +19,7 @@ from . import depth, gl_calls, presets
 from .context import capabilities, create_context, make_current, release_context
 from .frame import FrameState, build_frame
 from .graph import FrameGraph
+from .overload import FrameQuality
 from .readback import ReadbackRing
 from .scaling import Upscaler, scaled_scene
 from .shaders import ProgramCache
@@ -32,6 +33,9 @@ class RenderResult:
     pass_ms: dict[str, float] = field(default_factory=dict)  # only when timed
     total_ms: float = 0.0
     quality: str = "medium"  # the quality level (or auto rung) the frame was rendered at
+    # the overload controller's report (render/overload.py Decision.fields: scale, rungs, error,
+    # target_fps, met) when the scene holds a frame rate, else None
+    overload: dict | None = None
     ev100: float = 0.0  # exposure used (EV100)
     illuminance_lux: float = 0.0  # natural horizontal illuminance at the camera (lux)
     # Only when timed: per pass, CPU ms of the calling thread (llvmpipe: vertex work, triangle setup,
@@ -50,7 +54,7 @@ class _Drawn:
     start: float  # perf_counter s when the frame began
     drawn_at: float  # perf_counter s when its last pass was queued
     timed: bool
-    auto: bool  # auto quality: the frame's time feeds the controller
+    auto: bool  # a controller chose the frame's point: its time feeds the controller
     queue_ms: float = 0.0  # ms to queue the readback (frames in flight)
 
 
@@ -64,7 +68,7 @@ class Renderer:
         self.graph = FrameGraph(self._ctx, self.programs)
         self._targets: Targets | None = None
         self.frames_rendered = 0
-        self.auto_quality: presets.AutoQuality | None = None
+        self.frame_quality = FrameQuality()  # the overload controller, when a scene holds a frame rate
         # internal render scale (render/scaling.py): below 1 the passes draw at scale x the requested
         # size and the upscale pass makes the requested size; 1.0 = no scaled targets, no extra pass
         self.render_scale = 1.0
@@ -76,13 +80,12 @@ class Renderer:
         self._readback: ReadbackRing | None = None
 
     def quality_for(self, scene: Scene):
-        """The level of this frame: the scene's preset, or the auto controller's current rung."""
-        q = scene.quality
-        if q.preset != "auto":
-            return q.preset
-        if self.auto_quality is None or self.auto_quality.target_ms != q.target_ms:
-            self.auto_quality = presets.AutoQuality(q.target_ms)
-        return self.auto_quality.rung
+        """(knobs, render scale, the controller's decision) of this frame: the scene's preset at
+        ``render_scale``, or the overload controller's point when the scene holds a frame rate."""
+        decision = self.frame_quality.decide(scene)
+        if decision is None:
+            return scene.quality.preset, self.render_scale, None
+        return decision.point.rung, decision.point.scale, decision
 
     @property
     def ctx(self) -> moderngl.Context:
@@ -151,15 +154,14 @@ class Renderer:
         result.rgba = rgba
         result.total_ms = (end - drawn.start) * 1e3
         if drawn.auto:
-            self.auto_quality.observe(result.total_ms)
+            self.frame_quality.observe(result.total_ms, result.passes)
         return result
 
     def _draw(self, scene: Scene, timed: bool) -> "_Drawn":
         """Every pass of ``scene`` queued into the LDR target; the frame's result without its pixels."""
         start = time.perf_counter()
         make_current(self._ctx)
-        quality = self.quality_for(scene)
-        scale = self.render_scale
+        quality, scale, decision = self.quality_for(scene)
         drawn_scene = scaled_scene(scene, scale) if scale < 1.0 else scene
         frame = build_frame(self.ctx, drawn_scene, self.frame_state)
         frame.quality = quality
@@ -201,8 +203,9 @@ class Renderer:
         quality = frame.quality.name if isinstance(frame.quality, presets.Rung) else frame.quality
         result = RenderResult(None, names, pass_ms, 0.0, quality, ev100=frame.ev100,
                               illuminance_lux=frame.illuminance_lux, pass_cpu_ms=pass_cpu,
-                              host_frame=scene.host_frame, sim_time=scene.time.sim_time)
-        return _Drawn(result, output, start, time.perf_counter(), timed, scene.quality.preset == "auto")
+                              host_frame=scene.host_frame, sim_time=scene.time.sim_time,
+                              overload=decision.fields() if decision is not None else None)
+        return _Drawn(result, output, start, time.perf_counter(), timed, decision is not None)
 
     def read_hdr(self) -> np.ndarray:
         """The last frame's pre-exposed linear HDR colour (float32, top row first), for quality tools."""

@@ -1,0 +1,330 @@
+"""Overload management: hold a frame rate by trading picture error for time.
+
+An **operating point** is an internal render scale (render/scaling.py) and a rung of the presets'
+ladder (render/presets.py: every pipeline's knobs, one knob changing between neighbouring rungs).
+Each point has
+
+- an **estimated error**, e (8-bit sRGB RMSE over the frame): the pipelines' errors at their
+  knobs, from the error-against-time studies (docs/quality-report.md, as the table ``PIPELINE_ERROR``
+  below), each weighted by the share of the frame that pipeline typically covers, and the scale's
+  measured upscale error (docs/quality.md, ``SCALE_ERROR``), added as independent errors:
+  ``e^2 = sum_p w_p e_p^2 + e_scale^2``;
+- an **estimated cost**, ms per frame: a seed from the same studies (each pipeline's ms at its
+  knobs, a fixed share of the frame's time that does not shrink with the pixels, the rest ~ scale^2)
+  times what the running IG sees: ``predicted(p) = L * seed(p) * k(p)``. L (the load) is an EWMA of
+  the observed ms over the current point's seed and correction: it follows the scene (a fire
+  starting, the camera turning to the sea) whatever the point. k(p) corrects a point's seed: learned
+  on the frames just after a step UP to p, against the load measured just before it, so the ratio
+  of two points' costs is measured, not assumed. A step up follows UP_FRAMES steady frames, so that
+  load is a fresh reference; a step down follows a change of the load, so its frames update L, not
+  k (a ratio measured across a changing load would be wrong and stay wrong).
+
+Only the **frontier** is used: the points no other point beats on both seed cost and error, sorted
+from the cheapest (largest error) to the best. Per frame the controller (``Overload.observe``)
+
+- steps **down at once** when DOWN_FRAMES frames in a row overran the frame budget 1/target: to
+  the best frontier point whose predicted cost fits the budget less MARGIN (several points in one
+  move if the load jumped: a sudden cost is absorbed in DOWN_FRAMES + 1 frames);
+- steps **up** only after UP_FRAMES frames in a row inside the budget with a better point predicted
+  to fit in the budget less HEADROOM; then to the nearest such point (the next one on the frontier
+  unless the seed misorders a neighbour that the measured costs show does not fit);
+- after stepping down from a point, does not return to it for BLOCK_FRAMES x 2^(times it failed):
+  a point that does not fit is not retried at a rate the eye would see as pumping.
+
+A target the machine cannot reach leaves the cheapest point in force and ``met`` false: the frame
+is as fast as the IG can make it, and says so. Nothing raises.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, is_dataclass
+
+from . import presets
+from .scaling import SCALES
+
+# The error-against-time studies' preset points (docs/quality-report.md): error (8-bit sRGB RMSE of
+# the pipeline's pixels against its reference) and ms (the pipeline's pass at the study's size).
+PIPELINE_ERROR = {  # pipeline -> level -> (error, ms)
+    "volumes": {"low": (15.1, 7.42), "medium": (12.7, 20.5), "high": (6.36, 123.0)},
+    "water": {"low": (3.91, 24.2), "medium": (1.27, 36.9), "high": (1.18, 38.8)},
+    "precip": {"low": (2.6, 12.3), "medium": (2.15, 20.6), "high": (1.69, 36.7)},
+}
+# Share of a frame's pixels each pipeline typically covers (its error spreads over those only): the
+# sea fills the half below the horizon, a fire's plume a tenth, rain and snow the whole frame.
+COVERAGE = {"volumes": 0.1, "water": 0.5, "precip": 1.0}
+# The upscale's error against the full-resolution frame, 8-bit RMSE = 255 * 10^(-PSNR/20), from the
+# demo at 640x360 (docs/quality.md, Internal render scale).
+SCALE_ERROR = {1.0: 0.0, 0.85: 2.64, 0.75: 3.08, 0.67: 4.13, 0.5: 4.66}
+BASE_MS = 25.0  # ms, the rest of a frame at 640x360 (sky, surfaces, post, readback), seed only
+HOST_SHARE = 0.25  # of a frame's time that does not shrink with the pixels (demo: 0.5 scale = 0.42 x time)
+
+MARGIN = 0.10  # a point fits when predicted within 90 % of the budget (frame-time noise)
+HEADROOM = 0.15  # step up only when frames take <= 85 % of the budget
+DOWN_FRAMES = 2  # consecutive overruns before stepping down
+UP_FRAMES = 30  # consecutive frames with headroom before stepping up (~1 s at 30 fps)
+BLOCK_FRAMES = 120  # a point stepped down from waits this long (doubling per failure) before a retry
+LOAD_ALPHA = 0.3  # EWMA weight of a frame in the load (half-life ~2 frames: follows a cost step)
+LEARN_FRAMES = 4  # frames after a move that measure the new point's cost ratio (the first is skipped)
+LEARN_ALPHA = 0.5
+
+
+def level_of(pipeline: str, value) -> str:
+    """A pipeline's knobs as a level name: "low", "medium", "high", or "low>medium" between two."""
+    table = presets.registered()[pipeline]
+    for level in presets.LEVELS:
+        if table[level] == value:
+            return level
+    lo, hi = _between(pipeline, value)
+    return f"{lo}>{hi}"
+
+
+def _between(pipeline: str, value) -> tuple[str, str]:
+    """The two neighbouring levels whose knobs ``value`` mixes (the ladder changes one field at a time)."""
+    table = presets.registered()[pipeline]
+    for lo, hi in zip(presets.LEVELS, presets.LEVELS[1:]):
+        a, b = table[lo], table[hi]
+        if is_dataclass(value) and type(value) is type(a) and all(
+                getattr(value, f.name) in (getattr(a, f.name), getattr(b, f.name)) for f in fields(value)):
+            return lo, hi
+    return presets.LEVELS[0], presets.LEVELS[-1]
+
+
+def _progress(pipeline: str, value) -> tuple[str, str, float]:
+    """(lo, hi, t): ``value`` lies a fraction t of the knobs (those that differ) from lo to hi."""
+    table = presets.registered()[pipeline]
+    level = level_of(pipeline, value)
+    if level in presets.LEVELS:
+        return level, level, 0.0
+    lo, hi = _between(pipeline, value)
+    a, b = table[lo], table[hi]
+    differ = [f.name for f in fields(a) if getattr(a, f.name) != getattr(b, f.name)]
+    moved = sum(getattr(value, n) == getattr(b, n) for n in differ)
+    return lo, hi, moved / max(len(differ), 1)
+
+
+def pipeline_error_ms(pipeline: str, value) -> tuple[float, float]:
+    """(error, ms) of a pipeline at its knobs: the studies' preset points, linear between levels by
+    the share of the knobs that moved (the ladder's intermediate rungs)."""
+    if pipeline not in PIPELINE_ERROR:
+        return 0.0, 0.0
+    lo, hi, t = _progress(pipeline, value)
+    (e0, m0), (e1, m1) = PIPELINE_ERROR[pipeline][lo], PIPELINE_ERROR[pipeline][hi]
+    return e0 + t * (e1 - e0), m0 + t * (m1 - m0)
+
+
+@dataclass(frozen=True)
+class OperatingPoint:
+    scale: float
+    rung: presets.Rung
+    error: float  # estimated frame error, 8-bit RMSE
+    seed_ms: float  # seed cost (the studies' ms), before the learned load and correction
+
+    @property
+    def rungs(self) -> dict[str, str]:
+        """Each pipeline's level at this point (e.g. {"water": "low", "volumes": "medium"})."""
+        return {p: level_of(p, v) for p, v in self.rung.knobs.items()}
+
+    @property
+    def key(self) -> tuple[float, str]:
+        return self.scale, self.rung.name
+
+
+def point_estimate(scale: float, rung: presets.Rung, pipelines: frozenset[str]) -> OperatingPoint:
+    """The point's estimated error and seed cost, counting only the ``pipelines`` this frame draws."""
+    err2, ms = SCALE_ERROR.get(scale, 0.0) ** 2, BASE_MS
+    for pipeline, value in rung.knobs.items():
+        if pipeline in pipelines:
+            e, m = pipeline_error_ms(pipeline, value)
+            err2 += COVERAGE.get(pipeline, 1.0) * e * e
+            ms += m
+    return OperatingPoint(scale, rung, math.sqrt(err2), ms * (HOST_SHARE + (1.0 - HOST_SHARE) * scale * scale))
+
+
+def frontier(pipelines: frozenset[str], scales=SCALES, rungs=None) -> list[OperatingPoint]:
+    """The points no other beats on both seed cost and error, cheapest (largest error) first."""
+    points = [point_estimate(s, r, pipelines) for s in scales for r in (rungs or presets.ladder())]
+    points.sort(key=lambda p: (p.seed_ms, p.error))
+    out: list[OperatingPoint] = []
+    for p in points:
+        if not out or p.error < out[-1].error - 1e-9:
+            out.append(p)
+    return out
+
+
+@dataclass(frozen=True)
+class Decision:
+    """What a frame is rendered at, and what the controller expects of it (reported per frame)."""
+
+    point: OperatingPoint
+    target_fps: float
+    met: bool  # the point's predicted cost fits the budget (false: the target is out of reach)
+    predicted_ms: float
+
+    def header(self) -> str:
+        """The ``X-IG-Quality`` value (``quality_header``)."""
+        return quality_header(self.fields())
+
+    def fields(self) -> dict:
+        """The report as a JSON object: what a frame carries (WebSocket messages, headers, /metrics)."""
+        return {"scale": self.point.scale, "rungs": self.point.rungs, "error": round(self.point.error, 3),
+                "target_fps": self.target_fps, "met": self.met, "predicted_ms": round(self.predicted_ms, 2)}
+
+
+def quality_header(fields: dict) -> str:
+    """``scale=0.75; rungs=volumes:medium,water:low; error=3.1; target=25; met=true`` from a frame's
+    report (``Decision.fields``); error in 8-bit sRGB RMSE levels."""
+    rungs = ",".join(f"{p}:{lv}" for p, lv in sorted(fields["rungs"].items()))
+    return (f"scale={fields['scale']:g}; rungs={rungs}; error={fields['error']:.2f}; "
+            f"target={fields['target_fps']:g}; met={'true' if fields['met'] else 'false'}")
+
+
+class Overload:
+    """The controller: one per renderer; ``decide`` before a frame, ``observe`` its time after."""
+
+    def __init__(self, target_fps: float, pipelines: frozenset[str] = frozenset(PIPELINE_ERROR),
+                 start: str = "medium", scales=SCALES, rungs: list | None = None):
+        self.target_fps = target_fps
+        self.scales, self.rungs = tuple(scales), rungs
+        self.frame = 0  # frames observed
+        self.load: float | None = None  # L: observed ms over the point's seed x correction
+        self.correction: dict[tuple[float, str], float] = {}  # k(p), 1 until measured
+        self.changes = 0
+        self._over = self._spare = 0
+        self._blocked: dict[tuple[float, str], int] = {}  # point -> frame it may be tried again
+        self._strikes: dict[tuple[float, str], int] = {}
+        self._since_move = 0
+        self._load_before_move: float | None = None
+        self._learning = False  # the frames after a step up measure the new point's k
+        self._recent: list[float] = []  # normalised loads of the last DOWN_FRAMES frames
+        self.pipelines = pipelines
+        self.points = frontier(pipelines, self.scales, rungs)
+        self.index = self._start(start)
+
+    def _start(self, start: str) -> int:
+        """The scale-1 point of the ``start`` rung, or the best frontier point not better than it."""
+        names = [r.name for r in (self.rungs or presets.ladder())]
+        ref = point_estimate(1.0, (self.rungs or presets.ladder())[names.index(start)] if start in names else
+                             (self.rungs or presets.ladder())[0], self.pipelines)
+        fitting = [i for i, p in enumerate(self.points) if p.error >= ref.error - 1e-9]
+        return fitting[-1] if fitting else 0
+
+    @property
+    def budget_ms(self) -> float:
+        return 1000.0 / self.target_fps
+
+    @property
+    def point(self) -> OperatingPoint:
+        return self.points[self.index]
+
+    def predicted_ms(self, i: int) -> float:
+        p = self.points[i]
+        return (self.load or 0.0) * p.seed_ms * self.correction.get(p.key, 1.0)
+
+    def set_pipelines(self, pipelines: frozenset[str]) -> None:
+        """The frame's drawn pipelines changed (a fire lit, the sea out of view): rebuild the frontier
+        and keep the nearest point in error, the load and the corrections (per point, by key)."""
+        if pipelines == self.pipelines:
+            return
+        error = self.point.error
+        self.pipelines = pipelines
+        self.points = frontier(pipelines, self.scales, self.rungs)
+        self.index = min(range(len(self.points)), key=lambda i: abs(self.points[i].error - error))
+
+    def decision(self) -> Decision:
+        predicted = self.predicted_ms(self.index)
+        return Decision(self.point, self.target_fps, self.load is None or predicted <= self.budget_ms, predicted)
+
+    def observe(self, frame_ms: float) -> None:
+        """One frame's time at the current point; maybe move (down at once, up one point)."""
+        self.frame += 1
+        point = self.point
+        norm = frame_ms / (point.seed_ms * self.correction.get(point.key, 1.0))
+        self._since_move += 1
+        if self._learning and 1 < self._since_move <= LEARN_FRAMES:
+            # the cost ratio of this point to the load measured just before the move
+            k = frame_ms / (self._load_before_move * point.seed_ms)
+            old = self.correction.get(point.key, 1.0)
+            self.correction[point.key] = old + LEARN_ALPHA * (k - old)
+        elif self._since_move > 1 or self.load is None:  # a move's first frame builds targets: not load
+            self.load = norm if self.load is None else self.load + LOAD_ALPHA * (norm - self.load)
+        self._recent = (self._recent + [norm])[-DOWN_FRAMES:]
+        budget = self.budget_ms
+        self._over = self._over + 1 if frame_ms > budget else 0
+        up = self._up_candidate() if frame_ms <= budget else None
+        self._spare = self._spare + 1 if up is not None else 0
+        if self._over >= DOWN_FRAMES and self.index > 0:
+            self._step_down()
+        elif self._spare >= UP_FRAMES:
+            self._move(up)
+
+    def _step_down(self) -> None:
+        # The overrunning frames are the load now (the EWMA lags a step in cost by a few frames).
+        self.load = max(self.load or 0.0, min(self._recent))
+        fit = (1.0 - MARGIN) * self.budget_ms
+        fitting = [i for i in range(self.index) if self.predicted_ms(i) <= fit]
+        target = fitting[-1] if fitting else 0  # nothing fits: the cheapest point, target not met
+        key = self.point.key
+        strikes = self._strikes.get(key, 0)
+        self._blocked[key] = self.frame + BLOCK_FRAMES * 2 ** strikes
+        self._strikes[key] = strikes + 1
+        self._move(target)
+
+    def _up_candidate(self) -> int | None:
+        """The nearest better point, not blocked, predicted within the budget less HEADROOM."""
+        fit = (1.0 - HEADROOM) * self.budget_ms
+        for j in range(self.index + 1, len(self.points)):
+            if self._blocked.get(self.points[j].key, 0) <= self.frame and self.predicted_ms(j) <= fit:
+                return j
+        return None
+
+    def _move(self, index: int) -> None:
+        if index == self.index:
+            return
+        self._load_before_move = self.load
+        self._learning = index > self.index and self.load is not None
+        self.index = index
+        self.changes += 1
+        self._since_move = 0
+        self._over = self._spare = 0
+        self._recent = []
+
+
+def scene_target_fps(quality) -> float:
+    """The frame rate a scene's ``quality`` asks the controller to hold; 0 = no controller. ``auto``
+    without a ``target_fps`` holds ``target_ms``."""
+    if quality.target_fps > 0.0:
+        return float(quality.target_fps)
+    return 1000.0 / quality.target_ms if quality.preset == "auto" else 0.0
+
+
+class FrameQuality:
+    """The renderer's controller: made when a scene asks for one (``scene_target_fps``), kept while
+    the target and preset stay; ``auto`` moves every pipeline's rung and the scale, a fixed preset
+    only the scale. ``decide`` gives a frame's point, ``observe`` takes its time."""
+
+    def __init__(self) -> None:
+        self.controller: Overload | None = None
+        self._key: tuple[float, str] | None = None
+        self._pipelines: frozenset[str] = frozenset(PIPELINE_ERROR)
+
+    def decide(self, scene) -> Decision | None:
+        target = scene_target_fps(scene.quality)
+        if target <= 0.0:
+            self.controller, self._key = None, None
+            return None
+        preset = scene.quality.preset
+        if (target, preset) != self._key:
+            rungs = None if preset == "auto" else [r for r in presets.ladder() if r.name == preset]
+            self.controller = Overload(target, self._pipelines, start=preset if preset != "auto" else "medium",
+                                       rungs=rungs)
+            self._key = (target, preset)
+        return self.controller.decision()
+
+    def observe(self, frame_ms: float, passes: list[str]) -> None:
+        """The frame's time and the passes it drew (the pipelines whose knobs cost and err)."""
+        if self.controller is None:
+            return
+        self._pipelines = frozenset(p for p in passes if p in PIPELINE_ERROR)
+        self.controller.set_pipelines(self._pipelines)
+        self.controller.observe(frame_ms)
