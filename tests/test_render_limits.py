@@ -89,7 +89,7 @@ def test_example_scenes_fit_the_budget():
     assert np.isfinite(budget.estimate(demo).frame)
 
 
-@pytest.mark.parametrize("altitude", [1.0e4, 3.0e5, 1.0e6, 9.0e6])
+@pytest.mark.parametrize("altitude", [1.0e4, 3.0e5, 1.0e6, 9.0e6, WORLD_LIMIT_M])
 def test_sea_seen_from_high_above_renders_with_bounded_work(renderer, monkeypatch, altitude):
     """The sea's blocks follow what is on screen: their finest spacing is never under 4 pixels straight
     below, so their number stays bounded however high the camera (a 64 m cap made 222,000 blocks from

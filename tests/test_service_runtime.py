@@ -487,3 +487,30 @@ def test_clock_arithmetic_with_a_fake_monotonic_clock():
     clock.change(ClockChange(mode="free"))
     now[0] += 2.0
     assert clock.sim_time() == 43.0  # runs on from the host's value at the rate set before
+
+
+def test_render_process_memory_is_flat_over_frames(server, http):
+    """The render process holds what the first frames of a scene need (programs and their JIT code, tables,
+    models: docs/operations.md, memory) and nothing more per frame: a leak or an unbounded cache shows here."""
+    from igserver.scene.files import load_scene
+
+    demo = load_scene("demo").model_dump(mode="json")
+    demo["camera"].update(width=W, height=H)
+    demo["atmosphere"]["model"] = "gradient"  # no table precompute under this server's 3 s render limit
+    http.put("/v1/state", json=demo).raise_for_status()
+
+    def rss_mb() -> float:
+        with open(f"/proc/{server.service.pid}/status") as f:
+            return next(int(line.split()[1]) for line in f if line.startswith("VmRSS")) / 1024
+
+    def frames(n: int) -> None:
+        for i in range(n):  # a new sim_time each: every frame is drawn
+            http.patch("/v1/state", json={"time": {"sim_time": 100.0 + i * 0.37}}).raise_for_status()
+            assert http.get("/v1/frame").status_code == 200
+
+    frames(5)
+    warm = rss_mb()
+    frames(40)
+    grown = rss_mb() - warm
+    print(f"render process: {warm:.0f} MB after 5 demo frames, {grown:+.1f} MB after 40 more")
+    assert grown < 8.0
