@@ -15,7 +15,7 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
 bash scripts/bootstrap.sh
-.venv/bin/python -c "import mutmut" 2>/dev/null || .venv/bin/python -m pip install -q -e ".[test,mutation]"
+.venv/bin/python -c "import mutmut" 2>/dev/null || .venv/bin/python -m pip install -q -e ".[test,quality,mutation]"
 unset PYTHONPATH  # the mutated copy in mutants/ must be the one imported
 if [ "${1:-}" != "--report" ]; then
   timeout "${MUTATION_TIME_BOX:-3600}" .venv/bin/mutmut run --max-children "${MUTATION_JOBS:-$(nproc)}" "$@" || \

@@ -2,8 +2,13 @@
 
 from __future__ import annotations
 
+import os
+import signal
+import time
+
 import numpy as np
 
+from igserver.photometry import LUMA
 from igserver.scene import Scene, apply_patch
 
 
@@ -13,8 +18,18 @@ def tiny(patch: dict | None = None, width: int = 64, height: int = 36) -> Scene:
 
 
 def luminance(rgba: np.ndarray) -> np.ndarray:
-    rgb = rgba[..., :3].astype(np.float64)
-    return 0.2126 * rgb[..., 0] + 0.7152 * rgb[..., 1] + 0.0722 * rgb[..., 2]
+    return rgba[..., :3].astype(np.float64) @ LUMA
+
+
+def kill_render_process(service) -> None:
+    """SIGKILL a RenderService's render process, as a crash would, and wait until the service sees
+    it gone (its next render restarts it)."""
+    pid = service.pid
+    assert pid, "the render process is not running"
+    os.kill(pid, signal.SIGKILL)
+    deadline = time.monotonic() + 5.0
+    while service.alive and time.monotonic() < deadline:  # is_alive() reaps the process once it is dead
+        time.sleep(0.01)
 
 
 class GLWork:

@@ -7,13 +7,12 @@ and night. Plus: the table refills when what it reads changes, and only then."""
 import numpy as np
 import pytest
 
+from igserver.photometry import LUMA
 from igserver.render import frame as frame_mod
 from igserver.render.common import aerial_table
 from igserver.render.shaders import ProgramCache, set_uniforms
 from igserver.scene import apply_patch, load_scene
 from igserver.scene.patch import patch_from_assignments
-
-LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 
 def make_scene(*sets):

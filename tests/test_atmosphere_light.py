@@ -12,12 +12,11 @@ import numpy as np
 import pytest
 
 from igserver.quality.light import AMS_ILLUMINANCE, FULL_MOON_UTC, MOONLESS_UTC
+from igserver.photometry import LUMA
 from igserver.render.frame import build_frame
 from igserver.render.post.exposure import EyeAdaptation, TAU_LIGHT
 from igserver.render.sky.tables import AtmosphereTables
 from igserver.scene.model import Scene
-
-LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 
 def scene(el=30.0, az=180.0, heading=180.0, pitch=5.0, w=32, h=18, utc=MOONLESS_UTC, sim_time=0.0,

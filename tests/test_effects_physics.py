@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from igserver.render.camera import make_view
+from igserver.photometry import LUMA
 from igserver.render.lights import gather_lights, host_lights
 from igserver.render.volumes.effects import effect_volumes, heskestad_height, visible_volumes
 from igserver.render.volumes.fire_lights import fire_light
@@ -123,7 +124,7 @@ def test_fire_light_sits_in_the_flame_and_gas_burners_light_blue():
 
 
 def _luminance(rgb) -> float:
-    return float(np.dot([0.2126, 0.7152, 0.0722], rgb))
+    return float(np.dot(LUMA, rgb))
 
 
 def test_fire_light_range_is_where_its_illuminance_falls_to_the_threshold():

@@ -32,7 +32,7 @@ def _clear_caches():
 def _snapshot(renderer, scene):
     f = frame_mod.build_frame(renderer.ctx, scene, None)
     values = {k: v for k, v in f.uniforms.items() if not isinstance(v, bytes)}
-    haze = frame_sky._haze_tables.get(renderer.ctx)
+    haze = frame_sky.held_haze_table(renderer.ctx)
     table = np.frombuffer(haze[0].read(), np.float32).copy() if haze is not None else None
     return values, f.ev100, f.meter_luminance, table
 

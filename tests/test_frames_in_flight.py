@@ -22,7 +22,7 @@ from igserver.render.frame import FrameState
 from igserver.render.worker import RenderService
 from igserver.scene import Scene, apply_patch, load_scene
 
-from helpers import tiny
+from helpers import kill_render_process, tiny
 
 
 def _states(base, n: int) -> list:
@@ -116,7 +116,7 @@ def test_a_render_between_submits_keeps_frame_numbers_in_drawing_order(service):
 def test_a_killed_render_process_loses_only_its_frames_in_flight(service):
     a, b = _states(tiny(), 2)
     assert service.submit(a) is None
-    service.kill_for_test()
+    kill_render_process(service)
     assert service.submit(b) is None  # restarted: a went with the process, b is in flight
     assert service.collect().host_frame == b.host_frame and service.in_flight == 0
 

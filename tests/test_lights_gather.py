@@ -155,7 +155,7 @@ def test_flicker_partials_are_jittered_each_on_its_own():
     (irregular beats, not a comb): the one nearest the peak stays within exp(±0.03) of f, and the spacings
     in ln f vary (one shared shift would leave them all 0.1; independent uniform jitter gives them a
     standard deviation of 0.024 ± 0.005 over 12 spacings: bound 0.005)."""
-    from igserver.render.lights import _partials
+    from igserver.render.point_lights import _partials
 
     for seed in range(5):
         freqs, _, _ = _partials(F, seed)

@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from igserver.photometry import LUMA
 from igserver.render.camera import make_view
 from igserver.render.precip.particles import PRESETS
 from igserver.scene import apply_patch
@@ -38,7 +39,7 @@ def contribution(renderer, s):
         renderer.render(sc)
         hdr = renderer.read_hdr()
         assert np.isfinite(hdr).all(), "NaN/Inf in the HDR target"
-        return hdr[..., :3] @ np.array([0.2126, 0.7152, 0.0722])
+        return hdr[..., :3] @ LUMA
     dry = apply_patch(s, {"weather": {"precipitation": {"type": "none"}}})
     return lum(s) - lum(dry)
 

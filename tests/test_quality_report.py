@@ -54,3 +54,19 @@ def test_water_study_marks_the_presets_on_its_curves(monkeypatch):
     medium, low = by[("preset", "medium")], by[("preset", "low")]
     assert medium.error == by[("lod_error", "lod_error=1.0")].error
     assert low.extra["triangles"] < medium.extra["triangles"] and low.error > medium.error
+
+
+def test_without_matplotlib_the_report_says_which_extra_to_install(tmp_path, monkeypatch, capsys):
+    # matplotlib is the optional extra igserver[quality]: the server runs without it, and the report
+    # refuses up front (before any study runs) with the install line.
+    import sys
+
+    import pytest
+
+    from igserver.quality.report import plot_study
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib now raises ImportError
+    assert main(["quality", "--only", "no_such_study", "--out", str(tmp_path)]) == 2
+    assert "install igserver[quality]" in capsys.readouterr().err and not (tmp_path / "report.md").exists()
+    with pytest.raises(ModuleNotFoundError, match=r"igserver\[quality\]"):
+        plot_study(Study("volumes", "RMSE", "ms", []), tmp_path / "volumes.png")

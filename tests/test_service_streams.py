@@ -20,6 +20,8 @@ from igserver.protocol.runtime import ServerSettings
 from igserver.protocol.testing import LoopbackServer
 from igserver.scene import Scene
 
+from helpers import kill_render_process
+
 W, H = 64, 36
 
 
@@ -213,7 +215,7 @@ def test_render_process_killed_during_stream(server, ig):
                 parts = iter_multipart_jpegs(mjpeg.iter_bytes())
                 next(parts)
 
-                service.kill_for_test()
+                kill_render_process(service)
                 assert not service.alive
                 # accepted while the render process is dead: must not be lost
                 ig.patch_state({"host_frame": 30_001, "weather": {"wind_speed": 17.5}}, minimal=True)

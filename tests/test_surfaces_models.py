@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from igserver.render.surfaces import gltf
+from igserver.assets import gltf
 from igserver.render.surfaces.loader import load_model
 from igserver.scene.model import Scene
 

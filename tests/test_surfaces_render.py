@@ -8,14 +8,13 @@ import math
 import numpy as np
 import pytest
 
+from igserver.assets import gltf
+from igserver.photometry import LUMA
 from igserver.quality import surfaces as study
 from igserver.render.camera import make_view
 from igserver.render.frame import MAX_LIGHTS
 from igserver.render.lights import gather_lights
-from igserver.render.surfaces import gltf
 from igserver.scene.model import Scene
-
-LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 
 def _scene(data: dict) -> Scene:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from igserver.photometry import LUMA
 from igserver.render import lights as lights_module
 from igserver.render import presets
 from igserver.render.graph import plan_passes
@@ -240,7 +241,7 @@ def test_long_sim_time_stable(renderer, no_fire_lights):
         assert 0.0 <= vol.noise_offset(t) < NOISE_PERIOD
         _, hdr = render_hdr(renderer, scene)
         assert np.all(np.isfinite(hdr))
-        lum = hdr @ np.array([0.2126, 0.7152, 0.0722])
+        lum = hdr @ LUMA
         stats[t] = (lum.mean(), lum.std(), (lum > 0.05).mean())
     ref = stats[100.0]
     for t in (100.5, 1e6, 1e9):

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from igserver.photometry import LUMA
 from igserver.render.camera import make_view
 from igserver.render.graph import plan_passes
 from igserver.render.water import lod
@@ -32,7 +33,7 @@ def _merge(a: dict, b: dict) -> dict:
 
 
 def luminance(rgb: np.ndarray) -> np.ndarray:
-    return rgb[..., :3].astype(np.float64) @ np.array([0.2126, 0.7152, 0.0722]) / 255.0
+    return rgb[..., :3].astype(np.float64) @ LUMA / 255.0
 
 
 def test_scenes_without_ocean_skip_the_water_pass():
@@ -451,7 +452,7 @@ def test_drawn_foam_is_calibrated_to_monahans_coverage(wind):
 def linear_luminance(rgb: np.ndarray) -> np.ndarray:
     c = rgb[..., :3].astype(np.float64) / 255.0
     c = np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-    return c @ np.array([0.2126, 0.7152, 0.0722])
+    return c @ LUMA
 
 
 @pytest.mark.parametrize("wind, height, pitch", [(22.6, 200.0, -45.0), (22.6, 1000.0, -60.0), (12.0, 200.0, -45.0)])

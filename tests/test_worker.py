@@ -5,7 +5,7 @@ import pytest
 
 from igserver.render.worker import RenderService
 
-from helpers import tiny
+from helpers import kill_render_process, tiny
 
 
 @pytest.fixture(scope="module")
@@ -31,7 +31,7 @@ def test_restart_after_kill_keeps_the_accepted_state(service):
     service.set_state(state)
     before = service.render().rgba
     old_pid, restarts = service.pid, service.restarts
-    service.kill_for_test()
+    kill_render_process(service)
     assert not service.alive
     after = service.render()  # restarts transparently and renders the same accepted state
     assert service.alive and service.pid != old_pid and service.restarts == restarts + 1

@@ -259,13 +259,3 @@ def _exit_signals_end_the_run():
     finally:
         for signum, handler in saved.items():
             signal.signal(signum, handler)
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``python -m igserver.protocol``: ``igserver serve`` on the built-in default scene (used by the benchmark)."""
-    from ..cli import main as cli_main
-
-    argv = list(sys.argv[1:] if argv is None else argv)
-    if "--scene" not in argv:
-        argv = ["--scene", "", *argv]
-    return cli_main(["serve", *argv])

@@ -222,7 +222,7 @@ class RenderGateway:
         self.recovering = True
         scene = self.store.scene if self.store is not None else None
         if kill:
-            self.service.kill_for_test()
+            self.service.kill()
 
         def recover():
             try:

@@ -16,13 +16,13 @@ grid, so the shader's normalisation matches the table it interpolates.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 
+from .surfaces import BRDF_TABLES_GLSL as OUT, brdf_terms, ggx_half_vectors
+
 N = 16
 SAMPLES = 2**16
-OUT = Path(__file__).resolve().parent.parent / "render" / "common" / "brdf_tables.glsl"
 
 
 def nodes() -> tuple[np.ndarray, np.ndarray]:
@@ -33,8 +33,6 @@ def nodes() -> tuple[np.ndarray, np.ndarray]:
 
 
 def specular_albedo_mc(mu: float, roughness: float, f0: float, samples: int = SAMPLES) -> float:
-    from .surfaces import brdf_terms, ggx_half_vectors
-
     v = np.array([math.sqrt(max(1.0 - mu * mu, 0.0)), 0.0, mu])
     h, pdf_h = ggx_half_vectors(roughness, samples)
     v_dot_h = h @ v
@@ -71,17 +69,6 @@ def glsl(t: dict[str, np.ndarray]) -> str:
             f"const int BRDF_TABLE_N = {N};\n")
     return head + arr("BRDF_TABLE_A", t["A"]) + arr("BRDF_TABLE_B", t["B"]) + \
         arr("BRDF_TABLE_A_AVG", t["A_AVG"]) + arr("BRDF_TABLE_B_AVG", t["B_AVG"])
-
-
-def read_tables(path: Path = OUT) -> dict[str, np.ndarray]:
-    """The constants as the shader sees them (parsed back from the GLSL file)."""
-    import re
-
-    out = {}
-    for name, body in re.findall(r"const float BRDF_TABLE_(\w+)\[\d+\] = float\[\]\(([^)]*)\)", path.read_text()):
-        values = np.array([float(x) for x in body.split(",")])
-        out[name] = values.reshape(N, N) if values.size == N * N else values
-    return out
 
 
 if __name__ == "__main__":

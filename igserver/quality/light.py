@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..photometry import LUMA
 from ..render.frame import build_frame
 from ..render.renderer import Renderer
 from ..render.shaders import GLSL_VERSION, expand, set_uniforms
@@ -50,7 +51,6 @@ ELEVATIONS = (60.0, 30.0, 10.0, 5.0, 2.0, 0.0, -2.0, -4.0, -6.0, -8.0, -10.0, -1
 # AMS Glossary of Meteorology: clear-sky horizontal illuminance (lux) at the named sun elevations;
 # the geometric middle of the glossary's ranges.
 AMS_ILLUMINANCE = {0.0: math.sqrt(410.0 * 585.0), -6.0: math.sqrt(2.0 * 3.5), -12.0: 0.008, -18.0: 1.0e-3}
-LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 
 # (sun zenith distance deg, V mag/arcsec^2) at Paranal, digitised from Patat et al. (2006)'s V-band

@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..photometry import LUMA
 from .volumes import box_blur
 
 REFERENCE_DROPS = 8.0
@@ -51,7 +52,7 @@ MIN_TILE = 4.0
 
 
 def _luminance(hdr: np.ndarray) -> np.ndarray:
-    return hdr[..., :3] @ np.array([0.2126, 0.7152, 0.0722])
+    return hdr[..., :3] @ LUMA
 
 
 def block_cv(contribution: np.ndarray, block: int = 32) -> float:

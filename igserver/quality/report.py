@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -65,13 +66,24 @@ def study_markdown(study: Study, plot_name: str | None) -> list[str]:
     return lines
 
 
-def plot_study(study: Study, path: Path) -> None:
-    """Error against ms, one curve per knob (points sorted by ms), presets marked and labelled."""
-    import matplotlib
-
+def pyplot():
+    """matplotlib's pyplot on the file-only Agg backend. matplotlib is the optional extra
+    ``igserver[quality]``: the server never needs it, only the report's plots do."""
+    try:
+        import matplotlib
+    except ImportError as exc:
+        raise ModuleNotFoundError("the quality report's plots need matplotlib, which is not installed: "
+                                  "install igserver[quality] (pip install 'igserver[quality]')",
+                                  name="matplotlib") from exc
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    return plt
+
+
+def plot_study(study: Study, path: Path) -> None:
+    """Error against ms, one curve per knob (points sorted by ms), presets marked and labelled."""
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=100)
     knobs = [k for k in dict.fromkeys(p.knob for p in study.points) if k != "preset"]
     for knob in knobs:
@@ -136,7 +148,6 @@ def study_modules() -> list[str]:
 def _study_in_subprocess(name: str, quick: bool, out_dir: Path, timeout_s: float) -> tuple[Study | None, str]:
     """Run one study in its own process (its own GL context and environment; a crash stays there)."""
     import subprocess
-    import sys
 
     json_path = out_dir / f"{name}.json"
     cmd = [sys.executable, "-m", "igserver.quality.report", "--one", name, "--json", str(json_path)]
@@ -165,6 +176,11 @@ def run_all(argv: list[str]) -> int:
     ap.add_argument("--only", help="comma-separated study names (default: all)")
     ap.add_argument("--timeout", type=float, default=3600.0, help="seconds per study")
     args = ap.parse_args(argv)
+    try:
+        pyplot()  # before the studies (up to an hour each), not after them
+    except ModuleNotFoundError as exc:
+        print(f"igserver quality: {exc}", file=sys.stderr)
+        return 2
     out_dir = Path(args.out)
     out_dir.mkdir(parents=True, exist_ok=True)
     names = args.only.split(",") if args.only else study_modules()
@@ -213,6 +229,4 @@ def _one(argv: list[str]) -> int:
 
 
 if __name__ == "__main__":
-    import sys
-
     raise SystemExit(_one(sys.argv[1:]))

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..render.frame import build_frame
+from ..photometry import LUMA
 from ..render.renderer import Renderer
 from ..render.sky import atmosphere_model as am
 from ..render.shaders import set_uniforms
@@ -35,7 +36,6 @@ from .light import SkyEvaluator
 from .reference_sky import single_scattering
 
 SUN_ZENITHS = (30.0, 65.0, 88.0, 95.0, 100.0)
-LUMA = np.array([0.2126, 0.7152, 0.0722])
 # Multiple scattering of the reference: smooth, so moderate tables with many orders.
 REFERENCE_MS = am.TableSizes((256, 64), (64, 16), 16, 64, 32, 8, 6, 10)
 CONFIGS = [("gradient", None, None), ("precomputed", "low", 2), ("precomputed", "low", 4),

@@ -23,23 +23,36 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import statistics
 from pathlib import Path
 
 import numpy as np
 
 MIN_ALPHA = 2e-3  # as in common/brdf.glsl
+# The specular lobe's albedo tables the shader reads; brdf_tables.py generates them from this BRDF.
+BRDF_TABLES_GLSL = Path(__file__).resolve().parent.parent / "render" / "common" / "brdf_tables.glsl"
 
 
 # --- the BRDF in float64 (the same formula as common/brdf.glsl) ------------------------------------
 _TABLES: dict | None = None
 
 
+def read_tables(path: Path = BRDF_TABLES_GLSL) -> dict[str, np.ndarray]:
+    """The constants as the shader sees them (parsed back from the GLSL file): A, B (N x N, rows
+    roughness, columns sqrt(N.V)) and A_AVG, B_AVG (N, per roughness)."""
+    text = path.read_text()
+    n = int(re.search(r"const int BRDF_TABLE_N = (\d+);", text).group(1))
+    out = {}
+    for name, body in re.findall(r"const float BRDF_TABLE_(\w+)\[\d+\] = float\[\]\(([^)]*)\)", text):
+        values = np.array([float(x) for x in body.split(",")])
+        out[name] = values.reshape(n, n) if values.size == n * n else values
+    return out
+
+
 def _tables() -> dict:
     global _TABLES
     if _TABLES is None:
-        from .brdf_tables import read_tables
-
         _TABLES = read_tables()
     return _TABLES
 

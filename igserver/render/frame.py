@@ -10,6 +10,7 @@ import moderngl
 import numpy as np
 
 from ..astro import celestial_state, direction_enu
+from ..photometry import LUMA
 from ..scene.model import Scene
 from .camera import CameraView, gl_matrix, make_view
 from .depth import zero_to_one
@@ -95,7 +96,6 @@ class FrameContext:
 # Local lights meter brighter on the surfaces they light than at the camera: the lit ground near a
 # fire is a few times closer to it than the camera usually is.
 LIGHT_METER_GAIN = 4.0
-LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 
 def local_light_illuminance(lights: list[PointLight], view) -> float:

@@ -20,15 +20,10 @@ from .surfaces.surfaces import BlendedSurfacesPass, SurfacesPass
 from .volumes.volumes import VolumesPass
 from .water.water import WaterPass
 
-# Pipelines register here, in drawing order; DepthCopyPass is inserted before the first reader.
+# The pipelines in drawing order (a new one is one entry here); DepthCopyPass is inserted before the
+# first reader.
 PASS_TYPES: list[type[RenderPass]] = [SurfacesPass, WaterPass, SkyPass, BlendedSurfacesPass, VolumesPass, PrecipPass,
                                       PostPass]
-
-
-def register_pass(pass_type: type[RenderPass], before: str = "post") -> None:
-    names = [p.name for p in PASS_TYPES]
-    if pass_type.name not in names:
-        PASS_TYPES.insert(names.index(before), pass_type)
 
 
 class FrameGraph:

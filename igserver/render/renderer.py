@@ -60,11 +60,15 @@ class _Drawn:
 
 class Renderer:
     def __init__(self, ctx: moderngl.Context | None = None, device_index: int | None = None,
-                 frames_in_flight: int = 1):
+                 frames_in_flight: int = 1, atmosphere_direct: bool = False):
         self._ctx = make_current(ctx) if ctx is not None else create_context(device_index)
         self.caps = capabilities(self._ctx)
         self.reversed_z = depth.enable_reversed_z(self._ctx)  # clip depth [0, 1]; else the fallback
-        self.programs = ProgramCache(self._ctx, depth.shader_defines(self._ctx))
+        # atmosphere_direct (a quality-study setting, off in production): every pass walks the 4D
+        # atmosphere tables per pixel instead of reading the per-frame sky-view table, the reference
+        # for that table's cost and image error.
+        study = {"ATMOSPHERE_DIRECT_TABLES": 1} if atmosphere_direct else {}
+        self.programs = ProgramCache(self._ctx, {**depth.shader_defines(self._ctx), **study})
         self.graph = FrameGraph(self._ctx, self.programs)
         self._targets: Targets | None = None
         self.frames_rendered = 0

@@ -1,12 +1,11 @@
 """GLSL as package data: ``#include "path"`` resolution, feature ``#define``s, a program cache.
 
-Paths are relative to ``igserver/render`` (e.g. ``common/brdf.glsl``, ``sky/gradient.glsl``).
+Paths are relative to ``igserver/render`` (e.g. ``common/brdf.glsl``, ``sky/sky.glsl``).
 Shader variants are compiled with only the features in use: the defines are part of the cache key.
 """
 
 from __future__ import annotations
 
-import os
 import re
 from functools import lru_cache
 from importlib import resources
@@ -50,10 +49,6 @@ def expand(path: str, seen: frozenset[str] = frozenset()) -> str:
 
 def assemble(path: str, stage: str, defines: dict[str, object] | None = None) -> str:
     lines = [GLSL_VERSION, f"#define {stage}_SHADER 1"]
-    if os.environ.get("IGSERVER_ATMOSPHERE_DIRECT") == "1":
-        # Study knob: every pass walks the 4D atmosphere tables per pixel instead of reading the
-        # per-frame sky-view table (the per-pixel reference, for the table's timings and image error).
-        lines.append("#define ATMOSPHERE_DIRECT_TABLES 1")
     for key, value in sorted((defines or {}).items()):
         lines.append(f"#define {key} {value}" if value is not True else f"#define {key} 1")
     lines.append("#line 1")

@@ -281,8 +281,8 @@ class RenderService:
     def pid(self) -> int | None:
         return self._process.pid if self._process is not None else None
 
-    def kill_for_test(self) -> None:
-        """SIGKILL the render process (tests and chaos drills): the next render restarts it."""
+    def kill(self) -> None:
+        """SIGKILL the render process (the watchdog's cure for a hung one): the next render restarts it."""
         if self._process is not None and self._process.pid:
             os.kill(self._process.pid, signal.SIGKILL)
             self._process.join(5)

@@ -25,6 +25,8 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
+from ..effect_kinds import EFFECT_KINDS
+
 # Work of the per-pixel passes, in march samples per pixel. Measured on llvmpipe:
 # a 7680x4320 frame without effects took 7-10 s on llvmpipe (~250 ns/px), a march sample ~3 ns.
 BASE_PER_PIXEL = 80
@@ -75,7 +77,7 @@ def volume_level(scene) -> str:
 
 
 def volume_count(scene) -> int:
-    return sum(2 if effect.type == "fire" and effect.emits_smoke else 1 for effect in scene.effects)
+    return sum(EFFECT_KINDS[effect.type].volume_count(effect.emits_smoke) for effect in scene.effects)
 
 
 def estimate(scene) -> Cost:

@@ -18,9 +18,9 @@ from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationErr
 from pydantic_core import InitErrorDetails, PydanticCustomError
 
 from ..assets import ASSET_NAME_PATTERN, AssetError, resolve_asset
+from ..assets.gltf import check_model
 from ..assets.images import ImageError, check_profile_image
-
-from ..assets import ASSET_NAME_PATTERN
+from ..effect_kinds import EFFECT_TYPES
 
 # Upper bound on any world coordinate (m). 1e7 m is beyond a continent; float64 keeps mm there.
 WORLD_LIMIT_M = 1.0e7
@@ -264,7 +264,7 @@ class Effect(Strict):
     """A volumetric effect in its bounding container (docs/design.md#fire-and-smoke)."""
 
     id: EntityId
-    type: Literal["fire", "smoke", "gas_burner"] = "fire"
+    type: Literal[EFFECT_TYPES] = "fire"  # igserver/effect_kinds.py
     position: Vec3 = Field((0.0, 0.0, 0.0), description="m, ENU position of the container's base centre")
     diameter: float = Field(2.0, ge=0.0, le=500.0, description="m, base diameter of the fire / plume")
     height: float | None = Field(None, ge=0.0, le=2000.0, description="m, container height; None = Heskestad")
@@ -372,16 +372,12 @@ class Entity(Strict):
     @field_validator("model")
     @classmethod
     def _model_file(cls, v: str) -> str:
-        from ..render.surfaces.gltf import check_model  # pure Python: header check, cached by file identity
-
-        check_model(v)
+        check_model(v)  # pure Python: header check, cached by file identity
         return v
 
     @model_validator(mode="after")
     def _part_names(self) -> "Entity":
         if self.parts:
-            from ..render.surfaces.gltf import check_model
-
             known = check_model(self.model).node_names
             unknown = sorted(set(self.parts) - known)
             if unknown:

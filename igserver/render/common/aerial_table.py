@@ -30,7 +30,7 @@ import numpy as np
 from ..bindings import FRAME_UNITS, use_texture
 from ..shaders import ProgramCache, set_uniforms, uniform_inputs
 from ..resident import resident
-from ..sky.frame_sky import _haze_tables
+from ..sky.frame_sky import held_haze_table
 
 AERIAL_UNITS = {"u_aerial_tau": FRAME_UNITS["AERIAL_TAU"], "u_aerial_source": FRAME_UNITS["AERIAL_SOURCE"]}
 # (screen x nodes, screen y nodes, distance slices) over the view widened by AERIAL_GUARD on each
@@ -263,7 +263,7 @@ def frame_aerial_table(frame, size=AERIAL_SIZE) -> dict | None:
         if tables is not None:
             tables.bind()
             inputs.append(("tables", id(tables), tables.key))
-        held_haze = _haze_tables.get(frame.ctx)  # the fog layer's light table and what it was made from
+        held_haze = held_haze_table(frame.ctx)  # the fog layer's light table and what it was made from
         inputs.append(("haze_table", None if held_haze is None else held_haze[1]))
         table.update(frame.uniforms, table_range(frame.scene, frame.view), tuple(inputs))
         held = frame.resources["aerial_table"] = table

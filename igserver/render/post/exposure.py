@@ -33,6 +33,8 @@ import math
 
 import numpy as np
 
+from ...photometry import LUMA
+
 KEY_DAY = 0.12  # display-linear value of the mean luminance by day (before the tone curve)
 SIGMA = 0.05  # cd/m^2: below this the picture darkens (mesopic range 0.005..5 cd/m^2)
 DAY_REFERENCE = 3000.0  # cd/m^2, a bright day view: the key is KEY_DAY there
@@ -41,7 +43,6 @@ TAU_LIGHT = 0.4  # s, adapting to more light
 TAU_DARK = 4.0  # s, adapting to less light
 GROUND_REFLECTANCE = 0.15
 EV_MIN, EV_MAX = -16.0, 24.0
-LUMA = np.array([0.2126, 0.7152, 0.0722])
 MAX_OVER_MEAN_EV = 2.5  # the display meter may expose at most this much more than the average meter
 SOLVE_TOLERANCE_EV = 1e-4  # 1/60 of one 8-bit level at mid-grey (~0.006 EV)
 MAX_STREAM_DT = 1.0  # s: frames further apart in sim_time are not one continuous view
@@ -53,13 +54,6 @@ def key_of(m: float) -> float:
     brighter), so the displayed brightness falls strictly as the sun sets."""
     m = max(m, 1e-9)
     return KEY_DAY * math.sqrt(m / (m + SIGMA)) * (max(m, 1.0) / DAY_REFERENCE) ** DAY_SLOPE
-
-
-def steady_ev100(mean_luminance: float) -> float:
-    m = max(mean_luminance, 1e-9)
-    key = key_of(m)
-    exposure = key / m
-    return float(np.clip(math.log2(1.0 / (1.2 * exposure)), EV_MIN, EV_MAX))
 
 
 def aces_fit(x):

@@ -43,6 +43,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from ...photometry import LUMA
 # The R, G, B channels. R sits at 610 nm, near the dominant wavelength of the sRGB red primary (611
 # nm) and inside the ozone Chappuis band (peak 600 nm), where the red a display shows is actually
 # absorbed: at Bruneton's 680 nm the red channel saw 1/3.6 of that absorption, and the twilight sky,
@@ -52,7 +53,7 @@ import numpy as np
 WAVELENGTHS_NM = np.array([610.0, 550.0, 440.0])
 # Solar illuminance above the atmosphere, lux per channel: 128 klx, slightly warm white (Y = 1).
 _SUN_TINT = np.array([1.0, 0.985, 0.96])
-SOLAR_ILLUMINANCE = 128_000.0 * _SUN_TINT / float(np.dot([0.2126, 0.7152, 0.0722], _SUN_TINT))
+SOLAR_ILLUMINANCE = 128_000.0 * _SUN_TINT / float(np.dot(LUMA, _SUN_TINT))
 SUN_ANGULAR_RADIUS = 0.004675  # rad (0.2679 deg)
 KOSCHMIEDER = 3.912  # -ln(0.02)
 # Ground extinction of the tables' background aerosol at turbidity 2 (1/km at 550 nm): with the

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...photometry import LUMA
 SOLAR_ILLUMINANCE_TOA = 128_000.0  # lux, solar illuminance constant
 SUN_ANGULAR_RADIUS = math.radians(0.2666)  # rad
 SUN_SOLID_ANGLE = 2 * math.pi * (1 - math.cos(SUN_ANGULAR_RADIUS))  # sr, ~6.8e-5
@@ -62,7 +63,7 @@ def diffuse_illuminance(elevation_deg: float, altitude_m: float = 0.0) -> float:
 
 def _normalise(rgb) -> np.ndarray:
     rgb = np.asarray(rgb, dtype=np.float64)
-    return rgb / (0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2])
+    return rgb / (LUMA[0] * rgb[0] + LUMA[1] * rgb[1] + LUMA[2] * rgb[2])
 
 
 @dataclass(frozen=True)
@@ -105,14 +106,14 @@ def daylight(
     horizon = mean * 1.5 * (0.25 + 0.75 * math.exp(-max(altitude_m, 0.0) / 20_000.0)) * _normalise(horizon_tint)
     below = 0.6 * horizon
     sun_colour = _normalise(transmittance + 1e-9)
-    halo_strength = float(np.dot([0.2126, 0.7152, 0.0722], sun)) * 0.02
+    halo_strength = float(np.dot(LUMA, sun)) * 0.02
     halo = halo_strength * sun_colour
     halo_exponent = 60.0 + 340.0 * float(np.clip(sun_elevation / 45.0, 0.0, 1.0))
     sun_disk = sun / SUN_SOLID_ANGLE
     moon_t = sun_transmittance(moon_elevation, altitude_m, turbidity)
     moon = FULL_MOON_ILLUMINANCE * moon_phase * moon_t
-    total = float(np.dot([0.2126, 0.7152, 0.0722], sun)) * max(math.sin(math.radians(sun_elevation)), 0.0)
-    total += e_diffuse + float(np.dot([0.2126, 0.7152, 0.0722], moon))
+    total = float(np.dot(LUMA, sun)) * max(math.sin(math.radians(sun_elevation)), 0.0)
+    total += e_diffuse + float(np.dot(LUMA, moon))
     # The sky never goes fully dark: starlight and airglow light a horizontal surface by ~7e-4 lux even
     # where sun, moon and the (vanishing) atmosphere give nothing: a camera in space at night (1e7 m).
     total += STARLIGHT_AIRGLOW_LUX

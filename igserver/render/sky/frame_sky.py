@@ -12,6 +12,7 @@ from dataclasses import dataclass, replace
 import moderngl
 import numpy as np
 
+from ...photometry import LUMA
 from ...astro.ephemeris import direction_enu, refraction_deg
 from ...scene.model import Scene
 from ...weather import effective_visibility, wind_heading
@@ -142,7 +143,7 @@ def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
     uniforms: dict = {}
     ground_m = scene.location.altitude
     moon_toa_lux = moon_illuminance_toa(celestial.moon_phase)
-    moon_toa = moon_toa_lux * SOLAR_ILLUMINANCE / float(np.dot([0.2126, 0.7152, 0.0722], SOLAR_ILLUMINANCE))
+    moon_toa = moon_toa_lux * SOLAR_ILLUMINANCE / float(np.dot(LUMA, SOLAR_ILLUMINANCE))
     if atm.model == "precomputed":
         params = scene_atmosphere(scene)
         tables = AtmosphereTables.get(ctx, params)
@@ -187,9 +188,9 @@ def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
         light = daylight(celestial.sun_elevation, altitude_m, atm.turbidity,
                          celestial.moon_elevation, celestial.moon_phase)
         haze = None
-        horizontal = float(np.dot([0.2126, 0.7152, 0.0722], light.sun_illuminance)) * max(
+        horizontal = float(np.dot(LUMA, light.sun_illuminance)) * max(
             math.sin(math.radians(celestial.sun_elevation)), 0.0) + float(
-            np.dot([0.2126, 0.7152, 0.0722], light.sky_ambient)) * math.pi
+            np.dot(LUMA, light.sky_ambient)) * math.pi
         uniforms.update(AtmosphereParameters().uniforms())  # earth radius etc. for cirrus
         uniforms.update(TABLE_UNITS)
         uniforms.update(HazeLayer(np.zeros(3), 0.0, 1.0, 0.8, 1.0).uniforms(ground_m))
@@ -248,6 +249,13 @@ def haze_table_texture(ctx: moderngl.Context, table: np.ndarray, key=None) -> mo
         tex.write(np.ascontiguousarray(table, dtype=np.float32).tobytes())
     _haze_tables[ctx] = (tex, key)
     return tex
+
+
+def held_haze_table(ctx: moderngl.Context) -> tuple[moderngl.Texture, object] | None:
+    """(texture, key) of the fog layer's light table last written for ``ctx``, None before the first:
+    the key is what the table was made from, so a table that reads it (the aerial table) knows when
+    to refill."""
+    return _haze_tables.get(ctx)
 
 
 def _t(v) -> tuple[float, float, float]:

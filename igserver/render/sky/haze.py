@@ -83,16 +83,6 @@ class HazeLayer:
         return np.where(h <= self.top, self.top - h + self.edge,
                         self.edge * np.exp(-np.minimum(np.maximum(h - self.top, 0.0) / self.edge, 80.0)))
 
-    def optical_depth(self, h0: float, rel) -> np.ndarray:
-        """(..., 3) optical depth of the straight segment from height h0 to h0 + rel (flat earth)."""
-        rel = np.asarray(rel, dtype=np.float64)
-        d = np.linalg.norm(rel, axis=-1)
-        dz = rel[..., 2]
-        small = np.abs(dz) < 1e-3 * self.edge
-        mean = np.where(small, self.density(h0 + 0.5 * dz),
-                        (self.column(h0) - self.column(h0 + dz)) / np.where(small, 1.0, dz))
-        return (d * mean)[..., None] * self.beta
-
     def tau_above(self, h) -> np.ndarray:
         return np.asarray(self.column(h))[..., None] * self.beta
 

@@ -21,11 +21,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ...photometry import LUMA
 from .atmosphere_model import SOLAR_ILLUMINANCE, SUN_ANGULAR_RADIUS, AtmosphereParameters, sun_transmittance
 from .daylight import Daylight, daylight
 from .haze import HazeLayer
 
-LUMA = np.array([0.2126, 0.7152, 0.0722])
 SUN_SOLID_ANGLE = 2 * math.pi * (1 - math.cos(SUN_ANGULAR_RADIUS))  # sr
 MOON_ANGULAR_RADIUS = math.radians(0.259)
 MOON_SOLID_ANGLE = 2 * math.pi * (1 - math.cos(MOON_ANGULAR_RADIUS))

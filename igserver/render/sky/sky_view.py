@@ -15,6 +15,7 @@ import weakref
 import moderngl
 import numpy as np
 
+from ...photometry import LUMA
 from ..bindings import FRAME_UNITS, use_texture
 from ..shaders import ProgramCache, set_uniforms
 from ..resident import resident
@@ -23,7 +24,6 @@ from .tables import AtmosphereTables
 SKY_VIEW_UNITS = {"u_sky_view_radiance": FRAME_UNITS["SKY_VIEW_RADIANCE"],
                   "u_sky_view_inscatter": FRAME_UNITS["SKY_VIEW_INSCATTER"], "u_sky_view_tau": FRAME_UNITS["SKY_VIEW_TAU"]}
 SKY_VIEW_SIZE = (64, 128)  # (azimuth from the sun over 0..180 deg, elevation), quality knob
-LUMA = np.array([0.2126, 0.7152, 0.0722])
 
 
 def horizon_elevation(altitude_m: float, bottom_radius_km: float) -> float:

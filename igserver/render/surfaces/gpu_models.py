@@ -15,9 +15,9 @@ import time
 import moderngl
 import numpy as np
 
-from ..bindings import PASS_UNITS, use_texture, write_buffer
+from ...assets.gltf import model_path
 from ...scene.model import MAX_ENTITIES
-from .gltf import model_path
+from ..bindings import PASS_UNITS, use_texture, write_buffer
 from .loader import MaterialData, ModelData, load_model
 from .models import BUILTIN, box_model
 

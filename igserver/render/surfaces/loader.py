@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .gltf import check_model, model_path
+from ...assets.gltf import check_model, model_path
 
 # x_entity = -x_gltf, y_entity = z_gltf, z_entity = y_gltf (a proper rotation, det = +1).
 GLTF_TO_ENTITY = np.array([[-1.0, 0, 0, 0], [0, 0, 1.0, 0], [0, 1.0, 0, 0], [0, 0, 0, 1.0]])

@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import hashlib
 import math
-import os
 from dataclasses import dataclass, field
 
 import moderngl
 import numpy as np
 
+from ...assets.gltf import check_model
 from ...scene.model import Entity, Scene
 from .. import depth
 from ..bindings import FRAME_UNITS, use_texture
@@ -27,7 +27,6 @@ from ..memo import Memo, view_key
 from ..common.aerial_table import frame_aerial_table
 from ..passes import RenderPass
 from ..shaders import set_uniforms
-from .gltf import check_model
 from .gpu_models import INSTANCE_FLOATS, SAMPLER_UNITS, GpuModel, ModelCache, model_identity
 from .shadow_fit import ShadowProjection, fit_directional, fit_spot
 
@@ -114,9 +113,9 @@ class SurfacesPass(RenderPass):
         self._shadow_signatures: dict[str, tuple] = {}  # what each map holds (skip redrawing it)
         self.shadow_maps_reused = 0
         self.ground_parts = 0  # draws of the ground plane last frame (1 + shadow footprints when split)
-        # Aerial perspective per pixel (the reference) instead of the frame's table: for the
-        # table's error studies and tests; IGSERVER_AERIAL_EXACT=1 sets it for a whole process.
-        self.aerial_exact = os.environ.get("IGSERVER_AERIAL_EXACT") == "1"
+        # Study setting: aerial perspective per pixel (the reference) instead of the frame's table,
+        # set by the table's error studies and tests on this pass; off in production.
+        self.aerial_exact = False
         self._aerial_exact_frame = False  # this frame fell back to the per-pixel function
         self.memo = Memo()
 

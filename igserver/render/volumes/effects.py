@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...effect_kinds import EFFECT_KINDS
 from ...scene.model import Effect, Scene
 from ...weather import wind_vector
 from ..camera import CameraView
@@ -59,8 +60,8 @@ def puffing_frequency(diameter: float) -> float:
 class Volume:
     """One ray-marched container: a fire, a smoke plume, or the smoke of a fire."""
 
-    key: tuple[str, str]  # (effect id, "fire" | "smoke")
-    kind: str  # profile kind: "fire" | "gas_burner" | "smoke"
+    key: tuple[str, str]  # (effect id, "fire" | "smoke"): the effect's own container or its plume
+    kind: str  # the volume's effect kind (igserver/effect_kinds.py): the effect's, or its plume's
     base: np.ndarray  # world ENU of the base centre, float64
     radius: float  # m, container half-width (max radius of the profile), after fade
     height: float  # m, after fade
@@ -91,7 +92,8 @@ class Volume:
         r = self.radius
         count = int(min(max(math.ceil(float(np.linalg.norm(self.lean)) / max(r, 1e-6)), 1), MAX_SLABS))
         z = np.linspace(0.0, 1.0, count + 1)
-        offset = self.lean[None, :] * (z * z if self.kind == "smoke" else z)[:, None]  # monotonic in z
+        bent = EFFECT_KINDS[self.kind].container == "plume"
+        offset = self.lean[None, :] * (z * z if bent else z)[:, None]  # monotonic in z
         boxes = []
         for k in range(count):
             a, b = offset[k], offset[k + 1]
@@ -133,8 +135,9 @@ def effect_volumes(effect: Effect, scene: Scene) -> list[Volume]:
     grow = 0.35 + 0.65 * level
     base = np.asarray(effect.position, dtype=np.float64)
     volumes = []
-    if effect.type in ("fire", "gas_burner"):
-        if effect.type == "gas_burner":
+    kind = EFFECT_KINDS[effect.type]
+    if kind.container != "plume":  # a flame
+        if kind.container == "jet":
             height = effect.height if effect.height is not None else 2.5 * d * math.sqrt(effect.intensity)
             radius = 0.5 * d
         else:
@@ -144,33 +147,33 @@ def effect_volumes(effect: Effect, scene: Scene) -> list[Volume]:
             return []
         # Flame tilt in a cross wind: tan(theta) ~ u / sqrt(g D) (Froude scaling), at most 45 deg.
         tilt = min(0.45 * float(np.linalg.norm(wind)) / math.sqrt(G * d), 1.0)
-        if effect.type == "gas_burner":
+        if kind.container == "jet":
             tilt /= 3.0  # a jet's momentum keeps it nearly upright
         lean = wind / max(np.linalg.norm(wind), 1e-9) * tilt * height * grow
         rise = 0.8 * math.sqrt(G * d)  # buoyant velocity scale of the flame, m/s
-        volumes.append(Volume((effect.id, "fire"), effect.type, base, radius * grow, height * grow,
+        volumes.append(Volume((effect.id, "fire"), kind.name, base, radius * grow, height * grow,
                               radius, lean, level, level, effect.intensity, rise, effect.seed,
                               effect.profile, effect))
-        if effect.emits_smoke and effect.type == "fire":
+        if effect.emits_smoke and kind.plume is not None:
             s_base = base + np.array([lean[0] * 0.5, lean[1] * 0.5, 0.55 * height * grow])
             s_height = max(6.0 * d, 2.0 * height) * grow
             s_radius = 1.4 * d * grow
-            volumes.append(_smoke(effect, scene, s_base, s_radius, s_height, 1.4 * d, level, wind, None))
+            volumes.append(_smoke(effect, kind.plume, s_base, s_radius, s_height, 1.4 * d, level, wind, None))
     else:
         height = effect.height if effect.height is not None else 5.0 * d
         if height <= 0.0:
             return []
-        volumes.append(_smoke(effect, scene, base, 1.25 * d * grow, height * grow, 1.25 * d, level, wind,
+        volumes.append(_smoke(effect, kind.name, base, 1.25 * d * grow, height * grow, 1.25 * d, level, wind,
                               effect.profile))
     return volumes
 
 
-def _smoke(effect, scene, base, radius, height, nominal_radius, level, wind, profile) -> Volume:
+def _smoke(effect, kind, base, radius, height, nominal_radius, level, wind, profile) -> Volume:
     # A plume rises at a few m/s and drifts with the wind: the top moves by height * u / w_rise.
     rise = 3.0
     drift = min(float(np.linalg.norm(wind)) / rise, 1.5)
     lean = wind / max(np.linalg.norm(wind), 1e-9) * drift * height
-    return Volume((effect.id, "smoke"), "smoke", base, radius, height, nominal_radius, lean, level, level,
+    return Volume((effect.id, "smoke"), kind, base, radius, height, nominal_radius, lean, level, level,
                   effect.intensity, rise, effect.seed ^ 0x5BD1E995, profile, effect)
 
 

@@ -4,7 +4,7 @@ Intensity I (cd) ~ mean flame luminance x projected flame area: 0.3 x the core l
 0.5 D L (a tapered flame of diameter D, visible height L). Colour: blackbody at 1350 K
 (normalised to unit luminance), reddening as a fire dies down. Both follow the fade level, and
 a seeded flicker whose spectrum peaks at the puffing frequency f = 1.5 / sqrt(D) Hz
-(lights.flicker_gain: deterministic in seed and sim_time, phases reduced in float64).
+(point_lights.flicker_gain: deterministic in seed and sim_time, phases reduced in float64).
 The light sits on the axis at 30 % of the flame height, where the glow's centroid is.
 """
 
@@ -14,38 +14,42 @@ import math
 
 import numpy as np
 
+from ...effect_kinds import EFFECT_KINDS
+from ...photometry import LUMA
 from ...scene.model import Effect, Scene
-from ..lights import PointLight, flicker_gain
+from ..point_lights import PointLight, flicker_gain
 from .effects import CONTAINER_OVER_FLAME, effect_volumes, puffing_frequency
 from .profiles import blackbody_rgb
 
 LUMINANCE = 2.0e4  # cd/m^2, core luminance at intensity 1 (same as the volume's emission)
-FLICKER_AMPLITUDE = {"fire": 0.35, "gas_burner": 0.06}
 MIN_ILLUMINANCE = 0.02  # lux: the range is where the light falls below this
 MAX_RANGE = 3000.0  # m
 
 _FIRE_COLOUR = blackbody_rgb(1350.0)
-_FIRE_COLOUR = _FIRE_COLOUR / float(_FIRE_COLOUR @ np.array([0.2126, 0.7152, 0.0722]))
-_GAS_COLOUR = np.array([0.55, 0.65, 1.0]) / float(np.array([0.55, 0.65, 1.0]) @ np.array([0.2126, 0.7152, 0.0722]))
+_FIRE_COLOUR = _FIRE_COLOUR / float(_FIRE_COLOUR @ LUMA)
+# the kinds' fixed light colours at unit luminance
+_KIND_COLOUR = {kind.name: np.array(kind.light_rgb) / float(np.array(kind.light_rgb) @ LUMA)
+                for kind in EFFECT_KINDS.values() if kind.light_rgb is not None}
 
 
 def fire_light(effect: Effect, scene: Scene) -> PointLight | None:
-    if effect.type not in ("fire", "gas_burner"):
+    kind = EFFECT_KINDS[effect.type]
+    if not kind.casts_light:
         return None
     volumes = [v for v in effect_volumes(effect, scene) if v.key[1] == "fire"]
     if not volumes:
         return None
     vol = volumes[0]
-    flame_height = vol.height / CONTAINER_OVER_FLAME if effect.type == "fire" else vol.height
+    flame_height = vol.height / CONTAINER_OVER_FLAME if kind.container == "pool_fire" else vol.height
     area = 0.5 * 2.0 * vol.radius * flame_height
-    gain = flicker_gain(puffing_frequency(effect.diameter), FLICKER_AMPLITUDE[effect.type], effect.seed,
+    gain = flicker_gain(puffing_frequency(effect.diameter), kind.flicker, effect.seed,
                         scene.time.sim_time)
     intensity = 0.3 * LUMINANCE * math.sqrt(effect.intensity) * area * vol.opacity * float(gain)
-    if effect.type == "fire":
+    if kind.light_rgb is None:  # the flame's blackbody, reddening as it cools
         cooling = 0.0 if effect.active else 1.0 - vol.level
         colour = _FIRE_COLOUR * np.power(np.array([1.0, 0.75, 0.5]), 3.0 * cooling) * (1.0 - 0.6 * cooling)
     else:
-        colour = _GAS_COLOUR
+        colour = _KIND_COLOUR[kind.name]
     if intensity <= 0.0:
         return None
     position = vol.base + np.array([0.3 * vol.lean[0], 0.3 * vol.lean[1], 0.3 * flame_height])

@@ -17,6 +17,9 @@ from functools import lru_cache
 
 import numpy as np
 
+from ...effect_kinds import EFFECT_KINDS
+from ...photometry import LUMA
+
 PROFILE_U = 64
 PROFILE_V = 128
 MAX_PROFILE_PIXELS = 4096 * 4096  # a profile is resampled to PROFILE_V x PROFILE_U: more is only memory
@@ -81,8 +84,12 @@ def smoke_profile(albedo: float = SMOKE_ALBEDO) -> np.ndarray:
     return np.dstack([colour, density]).astype(np.float32)
 
 
+PROCEDURAL = {"fire": fire_profile, "gas_burner": gas_burner_profile, "smoke": smoke_profile}  # EffectKind.profile
+
+
 def procedural(kind: str) -> np.ndarray:
-    return {"fire": fire_profile, "gas_burner": gas_burner_profile, "smoke": smoke_profile}[kind]()
+    """The procedural profile of effect kind ``kind``."""
+    return PROCEDURAL[EFFECT_KINDS[kind].profile]()
 
 
 def _srgb_to_linear(c: np.ndarray) -> np.ndarray:
@@ -99,7 +106,7 @@ def _image_profile(path: str, mtime: float) -> np.ndarray:
         has_alpha = "A" in img.getbands()
         rgba = np.asarray(img.convert("RGBA"), dtype=np.float64) / 255.0
     rgb = _srgb_to_linear(rgba[..., :3])
-    alpha = rgba[..., 3] if has_alpha else rgb @ np.array([0.2126, 0.7152, 0.0722])
+    alpha = rgba[..., 3] if has_alpha else rgb @ LUMA
     data = np.dstack([rgb, alpha])[::-1]  # image top row = top of the container (v = 1)
     # The slice has the axis at its horizontal centre: average the two half-slices outward.
     w = data.shape[1]
@@ -118,19 +125,19 @@ def _image_profile(path: str, mtime: float) -> np.ndarray:
 
 
 def load_profile(kind: str, path: str | None) -> np.ndarray:
-    """The profile of ``kind``; an image file when ``path`` names a readable one (else procedural).
+    """The profile of effect kind ``kind``; an image file when ``path`` names a readable one (else procedural).
 
     Image: a vertical slice through the axis, axis at the horizontal centre, top row = top of the
-    container; sRGB colour, alpha = density (luminance when there is no alpha). For smoke the
-    colour's luminance is the albedo.
+    container; sRGB colour, alpha = density (luminance when there is no alpha). For a scattering
+    kind (smoke) the colour's luminance is the albedo.
     """
     if path:
         try:
             profile = _image_profile(path, os.path.getmtime(path)).copy()
         except Exception:  # changed on disk since it was validated (a bomb, a broken file): never fail a frame
             profile = procedural(kind)
-        if kind == "smoke":
-            lum = profile[..., :3] @ np.array([0.2126, 0.7152, 0.0722], dtype=np.float32)
+        if EFFECT_KINDS[kind].shading == "scattering":
+            lum = profile[..., :3] @ LUMA.astype(np.float32)
             profile[..., :3] = lum[..., None]
         return profile
     return procedural(kind)

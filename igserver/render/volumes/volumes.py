@@ -36,6 +36,7 @@ import numpy as np
 
 from ..bindings import use_texture
 from ...assets import AssetError, resolve_asset
+from ...effect_kinds import EFFECT_KINDS
 from ...scene.model import Scene
 from .. import presets
 from ..camera import CameraView
@@ -58,10 +59,14 @@ FIRE_SIGMA_D = 1.5  # extinction of a gas burner's density 1 times its diameter:
 # through. (A fixed optical depth of 1.5 per diameter left every fire a translucent ghost.)
 FLAME_ABSORPTION = 2.0  # 1/m at profile density 1
 SMOKE_SIGMA_D = 3.0
-ROUGHNESS = {"fire": 0.6, "gas_burner": 0.12, "smoke": 0.35}
 EVICT_AFTER_FRAMES = 120
 SCALE_FADE_FRAMES = 8  # frames over which a changed march resolution cross-fades (~0.27 s at 30 Hz)
 MAX_STREAM_DT = 1.0  # s: frames further apart in sim_time are not one continuous view (no fade)
+
+
+def _scattering(vol: Volume) -> bool:
+    """The march shades the volume as a lit, scattering medium (SMOKE), not as emitted light."""
+    return EFFECT_KINDS[vol.kind].shading == "scattering"
 
 
 @dataclass(frozen=True)
@@ -282,7 +287,7 @@ class VolumesPass(RenderPass):
         a hard part (texture size, octaves, the effect's parameters) re-models at once; the soft
         part changes continuously while time runs (fade, the sun) and is picked up at the next
         keyframe of a capped rate, blending in."""
-        sun = tuple(float(x) for x in frame.celestial.sun_dir) if vol.kind == "smoke" else None
+        sun = tuple(float(x) for x in frame.celestial.sun_dir) if _scattering(vol) else None
         hard = (size, settings.octaves, vol.seed, vol.kind, vol.profile, vol.effect.diameter,
                 vol.effect.intensity, vol.effect.active)
         return hard, (vol.radius, vol.height, vol.opacity, vol.level, sun)
@@ -358,7 +363,7 @@ class VolumesPass(RenderPass):
             model = _Model(self.pool.take(size, 4, (moderngl.LINEAR, moderngl.LINEAR)), size, self.pool)
         else:
             model = reuse
-        smoke = vol.kind == "smoke"
+        smoke = _scattering(vol)
         sun = tuple(float(x) for x in frame.celestial.sun_dir) if smoke else None
         sigma = _extinction(vol, smoke)
         model.done_z = 0
@@ -371,7 +376,7 @@ class VolumesPass(RenderPass):
             "u_wavelength": vol.nominal_radius / NOISE_SCALE,
             "u_tau": vol.noise_offset(sim_time),
             "u_period": NOISE_PERIOD,
-            "u_roughness": ROUGHNESS[vol.kind],
+            "u_roughness": EFFECT_KINDS[vol.kind].roughness,
             "u_octaves": settings.octaves,
             "u_seed": vol.seed & 0xFFFFFFFF,
             "u_opacity": vol.opacity,
@@ -561,7 +566,7 @@ class VolumesPass(RenderPass):
             aerial = table.uniforms()
         self.stats["aerial_table"] = aerial is not None
         for vol, (tex, tex_next, blend) in zip(volumes, textures):
-            smoke = vol.kind == "smoke"
+            smoke = _scattering(vol)
             defines = {"SMOKE": 1} if smoke else {}
             if aerial is None:
                 defines["AERIAL_EXACT"] = 1
@@ -592,11 +597,12 @@ class VolumesPass(RenderPass):
             }
             if smoke:
                 uniforms["u_hg_g"] = 0.6
-                glow = fire_light(vol.effect, scene) if vol.effect.type == "fire" else None
+                # a plume is lit by its own effect's flame (a smoke effect casts no light: None)
+                glow = fire_light(vol.effect, scene)
                 uniforms["u_glow_pos"] = tuple(float(x) for x in view.relative(glow.position)) if glow else (0.0, 0.0, 0.0)
                 uniforms["u_glow_intensity"] = tuple(float(x) for x in glow.color) if glow else (0.0, 0.0, 0.0)
                 # sooty smoke of a fire vs. a light grey smoke generator: scale the profile's albedo
-                sooty = vol.effect.type == "fire" and vol.profile is None
+                sooty = EFFECT_KINDS[vol.effect.type].plume is not None and vol.profile is None
                 uniforms["u_albedo_scale"] = FIRE_SMOKE_ALBEDO / SMOKE_ALBEDO if sooty else 1.0
             else:
                 lum = FIRE_LUMINANCE * math.sqrt(vol.intensity)

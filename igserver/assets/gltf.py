@@ -7,7 +7,8 @@ JSON header and the image headers only (no vertex data is decoded), bounds every
 range it meets, and caches its answer by file identity (path, size, mtime, inode), so a host that
 sends the same entity 60 times a second pays one ``stat`` per message.
 
-Everything here is pure Python (no GL, no trimesh): it runs in the server process.
+Everything here is pure Python (no GL, no trimesh): it runs in the server process, where the scene
+model checks every entity's model, and in the render process, which loads what it passed.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import threading
 from dataclasses import dataclass
 from pathlib import Path
 
-from ...assets import AssetError, check_name, resolve_asset
+from . import AssetError, check_name, resolve_asset
 
 MODEL_SUFFIXES = (".glb", ".gltf")
 BUILTIN_MODELS = ("box",)

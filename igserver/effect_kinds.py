@@ -1,0 +1,65 @@
+"""The kinds of volumetric effect (``Effect.type``), one entry each: what the scene model accepts, what
+the budget counts, how the volumes pass models and shades a kind's container, and whether it casts a
+flickering light (docs/design.md#fire-and-smoke). The scene model, the budget, the effect state
+(render/volumes/effects.py), the volumes pass and the fire lights all read this table, so a new kind
+that reuses the containers, profiles and shading models below is one entry here.
+
+Below both the scene model and the renderer: plain data, no imports from the package.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+CONTAINERS = ("pool_fire", "jet", "plume")  # render/volumes/effects.py sizes each
+SHADINGS = ("emissive", "scattering")  # render/volumes/march.frag.glsl (scattering: SMOKE)
+
+
+@dataclass(frozen=True)
+class EffectKind:
+    name: str
+    # Container model, sized in render/volumes/effects.py:
+    #   pool_fire  Heskestad's mean flame height L of a pool of diameter D, container 1.4 L tall, radius
+    #              0.55 D, leaning with the wind by the Froude tilt tan(theta) ~ u / sqrt(g D)
+    #   jet        a burner's flame 2.5 D sqrt(intensity) tall, radius 0.5 D, a third of that tilt
+    #   plume      a smoke plume 5 D tall, radius 1.25 D, bent by the wind as (z / H)^2
+    container: str
+    profile: str  # procedural profile (render/volumes/profiles.py) when the effect names none
+    # emissive: the profile's colour is emitted light (cd/m^2 x the flame luminance); scattering: it is
+    # the albedo of a medium lit by the sun, the sky and the glow of its fire
+    shading: str
+    # how far the turbulence displaces the profile's height lookup, v = z + roughness turb sqrt(z)
+    # (render/volumes/model.comp.glsl; z, v in container heights, turb ~ +-1): ragged flames, smooth jets
+    roughness: float
+    # relative amplitude of the flame light's flicker about 1 at the puffing frequency 1.5 / sqrt(D) Hz;
+    # None: the kind casts no light
+    flicker: float | None = None
+    # the light's colour: None = the flame's blackbody (1350 K), reddening as a dying fire cools;
+    # else this linear rgb (scaled to unit luminance)
+    light_rgb: tuple[float, float, float] | None = None
+    # the kind of the plume ``emits_smoke`` adds (a second volume: sooty, lit by the flame); None: the
+    # kind ignores emits_smoke
+    plume: str | None = None
+
+    def __post_init__(self):
+        assert self.container in CONTAINERS and self.shading in SHADINGS, self
+        assert self.plume is None or self.container != "plume", "a plume emits no plume"
+
+    @property
+    def casts_light(self) -> bool:
+        return self.flicker is not None
+
+    def volume_count(self, emits_smoke: bool) -> int:
+        """Ray-marched containers of one effect of this kind: the budget's weight."""
+        return 2 if self.plume is not None and emits_smoke else 1
+
+
+# In the order the scene model's schema lists them.
+EFFECT_KINDS: dict[str, EffectKind] = {kind.name: kind for kind in (
+    EffectKind("fire", container="pool_fire", profile="fire", shading="emissive", roughness=0.6, flicker=0.35,
+               plume="smoke"),
+    EffectKind("smoke", container="plume", profile="smoke", shading="scattering", roughness=0.35),
+    EffectKind("gas_burner", container="jet", profile="gas_burner", shading="emissive", roughness=0.12,
+               flicker=0.06, light_rgb=(0.55, 0.65, 1.0)),
+)}
+EFFECT_TYPES = tuple(EFFECT_KINDS)
