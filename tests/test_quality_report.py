@@ -70,3 +70,20 @@ def test_without_matplotlib_the_report_says_which_extra_to_install(tmp_path, mon
     assert "install igserver[quality]" in capsys.readouterr().err and not (tmp_path / "report.md").exists()
     with pytest.raises(ModuleNotFoundError, match=r"igserver\[quality\]"):
         plot_study(Study("volumes", "RMSE", "ms", []), tmp_path / "volumes.png")
+
+
+def test_the_server_installs_and_runs_without_matplotlib():
+    # matplotlib is the optional extra igserver[quality], pinned like the rest; the server, the renderer
+    # and the report module load without importing it (a fresh interpreter: nothing imported before)
+    import subprocess
+    import sys
+    import tomllib
+    from pathlib import Path
+
+    project = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())["project"]
+    assert not [d for d in project["dependencies"] if d.startswith("matplotlib")]
+    assert [d for d in project["optional-dependencies"]["quality"] if d.startswith("matplotlib==")]
+    code = ("import sys, igserver.cli, igserver.protocol.app, igserver.render.renderer, igserver.render.worker, "
+            "igserver.quality.report; print(sorted(m for m in sys.modules if m.startswith('matplotlib')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, timeout=120)
+    assert out.stdout.strip() == "[]"
