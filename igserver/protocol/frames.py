@@ -93,6 +93,9 @@ class EncodedFrame:
         }
 
 
+TIMED_EVERY = 30  # frames per frame whose passes are timed for /metrics
+
+
 class RenderGateway:
     """Async face of the blocking ``RenderService``: one executor thread, metrics on every frame.
 
@@ -104,7 +107,11 @@ class RenderGateway:
     def __init__(self, service, metrics: ServiceMetrics, timed: bool = True):
         self.service = service
         self.metrics = metrics
-        self.timed = timed  # per-pass times for /metrics (ctx.finish per pass: negligible on llvmpipe)
+        # Per-pass times for /metrics, on one frame in TIMED_EVERY: timing a pass waits for it to finish
+        # (ctx.finish), which keeps the next pass from overlapping it and, on a GPU, the CPU from running
+        # ahead; sampled, the histograms fill while the other frames run unsynchronised.
+        self.timed = timed
+        self._frames_asked = 0
         self.executor = concurrent.futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="igserver-render")
         self.busy_since: float | None = None
         self.store: StateStore | None = None  # set by the runtime: falls back on a failed render
@@ -130,7 +137,7 @@ class RenderGateway:
         def blocking():
             self.busy_since = time.perf_counter()
             try:
-                return self.service.render(scene, timed=self.timed)
+                return self.service.render(scene, timed=self._timed_now())
             finally:
                 self.busy_since = None
 
@@ -146,6 +153,10 @@ class RenderGateway:
             raise
         return self._delivered(frame, revision, accepted_at, t0)
 
+    def _timed_now(self) -> bool:
+        self._frames_asked += 1
+        return self.timed and self._frames_asked % TIMED_EVERY == 1
+
     @property
     def in_flight(self) -> int:
         """Frames submitted whose pixels have not come back yet."""
@@ -157,7 +168,7 @@ class RenderGateway:
         reason = self.service.unresponsive_reason() if self.service.alive else None
         if reason is not None:
             raise RenderError(reason)
-        frame = await self._pipelined_call(self.service.submit, scene, self.timed,
+        frame = await self._pipelined_call(self.service.submit, scene, self._timed_now(),
                                            (revision, accepted_at, time.perf_counter()))
         return None if frame is None else self._delivered(frame, *frame.tag)
 

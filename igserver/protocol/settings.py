@@ -63,7 +63,7 @@ class ServerSettings(BaseSettings):
     limits: Limits = Field(default_factory=Limits, description="message bounds (body bytes, depth, string, array, map)")
     ws_initial_credits: int = Field(2, ge=0, le=1024, description="frames a WebSocket client gets before its first ack")
     ws_max_credits: int = Field(16, ge=1, le=1024, description="most credits a WebSocket client may hold")
-    timed_passes: bool = Field(True, description="time each render pass for /metrics")
+    timed_passes: bool = Field(True, description="time each render pass for /metrics, on one frame in 30")
     animation_fps: float = Field(
         30.0, gt=0, le=1000, description="stream render rate while the IG clock runs (sim_time animates the scene)")
     render_timeout_s: float = Field(
