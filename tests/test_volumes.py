@@ -373,3 +373,41 @@ def test_pool_fire_base_is_opaque(renderer, no_fire_lights):
     bg_bright, bg_dark = lum(scene([0.8, 0.8, 0.8], False)), lum(scene([0.05, 0.05, 0.05], False))
     transmittance = (bright - dark) / (bg_bright - bg_dark)
     assert transmittance < 0.1, (transmittance, bright, dark, bg_bright, bg_dark)
+
+
+def test_fire_plume_widens_like_a_buoyant_plume_and_is_sooty(renderer, no_fire_lights):
+    # A 3 m oil fire's plume by day in calm air, seen from the side 40 m away (0.23 m a pixel),
+    # averaged over 6 instants 1.7 s apart (the turbulence moves the edge). Where the smoke hides
+    # at least half of the sky behind it, its width at 10 m and 18 m above the pool gives the
+    # plume's visible half-angle. Reference: buoyant plumes' visible edges open at 6-8 deg (the
+    # issue's figure; Morton-Taylor-Turner entrainment, b = 0.12-0.15 z for the top-hat radius);
+    # bounds 6-9 deg: a pixel of width at each height is 0.8 deg. The smoke of a sooty fuel is
+    # dense: its soot (yield 0.06 g/g, 8.7 m^2/g: effects.plume_soot_extinction) makes the plume's
+    # optical depth across ~10 near its base, so on the axis at 14 m it hides > 80 % of the sky.
+    import math
+    from igserver.render.camera import make_view
+
+    def scene(fire=True, t=100.0):
+        return fire_scene(effects=[{"id": "f", "type": "fire", "diameter": 3.0, "emits_smoke": True, "seed": 3}]
+                          if fire else [], sim_time=t,
+                          camera={"position": [0.0, -40.0, 2.0], "pitch": 15.0, "fov_y": 30.0, "exposure_ev": 14.0,
+                                  "width": 160, "height": 90},
+                          time={"utc": "2026-09-15T10:00:00Z", "sim_time": t}, location={"lat": 59.93, "lon": 30.31})
+    luma = np.array([0.2126, 0.7152, 0.0722])
+    fire = np.mean([render_hdr(renderer, scene(True, 100.0 + 1.7 * k))[1] @ luma for k in range(6)], axis=0)
+    sky = render_hdr(renderer, scene(False))[1] @ luma
+    hidden = (sky - fire) / sky
+    view = make_view(scene().camera)
+
+    def row(z):
+        clip = view.view_proj @ np.append(view.relative([0.0, 0.0, z]), 1.0)
+        return int((0.5 - clip[1] / clip[3] * 0.5) * 90)
+    metres_per_pixel = 40.0 * math.radians(30.0) / 90
+
+    def width(z):
+        cols = np.nonzero(hidden[row(z) - 1:row(z) + 2].mean(axis=0) > 0.5)[0]
+        return (cols.max() - cols.min() + 1) * metres_per_pixel if len(cols) else 0.0
+    low, high = width(10.0), width(18.0)
+    half_angle = math.degrees(math.atan((high - low) / 2.0 / 8.0))
+    assert 6.0 < half_angle < 9.0, (low, high, half_angle)
+    assert hidden[row(14.0) - 1:row(14.0) + 2, 78:82].mean() > 0.8

@@ -21,6 +21,12 @@ from ...weather import wind_vector
 from ..camera import CameraView
 
 HEAT_RELEASE_PER_AREA = 1500.0  # kW/m^2, hydrocarbon pool fire
+# A fire's plume container: radius over height R / H. The profile's radius grows by 0.7 R over H
+# (profiles.py smoke_profile) and its density is half at 0.8 of it, an edge opening at atan(0.8 x
+# 0.7 x 0.32) = 10.2 deg; where the smoke thins upward the edge that hides half the sky behind it
+# lies further in, and opens at 7.4 deg (measured on the frame: tests/test_volumes.py), inside the
+# 6-8 deg half-angle of buoyant plumes' visible edges.
+PLUME_SPREAD = 0.32
 CONTAINER_OVER_FLAME = 1.4  # container height / mean flame height: room for the intermittent tips
 NOISE_PERIOD = 32.0  # lattice units: the noise is periodic along P.z, the scroll is reduced modulo this
 NOISE_SCALE = 2.2  # lattice units per container radius (the paper's noiseScale, nominal size)
@@ -47,8 +53,37 @@ def heskestad_height(diameter: float, intensity: float) -> float:
     """Mean flame height (m) of a pool fire; at least 0.5 D so small fires keep a flame."""
     if diameter <= 0.0:
         return 0.0
-    q = max(intensity, 1e-6) * HEAT_RELEASE_PER_AREA * math.pi * diameter**2 / 4.0
+    q = heat_release(diameter, intensity)
     return max(0.235 * q**0.4 - 1.02 * diameter, 0.5 * diameter)
+
+
+# Soot of a fire's plume: fuel burnt m_f = Q / dH_c, soot made Y m_f, carried up by the plume at
+# its mean speed w through its cross-section pi b^2, so its concentration is c = Y m_f / (w pi b^2)
+# and its extinction sigma = sigma_s c. Constants: Y = 0.06 g/g for fuel oils (Tewarson, SFPE
+# Handbook: kerosene 0.042, heptane 0.037, heavy oils more), dH_c = 44 MJ/kg, sigma_s = 8.7 m^2/g,
+# the specific extinction of flame-generated soot (Mulholland & Choi 1998, 633 nm). The speed is
+# half Heskestad's centreline velocity above the flame, u0 = 3.4 (g / (c_p T rho))^(1/3) Q_c^(1/3)
+# (z - z0)^(-1/3) = 1.03 Q_c^(1/3) (z - z0)^(-1/3) m/s (Q_c = 0.7 Q kW, virtual origin z0 =
+# 0.083 Q^(2/5) - 1.02 D). Further up c falls as (z - z0)^(-5/3) (profiles.py smoke_profile).
+SOOT_YIELD = 0.06
+HEAT_OF_COMBUSTION = 44_000.0  # kJ/kg
+SOOT_MASS_EXTINCTION = 8.7  # m^2/g
+
+
+def heat_release(diameter: float, intensity: float) -> float:
+    """kW, a pool fire's heat release: intensity x q'' x pool area."""
+    return max(intensity, 1e-6) * HEAT_RELEASE_PER_AREA * math.pi * diameter**2 / 4.0
+
+
+def plume_soot_extinction(diameter: float, intensity: float, base_height: float, base_radius: float) -> float:
+    """1/m, extinction of a fire plume's soot where the plume starts, ``base_height`` m above the
+    pool with radius ``base_radius`` m (its half-density radius)."""
+    q = heat_release(diameter, intensity)
+    z0 = 0.083 * q**0.4 - 1.02 * diameter
+    z = max(base_height, heskestad_height(diameter, intensity), z0 + 0.5)
+    w = 0.5 * 1.03 * (0.7 * q) ** (1.0 / 3.0) * (z - z0) ** (-1.0 / 3.0)
+    soot = SOOT_YIELD * q / HEAT_OF_COMBUSTION * 1000.0  # g/s
+    return SOOT_MASS_EXTINCTION * soot / (w * math.pi * max(base_radius, 0.05) ** 2)
 
 
 def puffing_frequency(diameter: float) -> float:
@@ -157,7 +192,7 @@ def effect_volumes(effect: Effect, scene: Scene) -> list[Volume]:
         if effect.emits_smoke and kind.plume is not None:
             s_base = base + np.array([lean[0] * 0.5, lean[1] * 0.5, 0.55 * height * grow])
             s_height = max(6.0 * d, 2.0 * height) * grow
-            s_radius = 1.4 * d * grow
+            s_radius = max(1.4 * d, PLUME_SPREAD * s_height / grow) * grow
             volumes.append(_smoke(effect, kind.plume, s_base, s_radius, s_height, 1.4 * d, level, wind, None))
     else:
         height = effect.height if effect.height is not None else 5.0 * d

@@ -27,6 +27,7 @@ WAVELENGTHS_UM = np.array([0.610, 0.550, 0.465])  # representative R, G, B
 C2 = 14388.0  # um K, second radiation constant
 FIRE_SMOKE_ALBEDO = 0.25  # sooty smoke of a hydrocarbon fire
 SMOKE_ALBEDO = 0.55  # light grey smoke
+PLUME_VIRTUAL_ORIGIN = 0.43  # container heights below the base: a plume 0.3 of its top's width there
 
 
 def blackbody_rgb(kelvin) -> np.ndarray:
@@ -77,9 +78,16 @@ def gas_burner_profile() -> np.ndarray:
 
 def smoke_profile(albedo: float = SMOKE_ALBEDO) -> np.ndarray:
     u, v = _grid()
-    # A plume widening with height (entrainment), thinning out as it mixes with air.
-    r = 0.35 + 0.6 * v**0.7
-    density = _smoothstep(r, 0.25 * r, u) * (1.0 - v) ** 1.2 * _smoothstep(0.0, 0.08, v)
+    # A buoyant plume (Morton, Taylor & Turner 1956) entrains air at its edge and widens linearly
+    # from a virtual origin below its base: r = a (v + v0), here 0.3 of the container's radius at
+    # the base and 1 at the top. Its smoke, mixed into ever more air, thins as c ~ (v + v0)^(-5/3),
+    # so the optical depth across it falls only as (v + v0)^(-2/3): the plume stays visible to the
+    # container's top, where it fades out over the last fifth. Its edge is turbulent but sharp (half
+    # density at 0.8 r): a fire's plume opens at 7.4 deg (effects.py PLUME_SPREAD).
+    v0 = PLUME_VIRTUAL_ORIGIN
+    r = (v + v0) / (1.0 + v0)
+    density = (_smoothstep(r, 0.6 * r, u) * (v0 / (v + v0)) ** (5.0 / 3.0) * _smoothstep(0.0, 0.08, v)
+               * _smoothstep(1.0, 0.8, v))
     colour = np.full(u.shape + (3,), albedo)
     return np.dstack([colour, density]).astype(np.float32)
 

@@ -44,9 +44,9 @@ from ..memo import Memo, view_key
 from ..passes import RenderPass
 from ..texture_pool import TexturePool
 from ..shaders import set_uniforms
-from .effects import NOISE_PERIOD, NOISE_SCALE, Volume, fade_level, visible_volumes
+from .effects import NOISE_PERIOD, NOISE_SCALE, Volume, fade_level, plume_soot_extinction, visible_volumes
 from .fire_lights import fire_light
-from .profiles import FIRE_SMOKE_ALBEDO, SMOKE_ALBEDO, load_profile
+from .profiles import FIRE_SMOKE_ALBEDO, PLUME_VIRTUAL_ORIGIN, SMOKE_ALBEDO, load_profile
 
 MAX_SHADOW_TEXTURES = 3  # per smoke effect: the keyframes in flight (k, k + 1, k + 2) may differ in a fade
 MAX_PROFILE_TEXTURES = 32  # profile textures kept resident (LRU); each is small, their number is not
@@ -176,6 +176,12 @@ def screen_rect(volumes: list[Volume], view: CameraView, width: int, height: int
 def _extinction(vol: Volume, smoke: bool) -> float:
     """1/m, the extinction of the volume's density 1: smoke per its plume's diameter, a pool
     fire's flame per metre (FLAME_ABSORPTION), a gas burner per its diameter."""
+    if smoke and vol.key[1] == "smoke" and vol.effect.type == "fire":
+        # A fire's plume: its soot from the heat release (effects.plume_soot_extinction), at the
+        # plume's base (its height above the pool, its half-density radius: smoke_profile).
+        e = vol.effect
+        base_radius = 0.8 * PLUME_VIRTUAL_ORIGIN / (1.0 + PLUME_VIRTUAL_ORIGIN) * vol.radius
+        return plume_soot_extinction(e.diameter, e.intensity, float(vol.base[2] - e.position[2]), base_radius)
     if smoke:
         return SMOKE_SIGMA_D / max(vol.effect.diameter, 1e-3)
     if vol.kind == "fire":
