@@ -176,7 +176,7 @@ def screen_rect(volumes: list[Volume], view: CameraView, width: int, height: int
 def _extinction(vol: Volume, smoke: bool) -> float:
     """1/m, the extinction of the volume's density 1: smoke per its plume's diameter, a pool
     fire's flame per metre (FLAME_ABSORPTION), a gas burner per its diameter."""
-    if smoke and vol.key[1] == "smoke" and vol.effect.type == "fire":
+    if smoke and vol.key[1] == "smoke" and EFFECT_KINDS[vol.effect.type].plume is not None:
         # A fire's plume: its soot from the heat release (effects.plume_soot_extinction), at the
         # plume's base (its height above the pool, its half-density radius: smoke_profile).
         e = vol.effect
@@ -184,7 +184,7 @@ def _extinction(vol: Volume, smoke: bool) -> float:
         return plume_soot_extinction(e.diameter, e.intensity, float(vol.base[2] - e.position[2]), base_radius)
     if smoke:
         return SMOKE_SIGMA_D / max(vol.effect.diameter, 1e-3)
-    if vol.kind == "fire":
+    if EFFECT_KINDS[vol.kind].container == "pool_fire":
         return FLAME_ABSORPTION
     return FIRE_SIGMA_D / max(vol.effect.diameter, 1e-3)
 
