@@ -55,3 +55,27 @@ def test_the_budget_weighs_a_fire_with_smoke_twice():
     steps, octaves, resolution, scale = 48, 3, 32, 2
     pixels = 64 * 36
     assert cost.frame == pixels * 80 + 5 * (pixels / scale**2 * steps + 4 * resolution**3 * octaves)
+
+
+def test_no_code_compares_effect_kinds_by_name():
+    # the scene model and the renderer ask the table (a kind's container, shading, plume, light), never
+    # ``effect.type == "fire"`` or ``vol.kind in ("fire", "gas_burner")``: a new kind stays one entry
+    import ast
+    from pathlib import Path
+
+    import igserver
+
+    root = Path(igserver.__file__).resolve().parent
+    names = set(EFFECT_TYPES)
+    found = []
+    for path in [*(root / "scene").rglob("*.py"), *(root / "render").rglob("*.py")]:
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not isinstance(node, ast.Compare):
+                continue
+            sides = [node.left, *node.comparators]
+            named = any(isinstance(s, ast.Attribute) and s.attr in ("type", "kind") for s in sides)
+            consts = [c for s in sides for c in (s.elts if isinstance(s, (ast.Tuple, ast.List, ast.Set)) else [s])
+                      if isinstance(c, ast.Constant) and c.value in names]
+            if named and consts:
+                found.append(f"{path.relative_to(root)}:{node.lineno}")
+    assert not found, found
