@@ -26,6 +26,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 
+from ..render.overload import quality_header
 from ..render.worker import RenderError, RenderTimeout
 from ..scene.model import Scene
 from .imaging import encode_frame
@@ -90,10 +91,17 @@ class EncodedFrame:
             "X-IG-Height": str(self.frame.height),
             "X-IG-EV100": f"{self.frame.ev100:.3f}",
             "X-IG-Illuminance-Lux": f"{self.frame.illuminance_lux:.6g}",
+            **quality_headers(self.frame),
         }
 
 
 TIMED_EVERY = 30  # frames per frame whose passes are timed for /metrics
+
+
+def quality_headers(frame) -> dict[str, str]:
+    """``X-IG-Quality``: the frame's operating point (render/overload.py ``quality_header``)."""
+    report = getattr(frame, "overload", None)
+    return {"X-IG-Quality": quality_header(report)} if report else {}
 
 
 class RenderGateway:
@@ -202,6 +210,7 @@ class RenderGateway:
         call_ms = (time.perf_counter() - t0) * 1e3
         self.metrics.frames_rendered.inc()
         self.metrics.frame_ms.observe(frame.render_ms)
+        self.metrics.observe_quality(getattr(frame, "overload", None))
         for name, ms in (frame.pass_ms or {}).items():
             self.metrics.pass_ms.observe(ms, **{"pass": name})
         if self.store is not None:

@@ -71,6 +71,20 @@ class ServiceMetrics:
         self.protocol_errors = LabelledCounter("igserver_protocol_errors", "Rejected requests and messages", r,
                                                ["kind"])
         self.render_errors = LabelledCounter("igserver_render_errors", "Render calls that failed after retry", r)
+        # The operating point of the last frame (render/overload.py); target_fps 0 while no target is held
+        self.quality = {key: Gauge(f"igserver_quality_{key}", help_text, registry=r) for key, help_text in (
+            ("scale", "Internal render scale of the last frame"),
+            ("error", "Estimated picture error of the last frame (8-bit sRGB RMSE)"),
+            ("target_fps", "Frame rate the scene holds (quality.target_fps)"),
+            ("target_met", "1 when the last frame's point is predicted to fit the target, 0 when out of reach"),
+            ("predicted_ms", "The controller's predicted frame time at the last frame's point"))}
+        self.observe_quality(None)
+
+    def observe_quality(self, report: dict | None) -> None:
+        """The quality gauges from a frame's operating point (None, from a render service without one: NaN)."""
+        values = {} if not report else {**report, "target_met": float(report["met"])}
+        for key, gauge in self.quality.items():
+            gauge.set(float(values.get(key, float("nan"))))
 
     def gauge(self, name: str, help_text: str, read: Callable[[], float]) -> None:
         """A value read at scrape time (connected clients, render-process restarts)."""

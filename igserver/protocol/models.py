@@ -26,6 +26,13 @@ FRAME_HEADERS = {
     "X-IG-Illuminance-Lux": {"description": "natural horizontal illuminance at the camera (lux)",
                              "schema": {"type": "number"}},
 }
+# A frame's operating point (render/overload.py)
+QUALITY_HEADER_DOC = {
+    "description": "operating point of the frame (target=0: the scene holds no quality.target_fps): "
+                   "scale=0.75; rungs=precip:medium,volumes:medium,water:low; error=5.57; target=25; met=true "
+                   "(error: estimated 8-bit sRGB RMSE; met=false: the target is out of reach at the cheapest point)",
+    "schema": {"type": "string"}}
+FRAME_HEADERS["X-IG-Quality"] = QUALITY_HEADER_DOC
 STATE_HEADERS = {
     "X-IG-Revision": {"description": "accepted state revision", "schema": {"type": "integer"}},
     "X-IG-Host-Frame": {"description": "host_frame of the accepted state (PUT/PATCH)", "schema": {"type": "integer"}},
@@ -94,6 +101,17 @@ class Accepted(BaseModel):
     host_frame: int
 
 
+class QualityReport(BaseModel):
+    """A frame's operating point (render/overload.py Decision.fields)."""
+
+    scale: float = Field(..., description="internal render scale (the frame was upscaled from scale x its size)")
+    rungs: dict[str, str] = Field(..., description="each pipeline's preset level (e.g. low, or low>medium between two)")
+    error: float = Field(..., description="estimated picture error, 8-bit sRGB RMSE")
+    target_fps: float
+    met: bool = Field(..., description="false: the target is out of reach at the cheapest point")
+    predicted_ms: float = Field(..., description="the controller's predicted frame time at this point")
+
+
 class FrameMessage(BaseModel):
     """A frame as a msgpack map (WebSocket, and POST /v1/render for msgpack callers)."""
 
@@ -108,6 +126,7 @@ class FrameMessage(BaseModel):
     encode_ms: float = Field(..., description="encoding time in the server")
     ev100: float = Field(0.0, description="exposure the frame was rendered with (EV100)")
     illuminance_lux: float = Field(0.0, description="natural horizontal illuminance at the camera (lux)")
+    quality: QualityReport | None = Field(None, description="the frame's operating point (X-IG-Quality as a map)")
 
 
 # --- WebSocket /v1/ws messages (documented in the AsyncAPI document and /v1/ws-protocol; routers/ws.py)

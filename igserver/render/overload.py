@@ -41,7 +41,8 @@ import math
 from dataclasses import dataclass, fields, is_dataclass
 
 from . import presets
-from .scaling import SCALES
+
+SCALES = (1.0, 0.85, 0.75, 0.67, 0.5)  # the internal render scales (render/scaling.py), best first
 
 # The error-against-time studies' preset points (docs/quality-report.md): error (8-bit sRGB RMSE of
 # the pipeline's pixels against its reference) and ms (the pipeline's pass at the study's size).
@@ -301,19 +302,21 @@ def scene_target_fps(quality) -> float:
 class FrameQuality:
     """The renderer's controller: made when a scene asks for one (``scene_target_fps``), kept while
     the target and preset stay; ``auto`` moves every pipeline's rung and the scale, a fixed preset
-    only the scale. ``decide`` gives a frame's point, ``observe`` takes its time."""
+    only the scale. ``decide`` gives a frame's point, ``observe`` takes its time. With no target the
+    frame's point is the scene's preset at the renderer's scale, reported with target 0 (met)."""
 
     def __init__(self) -> None:
         self.controller: Overload | None = None
         self._key: tuple[float, str] | None = None
         self._pipelines: frozenset[str] = frozenset(PIPELINE_ERROR)
+        self._fixed: dict[tuple, Decision] = {}  # the no-target reports, per (preset, scale, pipelines)
 
-    def decide(self, scene) -> Decision | None:
+    def decide(self, scene, scale: float = 1.0) -> Decision:
         target = scene_target_fps(scene.quality)
+        preset = scene.quality.preset
         if target <= 0.0:
             self.controller, self._key = None, None
-            return None
-        preset = scene.quality.preset
+            return self._fixed_decision(preset, scale)
         if (target, preset) != self._key:
             rungs = None if preset == "auto" else [r for r in presets.ladder() if r.name == preset]
             self.controller = Overload(target, self._pipelines, start=preset if preset != "auto" else "medium",
@@ -321,10 +324,16 @@ class FrameQuality:
             self._key = (target, preset)
         return self.controller.decision()
 
+    def _fixed_decision(self, preset: str, scale: float) -> Decision:
+        key = (preset, scale, self._pipelines)
+        if key not in self._fixed:
+            rung = next(r for r in presets.ladder() if r.name == preset)
+            self._fixed[key] = Decision(point_estimate(scale, rung, self._pipelines), 0.0, True, 0.0)
+        return self._fixed[key]
+
     def observe(self, frame_ms: float, passes: list[str]) -> None:
         """The frame's time and the passes it drew (the pipelines whose knobs cost and err)."""
-        if self.controller is None:
-            return
         self._pipelines = frozenset(p for p in passes if p in PIPELINE_ERROR)
-        self.controller.set_pipelines(self._pipelines)
-        self.controller.observe(frame_ms)
+        if self.controller is not None:
+            self.controller.set_pipelines(self._pipelines)
+            self.controller.observe(frame_ms)

@@ -33,8 +33,8 @@ class RenderResult:
     pass_ms: dict[str, float] = field(default_factory=dict)  # only when timed
     total_ms: float = 0.0
     quality: str = "medium"  # the quality level (or auto rung) the frame was rendered at
-    # the overload controller's report (render/overload.py Decision.fields: scale, rungs, error,
-    # target_fps, met) when the scene holds a frame rate, else None
+    # the frame's operating point (render/overload.py Decision.fields: scale, rungs, error, target_fps,
+    # met); target_fps 0 when the scene holds no frame rate
     overload: dict | None = None
     ev100: float = 0.0  # exposure used (EV100)
     illuminance_lux: float = 0.0  # natural horizontal illuminance at the camera (lux)
@@ -54,7 +54,6 @@ class _Drawn:
     start: float  # perf_counter s when the frame began
     drawn_at: float  # perf_counter s when its last pass was queued
     timed: bool
-    auto: bool  # a controller chose the frame's point: its time feeds the controller
     queue_ms: float = 0.0  # ms to queue the readback (frames in flight)
 
 
@@ -84,11 +83,11 @@ class Renderer:
         self._readback: ReadbackRing | None = None
 
     def quality_for(self, scene: Scene):
-        """(knobs, render scale, the controller's decision) of this frame: the scene's preset at
-        ``render_scale``, or the overload controller's point when the scene holds a frame rate."""
-        decision = self.frame_quality.decide(scene)
-        if decision is None:
-            return scene.quality.preset, self.render_scale, None
+        """(knobs, render scale, operating point) of this frame: the scene's preset at ``render_scale``,
+        or the overload controller's point when the scene holds a frame rate."""
+        decision = self.frame_quality.decide(scene, self.render_scale)
+        if self.frame_quality.controller is None:
+            return scene.quality.preset, self.render_scale, decision
         return decision.point.rung, decision.point.scale, decision
 
     @property
@@ -157,8 +156,7 @@ class Renderer:
         result = drawn.result
         result.rgba = rgba
         result.total_ms = (end - drawn.start) * 1e3
-        if drawn.auto:
-            self.frame_quality.observe(result.total_ms, result.passes)
+        self.frame_quality.observe(result.total_ms, result.passes)
         return result
 
     def _draw(self, scene: Scene, timed: bool) -> "_Drawn":
@@ -208,8 +206,8 @@ class Renderer:
         result = RenderResult(None, names, pass_ms, 0.0, quality, ev100=frame.ev100,
                               illuminance_lux=frame.illuminance_lux, pass_cpu_ms=pass_cpu,
                               host_frame=scene.host_frame, sim_time=scene.time.sim_time,
-                              overload=decision.fields() if decision is not None else None)
-        return _Drawn(result, output, start, time.perf_counter(), timed, decision is not None)
+                              overload=decision.fields())
+        return _Drawn(result, output, start, time.perf_counter(), timed)
 
     def read_hdr(self) -> np.ndarray:
         """The last frame's pre-exposed linear HDR colour (float32, top row first), for quality tools."""

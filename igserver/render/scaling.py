@@ -27,7 +27,6 @@ from .bindings import PASS_UNITS, use_texture
 from .camera import frustum_half_angles
 from .shaders import ProgramCache, set_uniforms
 
-SCALES = (1.0, 0.85, 0.75, 0.67, 0.5)  # operating scales, best first
 MIN_SCALE = 0.5  # below half resolution the upscaled picture loses thin lines (wires, masts) outright
 MIN_SIDE = 16  # px: the scene model's smallest frame side
 # The upscale filter, chosen with `igserver quality scaling` on the demo (320x180 and 640x360, scales

@@ -55,6 +55,9 @@ class Frame:
     ev100: float = 0.0  # exposure used (photometric read-out)
     illuminance_lux: float = 0.0  # natural horizontal illuminance at the camera
     tag: object = None  # what the submitter passed with the scene (frames in flight come back later)
+    # the frame's operating point (render/overload.py: scale, rungs, error, target_fps, met; target 0
+    # when the scene holds no frame rate)
+    overload: dict | None = None
 
     @property
     def width(self) -> int:
@@ -180,7 +183,7 @@ def _render_process_main(conn, device_index: int | None, stamp=None) -> None:
             np.ndarray(result.rgba.shape, np.uint8, buffer=attached[shm_name].buf)[...] = result.rgba
             # host_frame and sim_time from the scene the frame was drawn from: exact with frames in flight
             conn.send(("frame", result.rgba.shape, result.total_ms, result.pass_ms, result.passes,
-                       result.ev100, result.illuminance_lux, result.host_frame, result.sim_time))
+                       result.ev100, result.illuminance_lux, result.host_frame, result.sim_time, result.overload))
             if stale:  # the frame size changed: the old ring and render targets are free now, after the frame
                 release_free_memory()
         except Exception as exc:
@@ -450,12 +453,12 @@ class RenderService:
                 self._in_flight.clear()  # the process had nothing in flight (it was restarted)
             return None
         taken_tag = self._in_flight.pop(0)[1] if kind != "render" else tag
-        _, shape, total_ms, pass_ms, passes, ev100, illuminance, host_frame, sim_time = reply
+        _, shape, total_ms, pass_ms, passes, ev100, illuminance, host_frame, sim_time, overload = reply
         rgba = np.ndarray(shape, dtype=np.uint8, buffer=slot.buf).copy()
         self.ig_frame += 1
         self.warm = True  # after the count: /v1/ready (another thread) never sees warm with no frame counted
         return Frame(rgba, self.ig_frame, host_frame, total_ms, pass_ms, passes, sim_time, ev100, illuminance,
-                     taken_tag)
+                     taken_tag, overload)
 
     def _await_reply(self):
         """The render's reply; progress messages on the way extend the deadline (the process is alive)."""

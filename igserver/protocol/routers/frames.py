@@ -13,9 +13,9 @@ from fastapi.responses import StreamingResponse
 from ..codec import MSGPACK, encode, negotiate
 from ..dependencies import Message, Runtime
 from ..flow import drained, transport_of
-from ..frames import EncodedFrame
+from ..frames import EncodedFrame, quality_headers
 from ..imaging import MEDIA_TYPES
-from ..models import PATCH_SCHEMA, PROBLEM_RESPONSES, QueryBool, body_doc
+from ..models import PATCH_SCHEMA, PROBLEM_RESPONSES, QUALITY_HEADER_DOC, QueryBool, body_doc
 from ..problems import ProblemError
 from ...render.worker import RenderError
 
@@ -32,6 +32,7 @@ FRAME_HEADERS_DOC = {
     "X-IG-EV100": {"description": "exposure the frame was rendered with (EV100)", "schema": {"type": "number"}},
     "X-IG-Illuminance-Lux": {"description": "natural horizontal illuminance at the camera (lux)",
                              "schema": {"type": "number"}},
+    "X-IG-Quality": QUALITY_HEADER_DOC,
 }
 IMAGE_CONTENT = {media: {} for media in MEDIA_TYPES.values()}
 MJPEG_BOUNDARY = "igframe"
@@ -52,6 +53,7 @@ def frame_message(encoded: EncodedFrame, fmt: str, data: bytes, encode_ms: float
         "encode_ms": round(encode_ms, 3),
         "ev100": round(frame.ev100, 3),
         "illuminance_lux": float(f"{frame.illuminance_lux:.6g}"),
+        "quality": getattr(frame, "overload", None),
     }
 
 
@@ -179,7 +181,8 @@ async def mjpeg_stream(
                     head = (
                         f"--{MJPEG_BOUNDARY}\r\nContent-Type: image/jpeg\r\nContent-Length: {len(data)}\r\n"
                         f"X-IG-Frame: {encoded.ig_frame}\r\nX-IG-Host-Frame: {encoded.host_frame}\r\n"
-                        f"X-IG-Render-Ms: {encoded.frame.render_ms:.3f}\r\n\r\n"
+                        f"X-IG-Render-Ms: {encoded.frame.render_ms:.3f}\r\n"
+                        + "".join(f"{k}: {v}\r\n" for k, v in quality_headers(encoded.frame).items()) + "\r\n"
                     ).encode()
                     t_sent = time.perf_counter()
                     yield head + data + b"\r\n"

@@ -8,7 +8,7 @@ Client -> server (binary msgpack maps):
   ``{"type": "query", "query": "water-height", "points": [[x, y], ...], "sim_time": t?, "id": 8}``
                                                     sea height/normal/velocity (routers/query.py)
 Server -> client:
-  ``{"type": "frame", "frame", "host_frame", "width", "height", "format", "data", "render_ms", "encode_ms", "ev100", "illuminance_lux"}``
+  ``{"type": "frame", "frame", "host_frame", "width", "height", "format", "data", "render_ms", "encode_ms", "ev100", "illuminance_lux", "quality"}``
   ``{"type": "error", "id": 7, "problem": {...}}``  a rejected message (RFC 9457 members); nothing changed
   ``{"type": "query_result", "id": 8, "query": "water-height", "sim_time", "height", "normal", "velocity"}``
 

@@ -1,0 +1,68 @@
+"""The overload controller's report on the wire, through a real server (real render process, 64x36
+frames): the X-IG-Quality header, the WebSocket frame message's ``quality``, the MJPEG part headers
+and the /metrics gauges, with quality.target_fps set and off."""
+
+from __future__ import annotations
+
+import re
+
+import httpx
+import msgpack
+import pytest
+from websockets.sync.client import connect
+
+from igserver.protocol.runtime import ServerSettings
+from igserver.protocol.testing import LoopbackServer
+from igserver.scene import Scene
+
+W, H = 64, 36
+HEADER = re.compile(r"^scale=[0-9.]+; rungs=[a-z]+:[a-z>]+(,[a-z]+:[a-z>]+)*; error=[0-9.]+; target=(\d+); met=(true|false)$")
+
+
+@pytest.fixture(scope="module")
+def server():
+    scene = Scene.model_validate({"camera": {"width": W, "height": H}, "atmosphere": {"model": "gradient"},
+                                  "quality": {"preset": "auto", "target_fps": 20}})
+    with LoopbackServer(scene, ServerSettings(keepalive_s=0.25)) as srv:
+        yield srv
+
+
+def test_frame_header(server):
+    with httpx.Client(base_url=server.url, timeout=30) as http:
+        response = http.get("/v1/frame", params={"format": "png"})
+        assert response.status_code == 200
+        match = HEADER.match(response.headers["x-ig-quality"])
+        assert match and match.group(2) == "20", response.headers["x-ig-quality"]
+        metrics = http.get("/metrics").text
+        assert re.search(r"^igserver_quality_target_fps 20\.0$", metrics, re.M)
+        assert re.search(r"^igserver_quality_scale (1\.0|0\.\d+)$", metrics, re.M)
+        # the target off: the preset at scale 1, target 0
+        http.patch("/v1/state", json={"quality": {"preset": "medium", "target_fps": 0}}).raise_for_status()
+        response = http.get("/v1/frame", params={"format": "png"})
+        assert response.headers["x-ig-quality"].startswith("scale=1; rungs=")
+        assert response.headers["x-ig-quality"].endswith("; target=0; met=true")
+        assert re.search(r"^igserver_quality_target_fps 0\.0$", http.get("/metrics").text, re.M)
+        http.patch("/v1/state", json={"quality": {"preset": "auto", "target_fps": 20}}).raise_for_status()
+
+
+def test_websocket_and_mjpeg(server):
+    with connect(server.url.replace("http", "ws") + "/v1/ws", compression=None) as ws:
+        ws.send(msgpack.packb({"type": "hello", "credits": 1, "format": "jpeg"}))
+        for _ in range(20):  # the first may be a frame of the state before the target was set again
+            message = msgpack.unpackb(ws.recv(10.0), raw=False)
+            if message["quality"]["target_fps"] == 20:
+                break
+            ws.send(msgpack.packb({"type": "ack", "frame": message["frame"]}))
+    quality = message["quality"]
+    assert quality["target_fps"] == 20 and 0.5 <= quality["scale"] <= 1.0 and quality["error"] >= 0.0
+    assert isinstance(quality["met"], bool) and quality["rungs"]
+    with httpx.Client(base_url=server.url, timeout=30) as http:
+        with http.stream("GET", "/v1/stream.mjpg", params={"frames": 1}) as response:
+            head = b""
+            for chunk in response.iter_bytes():
+                head += chunk
+                if b"\r\n\r\n" in head.split(b"--igframe", 1)[-1]:
+                    break
+    part = head.split(b"--igframe", 1)[1].split(b"\r\n\r\n", 1)[0].decode()
+    value = re.search(r"X-IG-Quality: (.*)", part).group(1).strip()
+    assert HEADER.match(value) and HEADER.match(value).group(2) == "20", part
