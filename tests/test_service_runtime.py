@@ -382,6 +382,39 @@ def test_ready_only_after_the_first_frame_with_precompute_progress(tmp_path, mon
         srv.service.stop()
 
 
+def test_first_start_shows_a_simplified_sky_while_the_tables_compute(tmp_path, monkeypatch, caplog):
+    import logging
+
+    monkeypatch.setenv("IGSERVER_CACHE", str(tmp_path))  # nothing cached: a first start
+    scene = Scene.model_validate({"camera": {"width": W, "height": H},
+                                  "atmosphere": {"model": "precomputed", "quality": "low", "visibility": 12345.0}})
+    srv = LoopbackServer(scene, ServerSettings(keepalive_s=0.25))
+    caplog.set_level(logging.INFO, logger="igserver")
+    srv.thread.start()
+    try:
+        deadline = time.monotonic() + 120
+        preview = None
+        while not srv.runtime.ready():
+            latest = srv.runtime.pump.latest
+            if latest is not None and latest.revision == -1 and preview is None:
+                preview = httpx.get(srv.url + "/v1/ready", timeout=10).json()
+            assert time.monotonic() < deadline and srv.thread.is_alive()
+            time.sleep(0.01)
+        assert preview is not None, "no picture before the tables were ready"
+        assert preview["ready"] is False and "simplified sky" in preview["error"]
+        assert httpx.get(srv.url + "/v1/ready", timeout=10).status_code == 200
+        assert srv.runtime.pump.latest.revision == srv.runtime.store.revision  # the scene itself now
+        assert "precomputing" in caplog.text
+    finally:
+        srv.stop()
+        srv.service.stop()
+    # a second start finds the tables cached: no preview, and the log does not say it precomputes
+    caplog.clear()
+    with LoopbackServer(scene, ServerSettings(keepalive_s=0.25)) as again:
+        assert not again.runtime.provisional and again.service.last_progress is None
+    assert "precomputing" not in caplog.text
+
+
 class _FirstFrameLandsMidRequest:
     """A render service whose first frame completes between two reads of one /v1/ready request: the
     first ``info()`` sees no frame yet, everything read after it sees the frame counted and warm."""

@@ -20,6 +20,19 @@ from .state import StateStore
 log = logging.getLogger("igserver.protocol")
 
 
+def atmosphere_tables_cached(scene: Scene) -> bool:
+    """Whether the render process will load ``scene``'s atmosphere tables from the disk cache (True when
+    that cannot be told: then no preview is drawn)."""
+    try:
+        from ..render.shaders import expand
+        from ..render.sky.frame_sky import scene_atmosphere
+        from ..render.sky.tables import PRECOMPUTE_SHADER, cache_dir
+
+        return (cache_dir() / f"{scene_atmosphere(scene).key(expand(PRECOMPUTE_SHADER))}.npz").is_file()
+    except Exception:  # noqa: BLE001 - a preview is optional
+        return True
+
+
 def _ensure_log_output() -> None:
     """Operators see start-up, precompute progress, watchdog and abandoned renders on stderr even when the
     embedding program configured no logging (``igserver serve``); a configured root logger is left alone."""
@@ -53,6 +66,7 @@ class IGRuntime:
         self.unresponsive: str | None = None  # the watchdog's finding, None while the render process answers
         self._watchdog_task: asyncio.Task | None = None
         self.stopping = asyncio.Event()  # set at shutdown: open streams end so the server can exit
+        self.provisional = False  # the picture shown is the start preview (simplified sky), not the scene
         self.queries = Gate(self.settings.max_concurrent_queries, "water-height queries")
         # queries run on threads of their own, as many as may run at once: each thread that allocates
         # gets a malloc arena of its own, which keeps what it freed; a bounded pool bounds the arenas
@@ -68,6 +82,25 @@ class IGRuntime:
         finally:
             if self.queries.held <= 1:
                 self._query_executor.submit(release_free_memory)
+
+    async def _show_a_first_picture_while_tables_compute(self, t0: float) -> None:
+        """On a first start (no cached atmosphere tables for the start scene) the precompute takes a minute
+        or more on a CPU renderer: show the scene with the simple gradient sky first, so the viewer has a
+        picture within seconds. It is published as revision -1, never the current state's frame, and
+        /v1/ready stays not ready (saying so) until the real first frame."""
+        scene = self.store.scene
+        if scene.atmosphere.model != "precomputed" or atmosphere_tables_cached(scene):
+            return
+        coarse = scene.model_copy(update={"atmosphere": scene.atmosphere.model_copy(update={"model": "gradient"})})
+        try:
+            encoded = await self.gateway.render(coarse, -1, self.store.accepted_at)
+        except Exception as exc:  # only a preview: the real frame follows anyway
+            log.warning("no preview frame: %s", exc)
+            return
+        self.provisional = True
+        self.pump.publish(encoded)
+        log.info("first picture (simplified sky) %.1f s after start; precomputing the atmosphere tables",
+                 time.perf_counter() - t0)
 
     def _register_gauges(self) -> None:
         m = self.metrics
@@ -90,10 +123,13 @@ class IGRuntime:
             return unresponsive
         if self.gateway.recovering:
             return "render process restarting after an abandoned render"
-        if not self.service.warm:
+        if not self.service.warm or self.provisional:  # the preview warmed the process, not the scene
             progress = self.service.progress
+            shown = "; the picture shows a simplified sky until then" if self.provisional else ""
             if progress:
-                return f"precomputing {progress['phase']} ({progress['fraction']:.0%})"
+                return f"precomputing {progress['phase']} ({progress['fraction']:.0%}){shown}"
+            if self.provisional:
+                return "precomputing the atmosphere tables" + shown
             return "rendering the first frame"
         return None
 
@@ -115,7 +151,9 @@ class IGRuntime:
                 await self.gateway.call(self.service.start)
                 log.info("render process up in %.1f s; rendering the first frame", time.perf_counter() - t0)
                 store = self.store
+                await self._show_a_first_picture_while_tables_compute(t0)
                 encoded = await self.gateway.render(store.scene, store.revision, store.accepted_at)
+                self.provisional = False
                 self.pump.publish(encoded)
                 log.info("ready: first frame rendered %.1f s after start", time.perf_counter() - t0)
             except Exception as exc:  # ready stays false; the next render retries the start

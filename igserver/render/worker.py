@@ -112,6 +112,8 @@ def _report_table_progress(conn) -> None:
     current: dict = {}
 
     def counted_run(self, *args, **kwargs):
+        if current and not current["done"]:  # the first dispatch: the tables are computed, not loaded
+            conn.send(("progress", "atmosphere tables", 0.0, 0.0))
         result = original_run(self, *args, **kwargs)
         if current:
             current["done"] += 1
@@ -122,13 +124,13 @@ def _report_table_progress(conn) -> None:
     def reporting_init(self, ctx, params):
         orders = getattr(getattr(params, "sizes", None), "orders", 4)
         current.update(done=0, total=3 + 3 * max(int(orders) - 1, 0), t0=time.perf_counter())
-        conn.send(("progress", "atmosphere tables", 0.0, 0.0))
         try:
             original_init(self, ctx, params)
         finally:
-            elapsed = time.perf_counter() - current["t0"]
+            elapsed, computed = time.perf_counter() - current["t0"], current["done"] > 0
             current.clear()
-            conn.send(("progress", "atmosphere tables", 1.0, elapsed))
+            if computed:  # loaded from the disk cache: nothing was precomputed, nothing to report
+                conn.send(("progress", "atmosphere tables", 1.0, elapsed))
 
     tables.AtmosphereTables.__init__ = reporting_init
     moderngl.ComputeShader.run = counted_run
