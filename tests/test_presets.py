@@ -59,7 +59,7 @@ def test_auto_preset_adapts_in_the_renderer(renderer):
     scene = tiny({"ground": {"enabled": False}, "quality": {"preset": "auto", "target_ms": 1.0}}, 16, 16)
     renderer.frame_quality = overload.FrameQuality()
     first = renderer.render(scene)
-    for _ in range(overload.DOWN_FRAMES + 1):
+    for _ in range(overload.WARMUP_FRAMES + overload.DOWN_FRAMES + 1):
         result = renderer.render(scene)
     # A 1 ms target cannot be met on llvmpipe: the controller stepped down from medium at scale 1
     # to the cheapest point, and says the target is not met.

@@ -33,6 +33,11 @@ from the cheapest (largest error) to the best. Per frame the controller (``Overl
 
 A target the machine cannot reach leaves the cheapest point in force and ``met`` false: the frame
 is as fast as the IG can make it, and says so. Nothing raises.
+
+The time a frame costs is the render thread's cycle when frames are in flight (renderer.py
+``collect``: drawing the next frame, then taking this one's pixels: the stream's rate), else the
+frame's render and readback. The first WARMUP_FRAMES frames of a controller compile programs and
+build targets: they measure nothing.
 """
 
 from __future__ import annotations
@@ -68,6 +73,7 @@ BLOCK_FRAMES = 120  # a point stepped down from waits this long (doubling per fa
 LOAD_ALPHA = 0.3  # EWMA weight of a frame in the load (half-life ~2 frames: follows a cost step)
 LEARN_FRAMES = 4  # frames after a move that measure the new point's cost ratio (the first is skipped)
 LEARN_ALPHA = 0.5
+WARMUP_FRAMES = 3  # a controller's first frames compile programs and build targets: no measure of load
 
 
 def level_of(pipeline: str, value) -> str:
@@ -239,6 +245,8 @@ class Overload:
     def observe(self, frame_ms: float) -> None:
         """One frame's time at the current point; maybe move (down at once, up one point)."""
         self.frame += 1
+        if self.frame <= WARMUP_FRAMES:
+            return
         point = self.point
         norm = frame_ms / (point.seed_ms * self.correction.get(point.key, 1.0))
         self._since_move += 1

@@ -120,16 +120,20 @@ class Renderer:
         flight once ``frames_in_flight`` frames are queued (else None). A stream calls this once per
         frame, so frame N's pixels are copied out while frame N+1 is drawn; ``collect`` takes the rest.
         Each result carries the host_frame and sim_time of the scene it was drawn from."""
+        cycle_start = time.perf_counter()
         drawn = self._draw(scene, timed)
         t0 = time.perf_counter()
         ticket = self._readback_ring().start(drawn.targets.ldr_fbo, drawn.targets.size)
         gl_calls.flush()  # hand the copy to the driver now, not at the next frame's first wait
         drawn.queue_ms = (time.perf_counter() - t0) * 1e3
         self._in_flight.append((drawn, ticket))
-        return self.collect() if len(self._in_flight) > self.frames_in_flight else None
+        return self.collect(cycle_start) if len(self._in_flight) > self.frames_in_flight else None
 
-    def collect(self) -> RenderResult | None:
-        """The oldest submitted frame not yet returned (waiting for its copy if needed), or None."""
+    def collect(self, cycle_start: float | None = None) -> RenderResult | None:
+        """The oldest submitted frame not yet returned (waiting for its copy if needed), or None.
+        ``cycle_start`` (submit's): when the frame's successor began, so the controller sees the
+        render thread's cycle (draw N+1, then wait for N's pixels: on llvmpipe N's rasterisation
+        overlaps N+1's draw, and the cycle is what sets the stream's rate)."""
         if not self._in_flight:
             return None
         make_current(self._ctx)
@@ -140,7 +144,8 @@ class Renderer:
         if drawn.timed:  # queueing the copy plus taking it: the readback's cost to the calling thread
             drawn.result.pass_ms["readback"] = drawn.queue_ms + (end - t0) * 1e3
         # the frame's time: its draw plus taking its pixels, not the wait while it was in flight
-        return self._finished(drawn, rgba, drawn.drawn_at + (end - t0))
+        cycle_ms = (end - cycle_start) * 1e3 if cycle_start is not None else None
+        return self._finished(drawn, rgba, drawn.drawn_at + (end - t0), cycle_ms)
 
     @property
     def in_flight(self) -> int:
@@ -152,11 +157,11 @@ class Renderer:
             self._readback = ReadbackRing(self._ctx, self.frames_in_flight + 1)
         return self._readback
 
-    def _finished(self, drawn: "_Drawn", rgba: np.ndarray, end: float) -> RenderResult:
+    def _finished(self, drawn: "_Drawn", rgba: np.ndarray, end: float, cycle_ms: float | None = None) -> RenderResult:
         result = drawn.result
         result.rgba = rgba
         result.total_ms = (end - drawn.start) * 1e3
-        self.frame_quality.observe(result.total_ms, result.passes)
+        self.frame_quality.observe(cycle_ms if cycle_ms is not None else result.total_ms, result.passes)
         return result
 
     def _draw(self, scene: Scene, timed: bool) -> "_Drawn":
