@@ -226,8 +226,14 @@ def test_render_over_time_limit_is_abandoned_and_state_falls_back(server, http):
     http.patch("/v1/state", json={"camera": {"heading": 0.0}}).raise_for_status()
     png(http.get("/v1/frame", params={"format": "png"}))  # a good state, rendered
     service, restarts, pid = server.service, server.service.restarts, server.service.pid
-    revision = int(http.patch("/v1/state", json={"camera": {"heading": 10.0}}).headers["x-ig-revision"])
-    # a state that hangs the renderer: its render overruns the time limit while the process runs
+    pump, deadline = server.runtime.pump, time.monotonic() + 10
+    while pump.subscribers or server.runtime.gateway.in_flight:  # a stream left by an earlier test is gone
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    # a state that hangs the renderer: its render overruns the time limit while the process runs (a
+    # frame big enough to take more than the limit's 0.1 ms however warm the renderer)
+    revision = int(http.patch("/v1/state", json={"camera": {"heading": 10.0, "width": 1280, "height": 720}}
+                              ).headers["x-ig-revision"])
     service.render_timeout_s = 1e-4
     try:
         answer = http.get("/v1/frame")
@@ -240,6 +246,7 @@ def test_render_over_time_limit_is_abandoned_and_state_falls_back(server, http):
     assert ready["fault"]["revision"] == revision
     # the hung state is not rendered again: the accepted state is the last one that rendered
     assert http.get("/v1/state").json()["camera"]["heading"] == 0.0
+    assert http.get("/v1/state").json()["camera"]["width"] == W
     wait_until_ready(http, 60)
     assert service.restarts == restarts + 1 and service.pid != pid
     assert http.get("/v1/frame").status_code == 200
