@@ -20,7 +20,7 @@ from ..bindings import FRAME_UNITS, use_texture
 from .atmosphere_model import (KOSCHMIEDER, PRESETS, SOLAR_ILLUMINANCE, AtmosphereParameters, atmosphere_parameters,
                                ground_extinction_550_per_m, turbidity_class)
 from .daylight import Daylight, daylight
-from .haze import HazeLayer, HazeTransition, haze_layer
+from .haze import GROUND_ALBEDO, HazeLayer, HazeTransition, haze_layer
 from .lighting import (MOON_ANGULAR_RADIUS, MOON_SOLID_ANGLE, NIGHT_SKY_ILLUMINANCE, NIGHT_SKY_LUMINANCE,
                        clear_light, moon_illuminance_toa, precomputed_daylight)
 from .sky_view import SkyView, horizon_elevation, sun_horizontal
@@ -104,7 +104,17 @@ def scene_visibility(scene: Scene) -> float:
 
 def scene_haze(scene: Scene, params: AtmosphereParameters) -> HazeLayer:
     a = scene.atmosphere
-    return haze_layer(scene_visibility(scene), a.turbidity, a.fog_top, _ground_extinction(params))
+    return haze_layer(scene_visibility(scene), a.turbidity, a.fog_top, _ground_extinction(params),
+                      scene_ground_albedo(scene))
+
+
+def scene_ground_albedo(scene: Scene) -> float:
+    """Albedo under the fog/haze layer: the drawn ground's colour (its luminance, a Lambertian
+    base colour: snow 0.8), the layer's default 0.1 over the sea or where no ground is drawn."""
+    g = scene.ground
+    if not g.enabled or scene.ocean.enabled:
+        return GROUND_ALBEDO
+    return float(np.dot(LUMA, g.color))
 
 
 @lru_cache(maxsize=64)
@@ -156,7 +166,7 @@ def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
         # in a stream with a fixed UTC and steady fog they repeat every frame.
         key = (tables.key, atm.turbidity, altitude_m, ground_m, celestial.sun_elevation, celestial.moon_elevation,
                celestial.moon_phase, _t(celestial.sun_dir), _t(celestial.moon_dir), haze.beta.tobytes(), haze.top,
-               haze.edge, haze.g, haze.omega)
+               haze.edge, haze.g, haze.omega, haze.albedo)
         hit = _sky_light_cache.get(key)
         if hit is None:
             clear = cached_clear_light(params, tables, altitude_m, celestial.sun_elevation,
