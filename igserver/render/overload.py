@@ -259,7 +259,8 @@ class Overload:
             self.load = norm if self.load is None else self.load + LOAD_ALPHA * (norm - self.load)
         self._recent = (self._recent + [norm])[-DOWN_FRAMES:]
         budget = self.budget_ms
-        self._over = self._over + 1 if frame_ms > budget else 0
+        # a move's first frame (new targets, new programs) is not an overrun of the point
+        self._over = self._over + 1 if frame_ms > budget and self._since_move > 1 else 0
         up = self._up_candidate() if frame_ms <= budget else None
         self._spare = self._spare + 1 if up is not None else 0
         if self._over >= DOWN_FRAMES and self.index > 0:

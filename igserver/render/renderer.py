@@ -113,7 +113,10 @@ class Renderer:
         rgba = np.ascontiguousarray(np.frombuffer(data, dtype=np.uint8).reshape(height, width, 4)[::-1])
         if timed:
             drawn.result.pass_ms["readback"] = (time.perf_counter() - t0) * 1e3
-        return self._finished(drawn, rgba, time.perf_counter())
+        result = self._finished(drawn, rgba, time.perf_counter())
+        if not timed:  # a timed frame waits for every pass: not the cost of a frame
+            self.frame_quality.observe(result.total_ms, result.passes)
+        return result
 
     def submit(self, scene: Scene, timed: bool = False) -> RenderResult | None:
         """Draw ``scene`` and queue its readback without waiting for it; return the oldest frame in
@@ -127,13 +130,16 @@ class Renderer:
         gl_calls.flush()  # hand the copy to the driver now, not at the next frame's first wait
         drawn.queue_ms = (time.perf_counter() - t0) * 1e3
         self._in_flight.append((drawn, ticket))
-        return self.collect(cycle_start) if len(self._in_flight) > self.frames_in_flight else None
+        if len(self._in_flight) <= self.frames_in_flight:
+            return None
+        # a timed frame waits for every pass: the cycle that draws it is not the cost of a frame
+        return self.collect(None if timed else cycle_start)
 
     def collect(self, cycle_start: float | None = None) -> RenderResult | None:
         """The oldest submitted frame not yet returned (waiting for its copy if needed), or None.
         ``cycle_start`` (submit's): when the frame's successor began, so the controller sees the
         render thread's cycle (draw N+1, then wait for N's pixels: on llvmpipe N's rasterisation
-        overlaps N+1's draw, and the cycle is what sets the stream's rate)."""
+        overlaps N+1's draw, and the cycle is what sets the stream's rate); None: not measured."""
         if not self._in_flight:
             return None
         make_current(self._ctx)
@@ -144,8 +150,10 @@ class Renderer:
         if drawn.timed:  # queueing the copy plus taking it: the readback's cost to the calling thread
             drawn.result.pass_ms["readback"] = drawn.queue_ms + (end - t0) * 1e3
         # the frame's time: its draw plus taking its pixels, not the wait while it was in flight
-        cycle_ms = (end - cycle_start) * 1e3 if cycle_start is not None else None
-        return self._finished(drawn, rgba, drawn.drawn_at + (end - t0), cycle_ms)
+        result = self._finished(drawn, rgba, drawn.drawn_at + (end - t0))
+        if cycle_start is not None and not drawn.timed:
+            self.frame_quality.observe((end - cycle_start) * 1e3, result.passes)
+        return result
 
     @property
     def in_flight(self) -> int:
@@ -157,11 +165,10 @@ class Renderer:
             self._readback = ReadbackRing(self._ctx, self.frames_in_flight + 1)
         return self._readback
 
-    def _finished(self, drawn: "_Drawn", rgba: np.ndarray, end: float, cycle_ms: float | None = None) -> RenderResult:
+    def _finished(self, drawn: "_Drawn", rgba: np.ndarray, end: float) -> RenderResult:
         result = drawn.result
         result.rgba = rgba
         result.total_ms = (end - drawn.start) * 1e3
-        self.frame_quality.observe(cycle_ms if cycle_ms is not None else result.total_ms, result.passes)
         return result
 
     def _draw(self, scene: Scene, timed: bool) -> "_Drawn":
