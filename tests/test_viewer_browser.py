@@ -140,6 +140,16 @@ def test_viewer_shows_readiness_and_clock(server, page):
     assert httpx.get(server.url + "/v1/clock").json()["paused"] is False
 
 
+def test_viewer_shows_the_operating_point(server, page):
+    page.wait_for("document.getElementById('quality').textContent.startsWith('scale 1 ')")
+    httpx.patch(server.url + "/v1/state", json={"quality": {"target_fps": 240}}).raise_for_status()
+    try:  # 240 fps is out of reach on llvmpipe: the cheapest point, said so
+        page.wait_for("document.getElementById('quality').textContent.includes('not met')", timeout=30)
+        assert "holding 240 fps" in page.evaluate("document.getElementById('quality').textContent")
+    finally:
+        httpx.patch(server.url + "/v1/state", json={"quality": {"target_fps": 0}}).raise_for_status()
+
+
 def mouse(page, kind: str, x: float, y: float) -> None:
     page.send("Input.dispatchMouseEvent", type=kind, x=x, y=y, button="left", buttons=1 if kind != "mouseReleased" else 0,
               clickCount=1)
