@@ -66,3 +66,33 @@ def test_websocket_and_mjpeg(server):
     part = head.split(b"--igframe", 1)[1].split(b"\r\n\r\n", 1)[0].decode()
     value = re.search(r"X-IG-Quality: (.*)", part).group(1).strip()
     assert HEADER.match(value) and HEADER.match(value).group(2) == "20", part
+
+
+def test_demo_stream_holds_its_target():
+    """The demo requested at 640x360 with target 25 fps streams at >= 20 fps at a client (today, with no
+    target: ~13). Tolerance: the target is 24 fps with a 45 ms p95 on a quiet 2-core machine; the suite
+    shares those cores with other test processes, whose load the controller can only see as a slower
+    machine (it holds the cheapest point then and reports it), so the test asks 80 % of the target on
+    the mean and leaves the p95 to the measurement in docs/operations.md."""
+    import time
+
+    import numpy as np
+
+    from igserver.scene import apply_patch, load_scene
+
+    scene = apply_patch(load_scene("demo"), {"camera": {"width": 640, "height": 360},
+                                             "quality": {"preset": "auto", "target_fps": 25}})
+    with LoopbackServer(scene, ServerSettings()) as srv, httpx.Client(base_url=srv.url, timeout=60) as http:
+        http.get("/v1/frame").raise_for_status()
+        arrivals, headers = [], []
+        with http.stream("GET", "/v1/stream.mjpg", params={"frames": 150}) as response:
+            buf = b""
+            for chunk in response.iter_bytes():
+                buf += chunk
+                while (m := re.search(rb"X-IG-Quality: ([^\r]*)\r\n\r\n", buf)) is not None:
+                    arrivals.append(time.perf_counter())
+                    headers.append(m.group(1).decode())
+                    buf = buf[m.end():]
+    intervals = np.diff(arrivals[30:])  # after the controller's first moves
+    assert len(arrivals) == 150 and 1.0 / np.mean(intervals) >= 20.0, 1.0 / np.mean(intervals)
+    assert all("target=25" in h for h in headers)
