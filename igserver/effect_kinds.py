@@ -63,3 +63,34 @@ EFFECT_KINDS: dict[str, EffectKind] = {kind.name: kind for kind in (
                flicker=0.06, light_rgb=(0.55, 0.65, 1.0)),
 )}
 EFFECT_TYPES = tuple(EFFECT_KINDS)
+
+
+@dataclass(frozen=True)
+class Fuel:
+    """What burns in a pool fire (``Effect.fuel``): its heat release per pool area and its soot.
+
+    Large-pool burning: q'' = m'' dH_c (1 - exp(-k beta D)) (Babrauskas 1983, "Estimating large
+    pool fire burning rates", Fire Technology 19, and the SFPE Handbook's table of m'', dH_c, k beta;
+    wood: a stacked fuel bed of pallets or cribs per its floor area). k beta is also the flame's soot
+    absorption per metre (render/volumes/volumes.py: the flame's optical depth k D). Soot yields
+    (g of soot per g burnt) after Tewarson (SFPE Handbook): the smoke's extinction follows them
+    (render/volumes/effects.py plume_soot_extinction); its albedo: black soot to grey wood smoke."""
+
+    name: str
+    burning_rate: float  # kg/m^2 s, m'' of a large pool
+    heat_of_combustion: float  # MJ/kg
+    k_beta: float  # 1/m
+    soot_yield: float  # g/g
+    smoke_albedo: float  # single-scattering albedo of its smoke
+
+
+FUELS: dict[str, Fuel] = {fuel.name: fuel for fuel in (
+    Fuel("oil", burning_rate=0.035, heat_of_combustion=39.7, k_beta=1.7, soot_yield=0.06, smoke_albedo=0.25),
+    Fuel("gasoline", burning_rate=0.055, heat_of_combustion=43.7, k_beta=2.1, soot_yield=0.04, smoke_albedo=0.25),
+    Fuel("kerosene", burning_rate=0.039, heat_of_combustion=43.2, k_beta=3.5, soot_yield=0.042, smoke_albedo=0.25),
+    Fuel("crude", burning_rate=0.035, heat_of_combustion=42.6, k_beta=2.8, soot_yield=0.08, smoke_albedo=0.2),
+    Fuel("wood", burning_rate=0.07, heat_of_combustion=17.0, k_beta=1.0, soot_yield=0.015, smoke_albedo=0.85),
+    Fuel("methanol", burning_rate=0.017, heat_of_combustion=20.0, k_beta=0.1, soot_yield=0.0, smoke_albedo=0.9),
+)}
+FUEL_NAMES = tuple(FUELS)
+

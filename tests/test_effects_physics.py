@@ -20,9 +20,10 @@ G = 9.81  # m/s^2
 
 
 def heskestad_reference(diameter: float, intensity: float) -> float:
-    """Heskestad's mean flame height L = 0.235 Q^(2/5) - 1.02 D (m, Q in kW) of a pool fire releasing
-    1500 kW per m^2 of pool (hydrocarbon) times the effect's intensity, at least half a diameter."""
-    q = intensity * 1500.0 * math.pi * diameter**2 / 4.0
+    """Heskestad's mean flame height L = 0.235 Q^(2/5) - 1.02 D (m, Q in kW) of a pool of the default
+    fuel, fuel oil, releasing q'' = m'' dH_c (1 - exp(-k beta D)) = 0.035 kg/m^2 s x 39.7 MJ/kg x
+    (1 - exp(-1.7 /m D)) (Babrauskas 1983) times the effect's intensity, at least half a diameter."""
+    q = intensity * 0.035 * 39.7e3 * (1.0 - math.exp(-1.7 * diameter)) * math.pi * diameter**2 / 4.0
     return max(0.235 * q**0.4 - 1.02 * diameter, 0.5 * diameter)
 
 
@@ -156,3 +157,37 @@ def test_a_dying_fire_light_reddens_and_dims():
     assert dying.color[0] / dying.color[2] > 1.5 * burning.color[0] / burning.color[2]
     growing = light(True, 102.0)  # growing at the same level keeps the burning colour
     assert growing.color[0] / growing.color[2] == pytest.approx(burning.color[0] / burning.color[2])
+
+
+def test_flame_height_follows_the_heat_release_and_the_fuel():
+    # Heskestad: L = 0.235 Q^(2/5) - 1.02 D (Q in kW); the container is 1.4 L tall. The host's
+    # heat_release_kw sets Q (times the intensity); without it the pool's area times the fuel's
+    # q'' = m'' dH_c (1 - exp(-k beta D)) (Babrauskas 1983): gasoline, D = 3 m:
+    # 0.055 kg/m^2 s x 43.7 MJ/kg x (1 - e^-6.3) = 2,388 kW/m^2, Q = 16.9 MW, L = 7.9 m.
+    # Exact up to float rounding.
+    import math
+    from igserver.render.volumes.effects import CONTAINER_OVER_FLAME, effect_heat_release
+    from igserver.scene.model import Effect, Scene
+    scene = Scene.model_validate({"weather": {"wind_speed": 0.0}})
+    for fields, q in (({"heat_release_kw": 20000.0}, 20000.0),
+                      ({"heat_release_kw": 20000.0, "intensity": 0.5}, 10000.0),
+                      ({"fuel": "gasoline"}, 0.055 * 43.7e3 * (1.0 - math.exp(-2.1 * 3.0)) * math.pi * 9.0 / 4.0)):
+        effect = Effect.model_validate({"id": "f", "diameter": 3.0, **fields})
+        assert effect_heat_release(effect) == pytest.approx(q, rel=1e-9)
+        flame = next(v for v in effect_volumes(effect, scene) if v.key[1] == "fire")
+        assert flame.height == pytest.approx(CONTAINER_OVER_FLAME * (0.235 * q**0.4 - 1.02 * 3.0), rel=1e-9)
+
+
+def test_plume_soot_by_fuel():
+    # The plume's extinction is its soot: yield x fuel burnt / (speed x area) x 8.7 m^2/g, so at the
+    # same heat release it scales as yield / dH_c: oil 0.06 / 39.7 against wood 0.015 / 17.0 (1.7x
+    # less soot a kW) and methanol, which makes none (a clean blue flame, no smoke).
+    from igserver.render.volumes.effects import plume_soot_extinction
+    from igserver.scene.model import Effect
+
+    def sigma(fuel):
+        return plume_soot_extinction(Effect.model_validate({"id": "f", "diameter": 3.0, "fuel": fuel,
+                                                            "heat_release_kw": 10000.0}), 5.0, 1.0)
+    assert sigma("oil") / sigma("wood") == pytest.approx((0.06 / 39.7) / (0.015 / 17.0), rel=1e-9)
+    assert sigma("methanol") == 0.0
+    assert 2.0 < sigma("oil") < 20.0  # 1/m: a dense black plume (its optical depth across ~ sigma 2 m)

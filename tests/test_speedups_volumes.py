@@ -73,7 +73,7 @@ def test_half_resolution_march_costs_little_error(renderer, volumes):
         # Low-passed error (9x9 blur: bias, shifted edges, banding; not the fine noise): half
         # resolution may add the ~2 levels of 8 bits where banding starts to show plus what the
         # flame's silhouette costs: the 3 m pool fire is opaque (optical depth ~6 across its base,
-        # volumes.FLAME_ABSORPTION) and clipped white at EV 10, a full-scale edge against the night
+        # its fuel's k beta: effect_kinds.FUELS) and clipped white at EV 10, a full-scale edge against the night
         # that half resolution moves by up to half a march pixel (measured 3.4 levels over the
         # full march's 1.5; 2.0 with the old translucent flame). A quarter-resolution pixel is 4 px
         # wide here, about the blur's half width, so more (9.2 measured; the bound was 5.0 for the old flame).

@@ -20,7 +20,7 @@ from pydantic_core import InitErrorDetails, PydanticCustomError
 from ..assets import ASSET_NAME_PATTERN, AssetError, resolve_asset
 from ..assets.gltf import check_model
 from ..assets.images import ImageError, check_profile_image
-from ..effect_kinds import EFFECT_TYPES
+from ..effect_kinds import EFFECT_TYPES, FUEL_NAMES
 
 # Upper bound on any world coordinate (m). 1e7 m is beyond a continent; float64 keeps mm there.
 WORLD_LIMIT_M = 1.0e7
@@ -269,6 +269,11 @@ class Effect(Strict):
     diameter: float = Field(2.0, ge=0.0, le=500.0, description="m, base diameter of the fire / plume")
     height: float | None = Field(None, ge=0.0, le=2000.0, description="m, container height; None = Heskestad")
     intensity: float = Field(1.0, ge=0.0, le=10.0, description="relative heat release (1 = nominal)")
+    fuel: Literal[FUEL_NAMES] = Field("oil", description="what a fire burns (igserver/effect_kinds.py FUELS): its "
+                                      "heat release per pool area, the flame's soot, the smoke's soot and colour")
+    heat_release_kw: float | None = Field(
+        None, ge=0.0, le=1e7, description="kW, a fire's nominal heat release; None = the pool's area x the fuel's "
+        "burning rate x heat of combustion (x intensity either way)")
     active: bool = Field(True, description="burning (fades in) or extinguished (fades out)")
     fade: float = Field(3.0, ge=0.0, le=600.0, description="s, fade-in/out duration")
     emits_smoke: bool = Field(False, description="fire also emits a smoke plume")

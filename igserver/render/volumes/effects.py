@@ -4,8 +4,9 @@ Everything here is a pure function of the scene, so the FrameGraph's ``needed()`
 the fire lights and the volume pass all agree on which volumes exist and how big they are.
 
 Sizes: a pool fire of diameter D (m) and heat release Q (kW) has a mean flame height
-(Heskestad) L = 0.235 Q^0.4 - 1.02 D; with Q = intensity * q'' * pi D^2 / 4 and q'' = 1500 kW/m^2
-(a hydrocarbon pool). Flame tips reach above L intermittently, so the container is 1.4 L tall.
+(Heskestad) L = 0.235 Q^0.4 - 1.02 D; Q = intensity x (the host's heat_release_kw, or pi D^2 / 4
+x the fuel's q'' = m'' dH_c (1 - exp(-k beta D)), effect_kinds.FUELS; fuel oil: 1.38 MW/m^2 at
+D = 3 m). Flame tips reach above L intermittently, so the container is 1.4 L tall.
 """
 
 from __future__ import annotations
@@ -15,12 +16,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...effect_kinds import EFFECT_KINDS
+from ...effect_kinds import EFFECT_KINDS, FUELS, Fuel
 from ...scene.model import Effect, Scene
 from ...weather import wind_vector
 from ..camera import CameraView
 
-HEAT_RELEASE_PER_AREA = 1500.0  # kW/m^2, hydrocarbon pool fire
 # A fire's plume container: radius over height R / H. The profile's radius grows by 0.7 R over H
 # (profiles.py smoke_profile) and its density is half at 0.8 of it, an edge opening at atan(0.8 x
 # 0.7 x 0.32) = 10.2 deg; where the smoke thins upward the edge that hides half the sky behind it
@@ -49,40 +49,55 @@ def fade_level(effect: Effect, sim_time: float) -> float:
     return s if effect.active else 1.0 - s
 
 
-def heskestad_height(diameter: float, intensity: float) -> float:
-    """Mean flame height (m) of a pool fire; at least 0.5 D so small fires keep a flame."""
-    if diameter <= 0.0:
-        return 0.0
-    q = heat_release(diameter, intensity)
-    return max(0.235 * q**0.4 - 1.02 * diameter, 0.5 * diameter)
+def heskestad_height(diameter: float, intensity: float, fuel: str = "oil") -> float:
+    """Mean flame height (m) of a pool of ``fuel`` burning at ``intensity`` x its q''."""
+    q = max(intensity, 1e-6) * fuel_heat_release_per_area(FUELS[fuel], diameter) * math.pi * diameter**2 / 4.0
+    return flame_height(diameter, q)
 
 
 # Soot of a fire's plume: fuel burnt m_f = Q / dH_c, soot made Y m_f, carried up by the plume at
 # its mean speed w through its cross-section pi b^2, so its concentration is c = Y m_f / (w pi b^2)
-# and its extinction sigma = sigma_s c. Constants: Y = 0.06 g/g for fuel oils (Tewarson, SFPE
-# Handbook: kerosene 0.042, heptane 0.037, heavy oils more), dH_c = 44 MJ/kg, sigma_s = 8.7 m^2/g,
-# the specific extinction of flame-generated soot (Mulholland & Choi 1998, 633 nm). The speed is
-# half Heskestad's centreline velocity above the flame, u0 = 3.4 (g / (c_p T rho))^(1/3) Q_c^(1/3)
-# (z - z0)^(-1/3) = 1.03 Q_c^(1/3) (z - z0)^(-1/3) m/s (Q_c = 0.7 Q kW, virtual origin z0 =
-# 0.083 Q^(2/5) - 1.02 D). Further up c falls as (z - z0)^(-5/3) (profiles.py smoke_profile).
-SOOT_YIELD = 0.06
-HEAT_OF_COMBUSTION = 44_000.0  # kJ/kg
+# and its extinction sigma = sigma_s c, with the fuel's dH_c and soot yield Y (effect_kinds.FUELS)
+# and sigma_s = 8.7 m^2/g, the specific extinction of flame-generated soot (Mulholland & Choi
+# 1998, 633 nm). The speed is half Heskestad's centreline velocity above the flame, u0 = 3.4
+# (g / (c_p T rho))^(1/3) Q_c^(1/3) (z - z0)^(-1/3) = 1.03 Q_c^(1/3) (z - z0)^(-1/3) m/s (Q_c =
+# 0.7 Q kW, virtual origin z0 = 0.083 Q^(2/5) - 1.02 D). Further up c falls as (z - z0)^(-5/3)
+# (profiles.py smoke_profile).
 SOOT_MASS_EXTINCTION = 8.7  # m^2/g
 
 
-def heat_release(diameter: float, intensity: float) -> float:
-    """kW, a pool fire's heat release: intensity x q'' x pool area."""
-    return max(intensity, 1e-6) * HEAT_RELEASE_PER_AREA * math.pi * diameter**2 / 4.0
+def fuel_heat_release_per_area(fuel: Fuel, diameter: float) -> float:
+    """kW/m^2, q'' = m'' dH_c (1 - exp(-k beta D)) of a large pool (Babrauskas 1983)."""
+    return fuel.burning_rate * fuel.heat_of_combustion * 1000.0 * (1.0 - math.exp(-fuel.k_beta * diameter))
 
 
-def plume_soot_extinction(diameter: float, intensity: float, base_height: float, base_radius: float) -> float:
+def effect_heat_release(effect: Effect) -> float:
+    """kW, a fire's heat release: the host's heat_release_kw, else its pool's area x the fuel's
+    q''; times the intensity either way."""
+    nominal = effect.heat_release_kw
+    if nominal is None:
+        nominal = fuel_heat_release_per_area(FUELS[effect.fuel], effect.diameter) * math.pi * effect.diameter**2 / 4.0
+    return max(effect.intensity, 1e-6) * nominal
+
+
+def flame_height(diameter: float, q_kw: float) -> float:
+    """Heskestad's mean flame height (m) of a pool fire of heat release q_kw; at least 0.5 D so
+    small fires keep a flame."""
+    if diameter <= 0.0:
+        return 0.0
+    return max(0.235 * max(q_kw, 1e-6) ** 0.4 - 1.02 * diameter, 0.5 * diameter)
+
+
+def plume_soot_extinction(effect: Effect, base_height: float, base_radius: float) -> float:
     """1/m, extinction of a fire plume's soot where the plume starts, ``base_height`` m above the
     pool with radius ``base_radius`` m (its half-density radius)."""
-    q = heat_release(diameter, intensity)
+    fuel = FUELS[effect.fuel]
+    diameter = effect.diameter
+    q = effect_heat_release(effect)
     z0 = 0.083 * q**0.4 - 1.02 * diameter
-    z = max(base_height, heskestad_height(diameter, intensity), z0 + 0.5)
+    z = max(base_height, flame_height(diameter, q), z0 + 0.5)
     w = 0.5 * 1.03 * (0.7 * q) ** (1.0 / 3.0) * (z - z0) ** (-1.0 / 3.0)
-    soot = SOOT_YIELD * q / HEAT_OF_COMBUSTION * 1000.0  # g/s
+    soot = fuel.soot_yield * q / (fuel.heat_of_combustion * 1000.0) * 1000.0  # g/s
     return SOOT_MASS_EXTINCTION * soot / (w * math.pi * max(base_radius, 0.05) ** 2)
 
 
@@ -176,7 +191,8 @@ def effect_volumes(effect: Effect, scene: Scene) -> list[Volume]:
             height = effect.height if effect.height is not None else 2.5 * d * math.sqrt(effect.intensity)
             radius = 0.5 * d
         else:
-            height = effect.height if effect.height is not None else CONTAINER_OVER_FLAME * heskestad_height(d, effect.intensity)
+            height = (effect.height if effect.height is not None
+                      else CONTAINER_OVER_FLAME * flame_height(d, effect_heat_release(effect)))
             radius = 0.55 * d  # the base flares a little beyond the pool
         if height <= 0.0:
             return []

@@ -25,7 +25,6 @@ PROFILE_V = 128
 MAX_PROFILE_PIXELS = 4096 * 4096  # a profile is resampled to PROFILE_V x PROFILE_U: more is only memory
 WAVELENGTHS_UM = np.array([0.610, 0.550, 0.465])  # representative R, G, B
 C2 = 14388.0  # um K, second radiation constant
-FIRE_SMOKE_ALBEDO = 0.25  # sooty smoke of a hydrocarbon fire
 SMOKE_ALBEDO = 0.55  # light grey smoke
 PLUME_VIRTUAL_ORIGIN = 0.43  # container heights below the base: a plume 0.3 of its top's width there
 

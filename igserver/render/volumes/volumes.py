@@ -36,7 +36,7 @@ import numpy as np
 
 from ..bindings import use_texture
 from ...assets import AssetError, resolve_asset
-from ...effect_kinds import EFFECT_KINDS
+from ...effect_kinds import EFFECT_KINDS, FUELS
 from ...scene.model import Scene
 from .. import presets
 from ..camera import CameraView
@@ -46,7 +46,7 @@ from ..texture_pool import TexturePool
 from ..shaders import set_uniforms
 from .effects import NOISE_PERIOD, NOISE_SCALE, Volume, fade_level, plume_soot_extinction, visible_volumes
 from .fire_lights import fire_light
-from .profiles import FIRE_SMOKE_ALBEDO, PLUME_VIRTUAL_ORIGIN, SMOKE_ALBEDO, load_profile
+from .profiles import PLUME_VIRTUAL_ORIGIN, SMOKE_ALBEDO, load_profile
 
 MAX_SHADOW_TEXTURES = 3  # per smoke effect: the keyframes in flight (k, k + 1, k + 2) may differ in a fade
 MAX_PROFILE_TEXTURES = 32  # profile textures kept resident (LRU); each is small, their number is not
@@ -56,8 +56,8 @@ FIRE_SIGMA_D = 1.5  # extinction of a gas burner's density 1 times its diameter:
 # for gasoline, kerosene and fuel oils (Babrauskas, SFPE Handbook, the k beta of the burning-rate
 # law). Across a base of diameter D the optical depth is k D: a 3 m fire's base is opaque (e^-6),
 # a 0.3 m one translucent (e^-0.6), and the intermittent tips, where the profile thins, let light
-# through. (A fixed optical depth of 1.5 per diameter left every fire a translucent ghost.)
-FLAME_ABSORPTION = 2.0  # 1/m at profile density 1
+# through (effect_kinds.FUELS: k beta per fuel; methanol's soot-free flame stays nearly clear).
+# (A fixed optical depth of 1.5 per diameter left every fire a translucent ghost.)
 SMOKE_SIGMA_D = 3.0
 EVICT_AFTER_FRAMES = 120
 SCALE_FADE_FRAMES = 8  # frames over which a changed march resolution cross-fades (~0.27 s at 30 Hz)
@@ -175,17 +175,17 @@ def screen_rect(volumes: list[Volume], view: CameraView, width: int, height: int
 
 def _extinction(vol: Volume, smoke: bool) -> float:
     """1/m, the extinction of the volume's density 1: smoke per its plume's diameter, a pool
-    fire's flame per metre (FLAME_ABSORPTION), a gas burner per its diameter."""
+    fire's flame per metre (its fuel's k beta), a gas burner per its diameter."""
     if smoke and vol.key[1] == "smoke" and EFFECT_KINDS[vol.effect.type].plume is not None:
         # A fire's plume: its soot from the heat release (effects.plume_soot_extinction), at the
         # plume's base (its height above the pool, its half-density radius: smoke_profile).
         e = vol.effect
         base_radius = 0.8 * PLUME_VIRTUAL_ORIGIN / (1.0 + PLUME_VIRTUAL_ORIGIN) * vol.radius
-        return plume_soot_extinction(e.diameter, e.intensity, float(vol.base[2] - e.position[2]), base_radius)
+        return plume_soot_extinction(e, float(vol.base[2] - e.position[2]), base_radius)
     if smoke:
         return SMOKE_SIGMA_D / max(vol.effect.diameter, 1e-3)
     if EFFECT_KINDS[vol.kind].container == "pool_fire":
-        return FLAME_ABSORPTION
+        return FUELS[vol.effect.fuel].k_beta
     return FIRE_SIGMA_D / max(vol.effect.diameter, 1e-3)
 
 
@@ -609,7 +609,7 @@ class VolumesPass(RenderPass):
                 uniforms["u_glow_intensity"] = tuple(float(x) for x in glow.color) if glow else (0.0, 0.0, 0.0)
                 # sooty smoke of a fire vs. a light grey smoke generator: scale the profile's albedo
                 sooty = EFFECT_KINDS[vol.effect.type].plume is not None and vol.profile is None
-                uniforms["u_albedo_scale"] = FIRE_SMOKE_ALBEDO / SMOKE_ALBEDO if sooty else 1.0
+                uniforms["u_albedo_scale"] = FUELS[vol.effect.fuel].smoke_albedo / SMOKE_ALBEDO if sooty else 1.0
             else:
                 lum = FIRE_LUMINANCE * math.sqrt(vol.intensity)
                 uniforms["u_emission"] = (lum, lum, lum)
