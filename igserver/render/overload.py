@@ -11,9 +11,10 @@ Each point has
   ``e^2 = sum_p w_p e_p^2 + e_scale^2``;
 - an **estimated cost**, ms per frame: a seed from the same studies (each pipeline's ms at its
   knobs, a fixed share of the frame's time that does not shrink with the pixels, the rest ~ scale^2)
-  times what the running IG sees: ``predicted(p) = L * seed(p) * k(p)``. L (the load) is an EWMA of
-  the observed ms over the current point's seed and correction: it follows the scene (a fire
-  starting, the camera turning to the sea) whatever the point. k(p) corrects a point's seed: learned
+  times what the running IG sees: ``predicted(p) = L * seed(p) * k(p)``. L (the load) is the median
+  of the last LOAD_WINDOW frames' observed ms over their point's seed and correction: it follows the
+  scene (a fire starting, the camera turning to the sea) whatever the point, in half a window, and a
+  lone slow frame (another process taking the cores) does not move it. k(p) corrects a point's seed: learned
   on the frames just after a step UP to p, against the load measured just before it, so the ratio
   of two points' costs is measured, not assumed. A step up follows UP_FRAMES steady frames, so that
   load is a fresh reference; a step down follows a change of the load, so its frames update L, not
@@ -25,9 +26,9 @@ from the cheapest (largest error) to the best. Per frame the controller (``Overl
 - steps **down at once** when DOWN_FRAMES frames in a row overran the frame budget 1/target: to
   the best frontier point whose predicted cost fits the budget less MARGIN (several points in one
   move if the load jumped: a sudden cost is absorbed in DOWN_FRAMES + 1 frames);
-- steps **up** only after UP_FRAMES frames in a row inside the budget with a better point predicted
-  to fit in the budget less HEADROOM; then to the nearest such point (the next one on the frontier
-  unless the seed misorders a neighbour that the measured costs show does not fit);
+- steps **up** only after UP_FRAMES frames in a row with a better point predicted to fit in the
+  budget less HEADROOM; then to the nearest such point (the next one on the frontier unless the
+  seed misorders a neighbour that the measured costs show does not fit);
 - after stepping down from a point, does not return to it for BLOCK_FRAMES x 2^(times it failed):
   a point that does not fit is not retried at a rate the eye would see as pumping.
 
@@ -43,6 +44,8 @@ build targets: they measure nothing.
 from __future__ import annotations
 
 import math
+import statistics
+from collections import deque
 from dataclasses import dataclass, fields, is_dataclass
 
 from . import presets
@@ -70,7 +73,7 @@ HEADROOM = 0.15  # step up only when frames take <= 85 % of the budget
 DOWN_FRAMES = 2  # consecutive overruns before stepping down
 UP_FRAMES = 30  # consecutive frames with headroom before stepping up (~1 s at 30 fps)
 BLOCK_FRAMES = 120  # a point stepped down from waits this long (doubling per failure) before a retry
-LOAD_ALPHA = 0.3  # EWMA weight of a frame in the load (half-life ~2 frames: follows a cost step)
+LOAD_WINDOW = 9  # frames in the load's median (a step in cost shows after 5; a lone spike never)
 LEARN_FRAMES = 4  # frames after a move that measure the new point's cost ratio (the first is skipped)
 LEARN_ALPHA = 0.5
 WARMUP_FRAMES = 3  # a controller's first frames compile programs and build targets: no measure of load
@@ -204,6 +207,7 @@ class Overload:
         self._load_before_move: float | None = None
         self._learning = False  # the frames after a step up measure the new point's k
         self._recent: list[float] = []  # normalised loads of the last DOWN_FRAMES frames
+        self._norms: deque[float] = deque(maxlen=LOAD_WINDOW)  # the load's window
         self.pipelines = pipelines
         self.points = frontier(pipelines, self.scales, rungs)
         self.index = self._start(start)
@@ -256,12 +260,13 @@ class Overload:
             old = self.correction.get(point.key, 1.0)
             self.correction[point.key] = old + LEARN_ALPHA * (k - old)
         elif self._since_move > 1 or self.load is None:  # a move's first frame builds targets: not load
-            self.load = norm if self.load is None else self.load + LOAD_ALPHA * (norm - self.load)
+            self._norms.append(norm)
+            self.load = statistics.median(self._norms)
         self._recent = (self._recent + [norm])[-DOWN_FRAMES:]
         budget = self.budget_ms
         # a move's first frame (new targets, new programs) is not an overrun of the point
         self._over = self._over + 1 if frame_ms > budget and self._since_move > 1 else 0
-        up = self._up_candidate() if frame_ms <= budget else None
+        up = self._up_candidate()
         self._spare = self._spare + 1 if up is not None else 0
         if self._over >= DOWN_FRAMES and self.index > 0:
             self._step_down()
@@ -269,8 +274,11 @@ class Overload:
             self._move(up)
 
     def _step_down(self) -> None:
-        # The overrunning frames are the load now (the EWMA lags a step in cost by a few frames).
+        # The overrunning frames are the load now (the median lags a step in cost by half its window):
+        # it holds the window's median until the new point's frames outnumber it.
         self.load = max(self.load or 0.0, min(self._recent))
+        self._norms.clear()
+        self._norms.extend([self.load] * (LOAD_WINDOW // 2 + 1))
         fit = (1.0 - MARGIN) * self.budget_ms
         fitting = [i for i in range(self.index) if self.predicted_ms(i) <= fit]
         target = fitting[-1] if fitting else 0  # nothing fits: the cheapest point, target not met
