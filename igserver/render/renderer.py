@@ -133,13 +133,15 @@ class Renderer:
         if len(self._in_flight) <= self.frames_in_flight:
             return None
         # a timed frame waits for every pass: the cycle that draws it is not the cost of a frame
-        return self.collect(None if timed else cycle_start)
+        return self.collect(cycle_start, measured=not timed)
 
-    def collect(self, cycle_start: float | None = None) -> RenderResult | None:
+    def collect(self, cycle_start: float | None = None, measured: bool = True) -> RenderResult | None:
         """The oldest submitted frame not yet returned (waiting for its copy if needed), or None.
         ``cycle_start`` (submit's): when the frame's successor began, so the controller sees the
         render thread's cycle (draw N+1, then wait for N's pixels: on llvmpipe N's rasterisation
-        overlaps N+1's draw, and the cycle is what sets the stream's rate); None: not measured."""
+        overlaps N+1's draw, and the cycle is what sets the stream's rate); None (a frame collected
+        on its own, the stream idle): its draw and readback. ``measured`` False: the controller
+        does not see this frame's time."""
         if not self._in_flight:
             return None
         make_current(self._ctx)
@@ -151,8 +153,9 @@ class Renderer:
             drawn.result.pass_ms["readback"] = drawn.queue_ms + (end - t0) * 1e3
         # the frame's time: its draw plus taking its pixels, not the wait while it was in flight
         result = self._finished(drawn, rgba, drawn.drawn_at + (end - t0))
-        if cycle_start is not None and not drawn.timed:
-            self.frame_quality.observe((end - cycle_start) * 1e3, result.passes)
+        if measured and not drawn.timed:
+            cycle_ms = (end - cycle_start) * 1e3 if cycle_start is not None else result.total_ms
+            self.frame_quality.observe(cycle_ms, result.passes)
         return result
 
     @property
