@@ -144,9 +144,7 @@ def test_frame_block_layout_is_what_glsl_reads(renderer):
     program.run(1)
     got = np.frombuffer(out.read(), np.float32)
     np.testing.assert_array_equal(got, np.asarray(expected, np.float32))
-    program.release(), out.release(), block.release()
-    # the renderer's own block goes back on its binding point at its next update
-    ctx._igserver_frame_block = None
+    program.release(), out.release(), block.release()  # the renderer binds its own block again next frame
 
 
 def test_unchanged_uniforms_and_bindings_are_not_written_again(renderer):
@@ -188,3 +186,16 @@ def test_a_stream_creates_no_gl_object(renderer, name):
     with GLCallCounter() as calls:
         _stream(renderer, scene, 24, t0=scene.time.sim_time + 0.2)
     assert calls.created() == 0, {k: v for k, v in calls.by_name.items() if k.startswith("Context.")}
+
+
+def test_every_uniform_write_goes_through_set_uniforms():
+    """set_uniforms skips a value the program already holds; a write behind its back
+    (``program["u_x"].value = ...``) would make it skip the next real change."""
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1] / "igserver"
+    direct = [f"{p.relative_to(root)}:{n}: {line.strip()}" for p in root.rglob("*.py") if p.name != "gl_count.py"
+              for n, line in enumerate(p.read_text().splitlines(), 1)
+              if re.search(r"\[[^\]]+\]\.(value\s*=[^=]|write\()", line) and "u_" in line]
+    assert not direct, direct

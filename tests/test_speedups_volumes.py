@@ -12,6 +12,8 @@ import numpy as np
 import pytest
 
 from igserver.quality.volumes import errors
+from igserver.render.bindings import use_texture
+from igserver.render.shaders import set_uniforms
 from igserver.render.volumes.volumes import PRESETS, VolumeSettings
 from igserver.scene import apply_patch, load_scene
 
@@ -312,12 +314,12 @@ def test_upsampling_with_one_filtered_fetch_blends_the_matching_texels(renderer)
     fbo = ctx.framebuffer([target])
     try:
         program = vpass.programs.program("common/fullscreen.vert.glsl", "volumes/upsample.frag.glsl")
-        program["u_volume_color"].value, program["u_scene_distance"].value, program["u_volume_distance"].value = 0, 1, 2
-        program["u_scale"].value = scale
-        program["u_volumes_far"].value = 1000.0
-        tex_color.use(0)
-        tex_full.use(1)
-        tex_low.use(2)
+        # the pass's own program: through set_uniforms and use_texture, which keep what they wrote
+        set_uniforms(program, {"u_volume_color": 0, "u_scene_distance": 1, "u_volume_distance": 2, "u_scale": scale,
+                               "u_volumes_far": 1000.0})
+        use_texture(tex_color, 0)
+        use_texture(tex_full, 1)
+        use_texture(tex_low, 2)
         fbo.use()
         ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
         vpass.fullscreen(program)

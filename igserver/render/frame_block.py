@@ -149,7 +149,6 @@ class FrameBlock:
     def update(self, values: dict) -> None:
         if write_buffer(self.buffer, pack(values)):
             self.writes += 1
-        # A binding point is context state: bound once; another buffer bound there would be a bug.
-        if getattr(self.ctx, "_igserver_frame_block", None) is not self.buffer:
-            self.buffer.bind_to_uniform_block(BLOCKS["FRAME"])
-            self.ctx._igserver_frame_block = self.buffer
+        # Bound every frame (one call): a binding point is context state that other code on the
+        # context (a probe, a test) may have used since.
+        self.buffer.bind_to_uniform_block(BLOCKS["FRAME"])

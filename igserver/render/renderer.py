@@ -15,7 +15,7 @@ import moderngl
 import numpy as np
 
 from ..scene.model import Scene
-from . import depth, gl_calls, presets
+from . import bindings, depth, gl_calls, presets
 from .context import capabilities, create_context, make_current, release_context
 from .frame import FrameState, build_frame
 from .graph import FrameGraph
@@ -180,6 +180,9 @@ class Renderer:
         make_current(self._ctx)
         quality, scale, decision = self.quality_for(scene)
         drawn_scene = scaled_scene(scene, scale) if scale < 1.0 else scene
+        # Units are bound once a frame at most: code outside the renderer (a quality study's probe, a
+        # test) may have bound other textures on this context since the last frame.
+        bindings.forget_bindings(self._ctx)
         frame = build_frame(self.ctx, drawn_scene, self.frame_state)
         frame.quality = quality
         targets = self.targets_for(drawn_scene.camera.width, drawn_scene.camera.height)

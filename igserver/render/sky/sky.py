@@ -13,6 +13,7 @@ from .. import depth
 from ..bindings import PASS_UNITS, use_texture
 from ..passes import RenderPass
 from ..shaders import set_uniforms, uniform_inputs
+from .frame_sky import held_haze_table
 from .sky_view import SKY_VIEW_SIZE
 
 STAR_POINT_PX = 2.0
@@ -236,10 +237,13 @@ class SkyPass(RenderPass):
     def _hazy_table(self, frame) -> tuple[moderngl.Texture, moderngl.Texture]:
         """The sky through the haze layer on the sky-view map and its moon column (sky_hazy.glsl),
         filled again only when one of its inputs changed: the clear sky-view table or a uniform the
-        fill reads (the haze, its light, the camera's altitude, the sun and the moon)."""
+        fill reads (the haze, its light, the camera's altitude, the sun and the moon), or the fog
+        layer's light table it samples (made from more than those uniforms: the ground's albedo)."""
         program = self.programs.compute("sky/sky_hazy.glsl")
         sky_view = frame.resources["sky_view"]
-        key = (id(sky_view), sky_view.fills, uniform_inputs(program, frame.uniforms))
+        haze_table = held_haze_table(self.ctx)
+        key = (id(sky_view), sky_view.fills, uniform_inputs(program, frame.uniforms),
+               None if haze_table is None else haze_table[1])
         if getattr(self, "_hazy_tex", None) is None:
             self._hazy_tex = (self.ctx.texture(SKY_HAZY_SIZE, 4, dtype="f4"),
                               self.ctx.texture((1, SKY_HAZY_SIZE[1]), 4, dtype="f4"))
