@@ -103,11 +103,18 @@ def test_sun_override_puts_the_disk_where_its_direction_points(renderer, azimuth
 def test_far_from_origin_renders_like_the_origin(renderer):
     patch = {"entities": [{"id": "b", "position": [0, 40, 0], "scale": [6, 6, 6]}],
              "ground": {"level": 0.0}, "camera": {"position": [0, 0, 3]}}
-    near = _render(renderer, patch).astype(int)
     far_patch = {"entities": [{"id": "b", "position": [1e6, 1e6 + 40, 0], "scale": [6, 6, 6]}],
                  "ground": {"level": 0.0}, "camera": {"position": [1e6, 1e6, 3]}}
-    far = _render(renderer, far_patch).astype(int)
-    assert np.abs(near - far).max() <= 2  # only the dither may differ
+    # Without shadows only the dither may differ. The key shadow map's texels are snapped to a grid
+    # fixed in the world (no sub-texel crawl while the camera moves), so 1000 km away the box sits
+    # elsewhere in its texel and the filtered self-shadow on its lit faces differs by a few levels
+    # at single pixels, as it would a texel's width away from the origin.
+    no_shadows = {"shadows": {"enabled": False}}
+    near = _render(renderer, {**patch, **no_shadows}).astype(int)
+    far = _render(renderer, {**far_patch, **no_shadows}).astype(int)
+    assert np.abs(near - far).max() <= 2
+    near, far = _render(renderer, patch).astype(int), _render(renderer, far_patch).astype(int)
+    assert np.abs(near - far).mean() < 0.25 and np.abs(near - far).max() <= 12
 
 
 def test_point_light_lights_the_ground_at_night(renderer):
