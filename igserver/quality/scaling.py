@@ -21,7 +21,7 @@ import numpy as np
 from ..scene import apply_patch, load_scene
 from .report import Point, Study
 
-LUMA = np.array([0.299, 0.587, 0.114])  # Rec. 601 luma weights, as the SSIM paper's grey images
+LUMA_601 = np.array([0.299, 0.587, 0.114])  # Rec. 601 weights, as the SSIM paper's grey images (not photometry.LUMA)
 SSIM_SIGMA = 1.5
 SSIM_RADIUS = 5  # 11 taps
 K1, K2, PEAK = 0.01, 0.03, 255.0
@@ -47,8 +47,8 @@ def _gaussian_blur(x: np.ndarray) -> np.ndarray:
 def ssim(a: np.ndarray, b: np.ndarray) -> float:
     """Mean SSIM of the luma of two uint8 frames: per window, (2 mu_a mu_b + C1)(2 cov + C2) /
     ((mu_a^2 + mu_b^2 + C1)(var_a + var_b + C2)), C1 = (K1 L)^2, C2 = (K2 L)^2; 1 = identical."""
-    x = a[..., :3].astype(np.float64) @ LUMA
-    y = b[..., :3].astype(np.float64) @ LUMA
+    x = a[..., :3].astype(np.float64) @ LUMA_601
+    y = b[..., :3].astype(np.float64) @ LUMA_601
     c1, c2 = (K1 * PEAK) ** 2, (K2 * PEAK) ** 2
     mx, my = _gaussian_blur(x), _gaussian_blur(y)
     vx = _gaussian_blur(x * x) - mx * mx
