@@ -6,6 +6,7 @@ no context current for the session renderer."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -14,6 +15,7 @@ import pytest
 from igserver.quality.volumes import errors
 from igserver.render.bindings import use_texture
 from igserver.render.shaders import set_uniforms
+from igserver.render.volumes.effects import puffing_frequency, scene_volumes
 from igserver.render.volumes.volumes import PRESETS, VolumeSettings
 from igserver.scene import apply_patch, load_scene
 
@@ -35,11 +37,25 @@ def render_with(renderer, vpass, scene, settings):
     return rgba
 
 
+def at_puff_bulge(scene, z: float):
+    """The first sim_time at or after the scene's when the pool fire's puffing bulge (its widest
+    flame) is at height z (m above the base): the flame's radius there is scaled by
+    1 + a sin(phase(t) - k z) (effects.Volume.puff_phase, puff_wavenumber), widest at phase = pi / 2 + k z."""
+    vol = next(v for v in scene_volumes(scene) if v.key[1] == "fire")
+    t = scene.time.sim_time
+    behind = (math.pi / 2.0 + vol.puff_wavenumber * (z - float(vol.base[2])) - vol.puff_phase(t)) % (2.0 * math.pi)
+    return t + behind / (2.0 * math.pi * puffing_frequency(vol.effect.diameter))
+
+
 def inside_plume(width=160, height=90):
-    """The issue's view from inside night_fire's plume (camera in the tilted flame's top)."""
-    return apply_patch(load_scene("night_fire"), {
+    """The issue's view from inside night_fire's plume (camera in the tilted flame's top), at a
+    puff's bulge: in a neck the flame's top draws in to the axis and leaves the camera in the clear
+    air beside it (measured over a period in twelfths: coverage 0.76-1.0 from the bulge on, below
+    0.5 for about half the period; 0.20 at t = 50)."""
+    scene = apply_patch(load_scene("night_fire"), {
         "camera": {"position": [3, 0, 8], "pitch": 0, "exposure_ev": 9, "width": width, "height": height},
         "time": {"sim_time": 50}})
+    return apply_patch(scene, {"time": {"sim_time": at_puff_bulge(scene, 8.0)}})
 
 
 def adjacent_difference(rgb: np.ndarray) -> float:
@@ -70,15 +86,20 @@ def test_half_resolution_march_costs_little_error(renderer, volumes):
     covered = np.abs(converged - empty).max(-1) > 2
     assert covered.mean() > 0.03
     _, full = errors(render_with(renderer, volumes, scene, EXACT), converged, covered)
-    for scale, allowance in ((2, 3.5), (4, 8.0)):
+    for scale, allowance in ((2, 4.0), (4, 8.0)):
         _, reduced = errors(render_with(renderer, volumes, scene, replace(EXACT, scale=scale)), converged, covered)
-        # Low-passed error (9x9 blur: bias, shifted edges, banding; not the fine noise): half
-        # resolution may add the ~2 levels of 8 bits where banding starts to show plus what the
-        # flame's silhouette costs: the 3 m pool fire is opaque (optical depth ~6 across its base,
-        # its fuel's k beta: effect_kinds.FUELS) and clipped white at EV 10, a full-scale edge against the night
-        # that half resolution moves by up to half a march pixel (measured 3.4 levels over the
-        # full march's 1.5; 2.0 with the old translucent flame). A quarter-resolution pixel is 4 px
-        # wide here, about the blur's half width, so more (9.2 measured; the bound was 5.0 for the old flame).
+        # Low-passed error (9x9 blur: bias, shifted edges, banding; not the fine noise). All of
+        # what a reduced march adds here is the flame's silhouette: the 3 m pool fire is opaque
+        # (optical depth ~6 across its base, its fuel's k beta: effect_kinds.FUELS) and its
+        # radiance is many times white at EV 10, so a low-resolution texel the edge half covers
+        # (alpha 1/2, radiance L/2) still clips white and the bilinear upsampling widens the
+        # white flame by up to a march pixel against the night. Measured (half resolution, excess
+        # over the full march's 1.3-1.5, at sim times 100, 57, 102.5, 203 and 310 s): 2.9-3.3
+        # levels for an unpuffing flame, 3.4-3.7 puffing (the necks and bulges lengthen the
+        # silhouette), and -0.3..0.2 either way at EV 13, where the flame is not clipped. 4.0
+        # holds the puffing flame with a margin of 0.3 and still fails a march that blurs or
+        # shifts the flame itself. A quarter-resolution pixel is 4 px wide here, about the
+        # blur's half width, so more: 7.5 at t = 100 (7.0-9.4 over those times).
         assert reduced < full + allowance, (scale, reduced, full)
 
 
@@ -393,10 +414,13 @@ def test_slabs_hold_the_bent_container_in_less_than_its_box(kind):
 def test_slabs_march_as_one_box_does(renderer, volumes, monkeypatch, view):
     # Drawn farthest (in height from the camera) first, the slabs compose as one march through the
     # whole box: the same picture but for each slab's own start jitter (measured: 71 dB outside, 82
-    # dB from inside the flame at 320x180).
+    # dB from inside the flame at 320x180). At a fixed exposure: the automatic one meters the
+    # flame, so the jitter moving a few of its clipped pixels shifts every pixel of the frame by a
+    # level (mean differences 0.01-0.06 at sim times 0-200 s, 0.001-0.006 at EV 10).
     from igserver.render.volumes import effects
 
-    scene = inside_plume() if view == "inside" else apply_patch(load_scene("night_fire"), {"camera": {"width": 160, "height": 90}})
+    scene = inside_plume() if view == "inside" else apply_patch(load_scene("night_fire"), {
+        "camera": {"width": 160, "height": 90, "exposure_ev": 10}})
     slabs = render_with(renderer, volumes, scene, MEDIUM)
     assert volumes.stats["slabs"] > volumes.stats["drawn"]
     monkeypatch.setattr(effects, "MAX_SLABS", 1)

@@ -157,6 +157,19 @@ class Volume:
         lo, hi = self.box
         return 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
 
+    def puff_phase(self, sim_time: float) -> float:
+        """rad, 2 pi f t of the pool fire's puffing (f = puffing_frequency(D)), reduced modulo 2 pi
+        in float64 (a per-effect start from the seed)."""
+        f = puffing_frequency(self.effect.diameter)
+        return float(math.fmod(2.0 * math.pi * f * sim_time + (self.seed % 7919) * 2.399963, 2.0 * math.pi))
+
+    @property
+    def puff_wavenumber(self) -> float:
+        """rad/m, k = 2 pi f / w: the toroidal vortices shed at the puffing frequency f rise at
+        the flame's buoyant speed w (rise_speed), so its necks and bulges lie w / f apart. The
+        flame's radius at height z (m above the base) is scaled by 1 + a sin(puff_phase - k z)."""
+        return 2.0 * math.pi * puffing_frequency(self.effect.diameter) / max(self.rise_speed, 1e-3)
+
     def noise_offset(self, sim_time: float) -> float:
         """Noise scroll along P.z in lattice units, reduced modulo the period in float64.
 

@@ -3,6 +3,7 @@
 // Normalised container: (x, y) in [-1,1] (units of the container radius), z in [0,1] (height).
 //   P = (q_m / lambda) - (0, 0, tau)          q_m: metres from the base centre at nominal size
 //   u = sqrt(x^2 + y^2)    v = z + Roughness * Turb(P) * sqrt(z)    (colour, density) = Profile(u, v)
+// (a pool fire's u and v then puff: main() below)
 // This is the paper's P = (x, y, z - time) * noiseScale with the noise attached to the nominal
 // (un-faded) container, lambda = nominal radius / noiseScale, so it stays isotropic in metres and
 // does not jump when the fade changes the container's size; tau is reduced modulo the noise period
@@ -39,6 +40,9 @@ uniform float u_opacity;     // fade: profile opacity
 uniform float u_cooling;     // 0 burning .. 1 dying: the colour reddens and dims
 uniform vec3 u_sun_local;    // direction to the sun in normalised container units (unit length in metres)
 uniform float u_sigma;       // 1/m, extinction of density 1 (smoke shadow rays)
+uniform float u_puff;            // pool fire's puffing: relative amplitude (0: none)
+uniform float u_puff_phase;      // rad, 2 pi f t (f = 1.5 / sqrt(D) Hz), reduced on the CPU
+uniform float u_puff_wavenumber; // rad/m, 2 pi f / w: vortices rising at the flame's speed w
 
 const int SHADOW_STEPS = 6;
 
@@ -75,6 +79,13 @@ void main() {
     float turb = turbulence3(p, vec3(0.0, 0.0, u_period), u_octaves, u_seed);
     float u = length(n.xy);
     float v = n.z + u_roughness * turb * sqrt(n.z);
+    // Puffing: a wave of necks and bulges travels up the flame, u / (1 + a(z) sin(2 pi f t - k z)).
+    // The flame stays attached to the pool's rim and the vortex grows as it rises: a(z) ramps from
+    // 0 at the pool to u_puff at a quarter of the container's height. There the profile's envelope
+    // (0.95 (1 - z)^0.6, profiles.py fire_profile) is 0.8 of the container's radius, so a bulge of
+    // 1 + a(z) <= 1.25 stays inside it at every height; a full-amplitude bulge at the base would
+    // cut the flame flat at the container's sides.
+    if (u_puff > 0.0) u /= 1.0 + u_puff * min(n.z * 4.0, 1.0) * sin(u_puff_phase - u_puff_wavenumber * q.z);
     vec4 prof = (u < 1.0 && v < 1.0) ? textureLod(u_profile, vec2(u, clamp(v, 0.0, 1.0)), 0.0) : vec4(0.0);
     float density = prof.a * u_opacity;
 #ifdef SMOKE

@@ -59,6 +59,7 @@ FIRE_SIGMA_D = 1.5  # extinction of a gas burner's density 1 times its diameter:
 # through (effect_kinds.FUELS: k beta per fuel; methanol's soot-free flame stays nearly clear).
 # (A fixed optical depth of 1.5 per diameter left every fire a translucent ghost.)
 SMOKE_SIGMA_D = 3.0
+PUFF_AMPLITUDE = 0.25  # a puffing flame's necks and bulges: its radius x (1 +- 0.25)
 EVICT_AFTER_FRAMES = 120
 SCALE_FADE_FRAMES = 8  # frames over which a changed march resolution cross-fades (~0.27 s at 30 Hz)
 MAX_STREAM_DT = 1.0  # s: frames further apart in sim_time are not one continuous view (no fade)
@@ -306,7 +307,7 @@ class VolumesPass(RenderPass):
         static = self._static_state(vol, frame, settings, size)
         sim_time = frame.scene.time.sim_time
         if settings.model_hz <= 0.0:
-            state = (static, vol.noise_offset(sim_time))
+            state = (static, vol.noise_offset(sim_time), vol.puff_phase(sim_time))
             model = slot.models[0] if slot.models else None
             if model is None or model.state != state:
                 model = self._model_into(slot, model, vol, frame, settings, size, sim_time)
@@ -390,6 +391,11 @@ class VolumesPass(RenderPass):
             "u_sun_local": sun or (0.0, 0.0, 1.0),
             "u_sigma": sigma,
             "u_profile": 0,
+            # A pool fire puffs: toroidal vortices shed at f = 1.5 / sqrt(D) rise at the flame's
+            # buoyant speed w (Volume.rise_speed), so the necks and bulges are w / f apart.
+            "u_puff": PUFF_AMPLITUDE if EFFECT_KINDS[vol.kind].container == "pool_fire" else 0.0,
+            "u_puff_phase": vol.puff_phase(sim_time),
+            "u_puff_wavenumber": vol.puff_wavenumber,
         }
         return model
 
