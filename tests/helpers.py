@@ -21,15 +21,16 @@ def luminance(rgba: np.ndarray) -> np.ndarray:
     return rgba[..., :3].astype(np.float64) @ LUMA
 
 
-def kill_render_process(service) -> None:
+def kill_render_process(service) -> int:
     """SIGKILL a RenderService's render process, as a crash would, and wait until the service sees
-    it gone (its next render restarts it)."""
+    it gone (its next render restarts it: a stream may have done so already). Returns the killed pid."""
     pid = service.pid
     assert pid, "the render process is not running"
     os.kill(pid, signal.SIGKILL)
     deadline = time.monotonic() + 5.0
-    while service.alive and time.monotonic() < deadline:  # is_alive() reaps the process once it is dead
+    while service.alive and service.pid == pid and time.monotonic() < deadline:  # is_alive() reaps it
         time.sleep(0.01)
+    return pid
 
 
 class GLWork:

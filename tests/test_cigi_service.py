@@ -89,7 +89,7 @@ def test_emulator_scenario_drives_the_state(ig):
     # Every SOF's delay from its frame start is measured into /metrics (the figure itself is a
     # benchmark's: a loaded machine makes the event loop wait for the CPU or the GIL, so no bound here)
     count = metrics.value("igserver_cigi_sof_delay_seconds_count")
-    assert count and metrics.value("igserver_cigi_sof_delay_seconds_bucket", le="+Inf") == count
+    assert count and metrics.value("igserver_cigi_sof_delay_seconds_bucket", le="+Inf") >= count  # SOFs go on
 
 
 def test_synchronous_lockstep_is_frame_exact(ig):

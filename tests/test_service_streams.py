@@ -215,8 +215,8 @@ def test_render_process_killed_during_stream(server, ig):
                 parts = iter_multipart_jpegs(mjpeg.iter_bytes())
                 next(parts)
 
-                kill_render_process(service)
-                assert not service.alive
+                killed = kill_render_process(service)
+                assert not service.alive or service.pid != killed  # gone (a new one may be up already)
                 # accepted while the render process is dead: must not be lost
                 ig.patch_state({"host_frame": 30_001, "weather": {"wind_speed": 17.5}}, minimal=True)
                 drain(30_001)
