@@ -167,3 +167,83 @@ def test_a_fixed_preset_with_a_target_moves_only_the_scale(renderer):
         renderer.frame_quality = overload.FrameQuality()
     assert all(set(r.overload["rungs"].values()) == {"low"} for r in results)
     assert results[0].overload["target_fps"] == 240 and results[-1].rgba.shape == (18, 32, 4)
+
+
+class Wall(FakeIG):
+    """A machine where every point past ``last`` costs ``over`` x the budget although the seed ranks
+    it a few per cent dearer: each probe there fails."""
+
+    def __init__(self, ctl: Overload, last: int, over: float = 1.3, **kw):
+        super().__init__(load=1.0, **kw)
+        self.ctl, self.last, self.over = ctl, last, over
+        self.load = 0.8 * ctl.budget_ms / ctl.points[last].seed_ms  # the last fitting point at 80 %
+
+    def true_ms(self, point) -> float:
+        if self.ctl.points.index(point) > self.last:
+            return self.over * self.ctl.budget_ms
+        return self.load * point.seed_ms
+
+
+def p95(values) -> float:
+    return sorted(values)[int(0.95 * (len(values) - 1))]
+
+
+def test_a_probe_that_does_not_fit_is_rarely_retried():
+    ctl = Overload(target_fps=25)
+    last = ctl.index - 3
+    ctl.index = last  # held at the last point that fits
+    ig = Wall(ctl, last, noise=0.03)
+    times = []
+    for _ in range(600):
+        times.append(ig.frame(ctl.point))
+        ctl.observe(times[-1])
+    assert ctl.probes <= 3 and ctl.index == last
+    assert p95(times[overload.WARMUP_FRAMES:]) <= ctl.budget_ms
+
+
+def test_a_failed_probe_goes_back_where_it_came_from_and_waits_longer_each_time():
+    ctl = Overload(target_fps=25)
+    last = ctl.index - 3
+    ctl.index = last
+    ig = Wall(ctl, last, over=1.15)
+    ups, downs = [], []
+    for n in range(2000):
+        before = ctl.index
+        ctl.observe(ig.frame(ctl.point))
+        if ctl.index > before:
+            ups.append(n)
+        elif ctl.index < before:
+            downs.append(ctl.index)
+            # forget what the probe measured and its block: only the wait between probes holds it back
+            ctl.correction.clear()
+            ctl._blocked.clear()
+    assert downs and set(downs) == {last}  # each revert is to the point just left, not some other point
+    gaps = [j - i for i, j in zip(ups, ups[1:])]
+    waits = [overload.UP_FRAMES * 2 ** min(n, overload.MAX_PROBE_BACKOFF) for n in range(1, len(gaps) + 1)]
+    assert len(gaps) >= 4 and all(g >= w for g, w in zip(gaps, waits)), (gaps, waits)
+
+
+def test_no_probe_while_the_recent_p95_is_near_the_budget():
+    # median frames at 70 % of the budget, but one in eight at 95 %: a probe would put its tail over
+    ctl = Overload(target_fps=25)
+    start = ctl.index = ctl.index - 3
+    load = 0.7 * ctl.budget_ms / ctl.point.seed_ms
+    for n in range(400):
+        slow = 0.95 * ctl.budget_ms / 0.7 if n % 8 == 0 else 1.0
+        ctl.observe(load * ctl.point.seed_ms * slow)
+    assert ctl.probes == 0 and ctl.index == start
+    # the same median without the tail: it probes
+    for _ in range(100):
+        ctl.observe(load * ctl.point.seed_ms)
+    assert ctl.probes >= 1
+
+
+def test_an_unmeasured_point_is_predicted_from_the_measured_one_below():
+    ctl = Overload(target_fps=25)
+    ctl.load, ctl.index = 0.4, 10
+    ctl.correction[ctl.points[8].key] = 1.4  # measured: 40 % dearer than its seed
+    assert ctl.predicted_ms(10) == pytest.approx(0.4 * ctl.points[10].seed_ms * 1.4)
+    assert ctl.predicted_ms(12) == pytest.approx(0.4 * ctl.points[12].seed_ms * 1.4)
+    ctl.correction[ctl.points[11].key] = 1.1
+    assert ctl.predicted_ms(12) == pytest.approx(0.4 * ctl.points[12].seed_ms * 1.1)
+    assert ctl.predicted_ms(5) == pytest.approx(0.4 * ctl.points[5].seed_ms)  # nothing measured below

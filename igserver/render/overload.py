@@ -26,11 +26,23 @@ from the cheapest (largest error) to the best. Per frame the controller (``Overl
 - steps **down at once** when DOWN_FRAMES frames in a row overran the frame budget 1/target: to
   the best frontier point whose predicted cost fits the budget less MARGIN (several points in one
   move if the load jumped: a sudden cost is absorbed in DOWN_FRAMES + 1 frames);
-- steps **up** only after UP_FRAMES frames in a row with a better point predicted to fit in the
-  budget less HEADROOM; then to the nearest such point (the next one on the frontier unless the
-  seed misorders a neighbour that the measured costs show does not fit);
+- steps **up** (a *probe*: the new point's cost is known only once its frames are seen) only after
+  UP_FRAMES frames in a row with a better point predicted to fit in the budget less HEADROOM, and
+  only while the recent frames leave room for it: the last P95_WINDOW frames' p95 plus the
+  predicted extra cost of the new point must fit the budget less MARGIN. A probe's frames are the
+  ones a viewer sees stutter, so the gate is on the tail of the frame times, not their median.
+  A point never measured is predicted with the correction of the nearest measured point below it
+  (the current point's measured ratio of true cost to seed, not the bare seed);
+- moves up to the nearest such point (the next one on the frontier; a point past a blocked one
+  only when its measured cost is below the blocked one's: the seed misordered them);
+- a probe that overruns within PROBE_FRAMES of its step up *failed*: the controller goes back to
+  the point it came from (its targets and knobs were just in use, its cost is measured), the load
+  stays what it was (the overrun is the probed point's cost, now learned), and every further probe
+  waits UP_FRAMES x 2^(failed probes in a row, at most MAX_PROBE_BACKOFF) steady frames, until a
+  probe holds or the load falls clearly below the one the last probe failed under;
 - after stepping down from a point, does not return to it for BLOCK_FRAMES x 2^(times it failed):
-  a point that does not fit is not retried at a rate the eye would see as pumping.
+  a point that does not fit is not retried at a rate the eye would see as pumping. The block
+  lifts early only when the load has fallen clearly below the one the point failed under.
 
 A target the machine cannot reach leaves the cheapest point in force and ``met`` false: the frame
 is as fast as the IG can make it, and says so. Nothing raises.
@@ -77,6 +89,10 @@ LOAD_WINDOW = 9  # frames in the load's median (a step in cost shows after 5; a 
 LEARN_FRAMES = 4  # frames after a move that measure the new point's cost ratio (the first is skipped)
 LEARN_ALPHA = 0.5
 WARMUP_FRAMES = 3  # a controller's first frames compile programs and build targets: no measure of load
+P95_WINDOW = 60  # frames whose time spread gates a probe (~2 s at 30 fps: three a probe may add are 5 %)
+PROBE_FRAMES = 8  # an overrun this soon after a step up is the probed point's cost, not the scene's
+MAX_BACKOFF = 5  # doublings at most of a point's block: 32 x BLOCK_FRAMES (~2.5 min at 25 fps)
+MAX_PROBE_BACKOFF = 3  # doublings at most of the wait between probes: 8 x UP_FRAMES (~10 s at 25 fps)
 
 
 def level_of(pipeline: str, value) -> str:
@@ -207,6 +223,12 @@ class Overload:
         self._load_before_move: float | None = None
         self._learning = False  # the frames after a step up measure the new point's k
         self._recent: list[float] = []  # normalised loads of the last DOWN_FRAMES frames
+        self._block_load: dict[tuple[float, str], float] = {}  # point -> the load it failed under
+        self._residuals: deque[float] = deque(maxlen=P95_WINDOW)  # frame ms less the point's prediction
+        self._came_from: int | None = None  # the point a step up left (a failed probe returns to it)
+        self._failed_probes = 0  # failed probes in a row (the probe wait doubles with each)
+        self._failed_load = math.inf  # the load the last probe failed under
+        self.probes = 0  # steps up taken
         self._norms: deque[float] = deque(maxlen=LOAD_WINDOW)  # the load's window
         self.pipelines = pipelines
         self.points = frontier(pipelines, self.scales, rungs)
@@ -229,8 +251,18 @@ class Overload:
         return self.points[self.index]
 
     def predicted_ms(self, i: int) -> float:
-        p = self.points[i]
-        return (self.load or 0.0) * p.seed_ms * self.correction.get(p.key, 1.0)
+        return (self.load or 0.0) * self.points[i].seed_ms * self._k(i)
+
+    def _k(self, i: int) -> float:
+        """k(p): measured, else the nearest measured point's below it (the current point's when none
+        is), else 1: a step's cost is the seed's difference on top of what the frames show."""
+        key = self.points[i].key
+        if key in self.correction:
+            return self.correction[key]
+        for j in range(i - 1, -1, -1):
+            if self.points[j].key in self.correction:
+                return self.correction[self.points[j].key]
+        return self.correction.get(self.point.key, 1.0)
 
     def set_pipelines(self, pipelines: frozenset[str]) -> None:
         """The frame's drawn pipelines changed (a fire lit, the sea out of view): rebuild the frontier
@@ -252,55 +284,97 @@ class Overload:
         if self.frame <= WARMUP_FRAMES:
             return
         point = self.point
-        norm = frame_ms / (point.seed_ms * self.correction.get(point.key, 1.0))
+        norm = frame_ms / (point.seed_ms * self._k(self.index))
         self._since_move += 1
         if self._learning and 1 < self._since_move <= LEARN_FRAMES:
             # the cost ratio of this point to the load measured just before the move
             k = frame_ms / (self._load_before_move * point.seed_ms)
-            old = self.correction.get(point.key, 1.0)
+            old = self._k(self.index)
             self.correction[point.key] = old + LEARN_ALPHA * (k - old)
         elif self._since_move > 1 or self.load is None:  # a move's first frame builds targets: not load
             self._norms.append(norm)
             self.load = statistics.median(self._norms)
         self._recent = (self._recent + [norm])[-DOWN_FRAMES:]
+        if self._since_move > 1 and self.load is not None:
+            self._residuals.append(frame_ms - self.predicted_ms(self.index))
         budget = self.budget_ms
         # a move's first frame (new targets, new programs) is not an overrun of the point
         self._over = self._over + 1 if frame_ms > budget and self._since_move > 1 else 0
         up = self._up_candidate()
         self._spare = self._spare + 1 if up is not None else 0
+        if self._came_from is not None and self._since_move > PROBE_FRAMES:
+            self._came_from, self._failed_probes = None, 0  # the probe held: it fits
+        if self.load is not None and self.load < (1.0 - HEADROOM) * self._failed_load:
+            self._failed_probes, self._failed_load = 0, math.inf  # the scene got cheaper: probe again
         if self._over >= DOWN_FRAMES and self.index > 0:
             self._step_down()
-        elif self._spare >= UP_FRAMES:
+        elif self._spare >= UP_FRAMES * 2 ** min(self._failed_probes, MAX_PROBE_BACKOFF) and self._probe_fits(up):
+            self.probes += 1
             self._move(up)
 
     def _step_down(self) -> None:
-        # The overrunning frames are the load now (the median lags a step in cost by half its window):
-        # it holds the window's median until the new point's frames outnumber it.
-        self.load = max(self.load or 0.0, min(self._recent))
-        self._norms.clear()
-        self._norms.extend([self.load] * (LOAD_WINDOW // 2 + 1))
-        fit = (1.0 - MARGIN) * self.budget_ms
-        fitting = [i for i in range(self.index) if self.predicted_ms(i) <= fit]
-        target = fitting[-1] if fitting else 0  # nothing fits: the cheapest point, target not met
+        if self._came_from is not None and self._load_before_move is not None:
+            # A failed probe: the overrun is the probed point's cost (its k, learned from these very
+            # frames), not the scene's, so the load stays what it was before the step up. Back where
+            # it came from: just drawn (no new targets or knobs), its cost measured.
+            self._failed_probes += 1
+            self.load = self._failed_load = self._load_before_move
+            target = self._came_from
+        else:
+            # The overrunning frames are the load now (the median lags a step in cost by half its
+            # window): it holds the window's median until the new point's frames outnumber it.
+            self.load = max(self.load or 0.0, min(self._recent))
+            self._norms.clear()
+            self._norms.extend([self.load] * (LOAD_WINDOW // 2 + 1))
+            fit = (1.0 - MARGIN) * self.budget_ms
+            fitting = [i for i in range(self.index) if self.predicted_ms(i) <= fit]
+            target = fitting[-1] if fitting else 0  # nothing fits: the cheapest point, target not met
         key = self.point.key
         strikes = self._strikes.get(key, 0)
-        self._blocked[key] = self.frame + BLOCK_FRAMES * 2 ** strikes
+        self._blocked[key] = self.frame + BLOCK_FRAMES * 2 ** min(strikes, MAX_BACKOFF)
+        self._block_load[key] = self.load
         self._strikes[key] = strikes + 1
         self._move(target)
 
+    def _is_blocked(self, j: int) -> bool:
+        key = self.points[j].key
+        if self._blocked.get(key, 0) <= self.frame:
+            return False
+        # the load it failed under has fallen clearly (the scene got cheaper): it may fit now
+        return (self.load or 0.0) > (1.0 - HEADROOM) * self._block_load.get(key, math.inf)
+
     def _up_candidate(self) -> int | None:
-        """The nearest better point, not blocked, predicted within the budget less HEADROOM."""
+        """The nearest better point, not blocked, predicted within the budget less HEADROOM. Past a
+        blocked point only to one whose measured cost is below the blocked one's: a point costlier
+        than one that just failed would fail too."""
         fit = (1.0 - HEADROOM) * self.budget_ms
+        ceiling = math.inf
         for j in range(self.index + 1, len(self.points)):
-            if self._blocked.get(self.points[j].key, 0) <= self.frame and self.predicted_ms(j) <= fit:
+            predicted = self.predicted_ms(j)
+            if self._is_blocked(j):
+                ceiling = min(ceiling, predicted)
+                continue
+            if predicted <= fit and (ceiling == math.inf or
+                                     (self.points[j].key in self.correction and predicted < ceiling)):
                 return j
         return None
+
+    def _probe_fits(self, j: int | None) -> bool:
+        """The probe's frames are predicted inside the budget less MARGIN at their p95: the recent
+        frames' spread over their prediction added to the new point's predicted cost."""
+        if j is None:
+            return False
+        if len(self._residuals) < min(UP_FRAMES, P95_WINDOW):
+            return False  # too few frames to know the tail yet
+        tail = sorted(self._residuals)[int(0.95 * (len(self._residuals) - 1))]
+        return self.predicted_ms(j) + max(tail, 0.0) <= (1.0 - MARGIN) * self.budget_ms
 
     def _move(self, index: int) -> None:
         if index == self.index:
             return
         self._load_before_move = self.load
         self._learning = index > self.index and self.load is not None
+        self._came_from = self.index if index > self.index else None
         self.index = index
         self.changes += 1
         self._since_move = 0
