@@ -76,6 +76,15 @@ class GLCallCounter:
         self._saved.append((cls, attr, original))
         setattr(cls, attr, counted)
 
+    def _wrap_function(self, module, name: str) -> None:
+        label, original, counter = f"{module.__name__.rsplit('.', 1)[-1]}.{name}", getattr(module, name), self
+
+        def counted(*args, **kwargs):
+            return counter._timed(label, original, *args, **kwargs)
+
+        self._saved.append((module, name, original))
+        setattr(module, name, counted)
+
     def _wrap_setter(self, cls: type, attr: str, prop: property) -> None:
         label = f"{cls.__name__}.{attr}="
         counter = self
@@ -126,6 +135,10 @@ class GLCallCounter:
                 elif callable(value) and not isinstance(value, (staticmethod, classmethod, type)):
                     self._wrap_method(cls, attr, value)
         self._wrap_uniform_write()
+        # The GL entry points moderngl lacks, called through ctypes (render/gl_calls.py): glFlush hands
+        # the queued work to the driver, which on llvmpipe may wait for room in its queue.
+        from . import gl_calls
+        self._wrap_function(gl_calls, "flush")
         for attr in ("value", "binding"):
             self._wrap_setter(moderngl.UniformBlock, attr, vars(moderngl.UniformBlock)[attr])
         return self

@@ -85,7 +85,9 @@ def detail_map_levels(waves: np.ndarray, resolution: int) -> list[np.ndarray]:
     np.add.at(spectrum, (n % n_side, m % n_side), half * np.exp(1j * psi))
     np.add.at(spectrum, (-n % n_side, -m % n_side), half * np.exp(-1j * psi))
     s = np.fft.ifft2(spectrum, norm="forward")  # Σ X e^{+2πi (m i + n j) / N}, no 1/N² factor
-    level = np.stack([s.real, s.imag, s.real * s.real, s.imag * s.imag], axis=-1).astype(np.float32)
+    level = np.empty((n_side, n_side, 4), np.float32)  # float64 values rounded once, as a float32 stack
+    level[..., 0], level[..., 1] = s.real, s.imag
+    level[..., 2], level[..., 3] = s.real * s.real, s.imag * s.imag
     levels = [level]
     while level.shape[0] > 1:
         level = 0.25 * (level[0::2, 0::2] + level[0::2, 1::2] + level[1::2, 0::2] + level[1::2, 1::2])
