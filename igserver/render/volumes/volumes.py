@@ -112,13 +112,36 @@ def texture_size(vol: Volume, view: CameraView, settings: VolumeSettings) -> tup
     """(x, y, z) voxels: the knob, lowered for containers that are small on screen."""
     distance = max(float(np.linalg.norm(view.relative(vol.bounding_sphere[0]))) - vol.bounding_sphere[1], 1e-3)
     pixels_per_m = view.projection[1, 1] * view.height / 2.0 / distance
-    across = 2.0 * vol.radius * pixels_per_m / 1.5  # about one voxel per 1.5 px
+    # About one voxel per 1.5 px; for smoke, per 1.5 pixels of the preset's march (scale 2 at
+    # medium): neighbouring rays a march pixel apart skip finer voxels, which only alias. A far
+    # plume's texture then halves per axis (sea_harbour_fire's 32 x 32 x 50 at 111 m: 16 x 16 x 25,
+    # its modelling an eighth) and its low-passed error against a 64-voxel full-resolution march
+    # rises from 0.5-0.9 to 1.7-3.0 levels of 8 bits (the plume's pixels, EV 6, four sim times;
+    # by eye the same dark plume at 111 m), for half the pass's worker CPU.
+    # A flame keeps the full-resolution rule: its clipped silhouette and tips are its picture.
+    march_px = max(settings.scale, 1) if _scattering(vol) else 1
+    across = 2.0 * vol.radius * pixels_per_m / (1.5 * march_px)
     res_xy = settings.resolution
     if settings.lod:
         res_xy = int(min(res_xy, max(settings.min_resolution, 2 ** round(math.log2(max(across, 1.0))))))
     aspect = vol.height / max(2.0 * vol.radius, 1e-6)
     res_z = int(min(max(round(res_xy * aspect), settings.min_resolution), 4 * res_xy))
     return res_xy, res_xy, res_z
+
+
+def model_octaves(vol: Volume, size: tuple[int, int, int], settings: VolumeSettings) -> int:
+    """Turbulence octaves of a texture of ``size``: the knob's at its resolution, one fewer for
+    smoke per halving below it (texture_size's LOD). Octave i's lattice is lambda / 2^i and the
+    knob's texture holds about two voxels per lattice cell of its finest octave; a halved texture
+    would sample that octave at one voxel per cell, aliasing it into a pattern that is not the
+    turbulence's (sea_harbour_fire's plume, low-passed error over four sim times: 1.7-3.0 levels
+    either way, 0.1 less on average with the octave dropped, and a third less noise to model).
+    Flames keep the knob's: the octaves' sum sets how far the tips reach (v = z + roughness Turb
+    sqrt(z))."""
+    if not _scattering(vol):
+        return settings.octaves
+    halvings = max(round(math.log2(max(settings.resolution, 1) / max(size[0], 1))), 0)
+    return max(settings.octaves - halvings, 1)
 
 
 MAX_MARCH_SCALE = 4  # the coarsest march (quarter resolution per axis)
@@ -384,7 +407,7 @@ class VolumesPass(RenderPass):
             "u_tau": vol.noise_offset(sim_time),
             "u_period": NOISE_PERIOD,
             "u_roughness": EFFECT_KINDS[vol.kind].roughness,
-            "u_octaves": settings.octaves,
+            "u_octaves": model_octaves(vol, size, settings),
             "u_seed": vol.seed & 0xFFFFFFFF,
             "u_opacity": vol.opacity,
             "u_cooling": 0.0 if vol.effect.active else 1.0 - vol.level,
@@ -644,4 +667,5 @@ class VolumesPass(RenderPass):
             del self._slots[key]
 
 
-__all__ = ["VolumesPass", "VolumeSettings", "PRESETS", "volumes_needed", "texture_size", "footprint_scale"]
+__all__ = ["VolumesPass", "VolumeSettings", "PRESETS", "volumes_needed", "texture_size", "model_octaves",
+           "footprint_scale"]
