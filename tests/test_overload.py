@@ -247,3 +247,18 @@ def test_an_unmeasured_point_is_predicted_from_the_measured_one_below():
     ctl.correction[ctl.points[11].key] = 1.1
     assert ctl.predicted_ms(12) == pytest.approx(0.4 * ctl.points[12].seed_ms * 1.1)
     assert ctl.predicted_ms(5) == pytest.approx(0.4 * ctl.points[5].seed_ms)  # nothing measured below
+
+
+def test_a_step_up_keeps_the_scale_when_a_better_point_at_it_fits():
+    # the next frontier point changes the internal scale (every target rebuilt, and again on a revert);
+    # a better point at the current scale just past it fits as well: the step goes there
+    ctl = Overload(target_fps=25)
+    i = next(i for i in range(len(ctl.points) - 2) if ctl.points[i + 1].scale != ctl.points[i].scale
+             and ctl.points[i + 2].scale == ctl.points[i].scale)
+    ctl.index = i
+    ig = FakeIG(load=0.75 * ctl.budget_ms / ctl.points[i + 2].seed_ms)
+    ig.true_ms = lambda point: ig.load * point.seed_ms
+    indices = run(ctl, ig, 200)
+    ups = [(a, b) for a, b in zip(indices, indices[1:]) if b > a]
+    assert ups and ups[0] == (i, i + 2)
+    assert all(ctl.points[b].scale == ctl.points[a].scale for a, b in ups)  # no 0.75 -> 0.67 -> 0.75 climb

@@ -34,7 +34,9 @@ from the cheapest (largest error) to the best. Per frame the controller (``Overl
   A point never measured is predicted with the correction of the nearest measured point below it
   (the current point's measured ratio of true cost to seed, not the bare seed);
 - moves up to the nearest such point (the next one on the frontier; a point past a blocked one
-  only when its measured cost is below the blocked one's: the seed misordered them);
+  only when its measured cost is below the blocked one's: the seed misordered them), or past it
+  to the nearest better point at the current scale when that fits as well: changing the scale
+  rebuilds every target at the move and again at a revert, a knob is the cheapest move to undo;
 - a probe that overruns within PROBE_FRAMES of its step up *failed*: the controller goes back to
   the point it came from (its targets and knobs were just in use, its cost is measured), the load
   stays what it was (the overrun is the probed point's cost, now learned), and every further probe
@@ -310,7 +312,7 @@ class Overload:
             self._step_down()
         elif self._spare >= UP_FRAMES * 2 ** min(self._failed_probes, MAX_PROBE_BACKOFF) and self._probe_fits(up):
             self.probes += 1
-            self._move(up)
+            self._move(self._same_scale(up))
 
     def _step_down(self) -> None:
         if self._came_from is not None and self._load_before_move is not None:
@@ -358,6 +360,21 @@ class Overload:
                                      (self.points[j].key in self.correction and predicted < ceiling)):
                 return j
         return None
+
+    def _same_scale(self, up: int) -> int:
+        """``up``, or when it changes the internal scale, the nearest better point at the current
+        scale if it fits as well: a scale change rebuilds every target at the move and again at a
+        revert, a knob at the same scale is the cheapest move to undo. Its error is lower still, so
+        no least-error point is passed over."""
+        if self.points[up].scale == self.point.scale:
+            return up
+        fit = (1.0 - HEADROOM) * self.budget_ms
+        for j in range(up + 1, len(self.points)):
+            if self._is_blocked(j):
+                return up  # past a point that failed: only the measured nearest candidate
+            if self.points[j].scale == self.point.scale:
+                return j if self.predicted_ms(j) <= fit and self._probe_fits(j) else up
+        return up
 
     def _probe_fits(self, j: int | None) -> bool:
         """The probe's frames are predicted inside the budget less MARGIN at their p95: the recent
