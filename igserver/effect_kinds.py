@@ -34,7 +34,8 @@ class EffectKind:
     # relative amplitude of the flame light's flicker about 1 at the puffing frequency 1.5 / sqrt(D) Hz;
     # None: the kind casts no light
     flicker: float | None = None
-    # the light's colour: None = the flame's blackbody (1350 K), reddening as a dying fire cools;
+    # the light's colour: None = a blackbody at the flame's emission temperature (fire_lights.py: the
+    # luminous efficacy of its light over a third of its heat release), reddening as a dying fire cools;
     # else this linear rgb (scaled to unit luminance)
     light_rgb: tuple[float, float, float] | None = None
     # the kind of the plume ``emits_smoke`` adds (a second volume: sooty, lit by the flame); None: the

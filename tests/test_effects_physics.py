@@ -154,9 +154,55 @@ def test_a_dying_fire_light_reddens_and_dims():
         return fire_light(scene.effects[0], scene)
 
     burning, dying = light(True, 110.0), light(False, 102.0)  # dying: half-way through its fade-out
-    assert dying.color[0] / dying.color[2] > 1.5 * burning.color[0] / burning.color[2]
+    # red over green (a ~1,650 K blackbody's blue is outside the Rec. 709 gamut, clipped to 0): green
+    # falls as 0.75^(3 x cooling), cooling 1/2 half-way
+    assert dying.color[0] / dying.color[1] == pytest.approx(0.75**-1.5 * burning.color[0] / burning.color[1])
     growing = light(True, 102.0)  # growing at the same level keeps the burning colour
-    assert growing.color[0] / growing.color[2] == pytest.approx(burning.color[0] / burning.color[2])
+    assert growing.color[0] / growing.color[1] == pytest.approx(burning.color[0] / burning.color[1])
+
+
+def test_blackbody_photometry_from_planck_and_the_cie_observer():
+    """The old candela: a blackbody at the freezing point of platinum (2042 K) has a luminance of
+    60 cd/cm^2 (CIPM 1946-1979); the fitted y-bar peaks at 555 nm with 1.0."""
+    from igserver.render.volumes.planck import blackbody_xyz, cie_1931
+
+    assert blackbody_xyz(2042.0)[1] == pytest.approx(6.0e5, rel=0.02)
+    assert cie_1931(555.0)[1] == pytest.approx(1.0, abs=0.01)
+
+
+def _planckian_locus_uv(kelvin: float) -> np.ndarray:
+    """CIE 1960 (u, v) of the Planckian locus at 1667-2222 K: Kim et al., "Design of advanced colour
+    temperature control system for HDTV applications", J. Korean Phys. Soc. 41, 2002 (cubic
+    splines of x(T) and y(x), within 0.001 of the integrated locus there)."""
+    t = kelvin
+    x = -0.2661239e9 / t**3 - 0.2343589e6 / t**2 + 0.8776956e3 / t + 0.179910
+    y = -1.1063814 * x**3 - 1.34811020 * x**2 + 2.18555832 * x - 0.20219683
+    d = -2.0 * x + 12.0 * y + 3.0
+    return np.array([4.0 * x / d, 6.0 * y / d])
+
+
+@pytest.mark.parametrize("diameter, fuel", [(0.5, "oil"), (1.0, "oil"), (1.0, "wood"), (0.5, "gasoline")])
+def test_fire_light_colour_is_the_blackbody_its_radiated_power_implies(diameter, fuel):
+    """The fire light's colour is a blackbody's at the flame's emission temperature T: the one whose
+    luminous efficacy is the light's lumens over the radiated third of the heat release,
+    4 pi I / (Q / 3) (fire_lights.py). Its chromaticity lies on the Planckian locus at T within
+    0.01 in (u, v) (measured 0.005-0.006: the CIE fit's 0.002-0.004 and the clipping of the blue
+    outside the Rec. 709 gamut), where a fixed 1,350 K of three sampled wavelengths lay 0.06 off."""
+    from igserver.render.volumes.effects import effect_heat_release
+    from igserver.render.volumes.fire_lights import RADIATIVE_FRACTION, emission_temperature
+    from igserver.render.volumes.planck import RGB_TO_XYZ, luminous_efficacy
+
+    scene = _scene([{"id": "f", "diameter": diameter, "fuel": fuel}])
+    effect = scene.effects[0]
+    kelvin = emission_temperature(effect, scene)
+    assert 1667.0 <= kelvin <= 2222.0  # measured 1,702-1,761 K (the locus fit starts at 1,667 K)
+    flame = heskestad_height(diameter, 1.0, fuel)
+    intensity = 0.3 * 2.0e4 * 0.55 * diameter * flame  # 0.3 x core luminance x 0.5 (1.1 D) L
+    efficacy = 4.0 * math.pi * intensity / (RADIATIVE_FRACTION * effect_heat_release(effect) * 1000.0)
+    assert luminous_efficacy(kelvin) == pytest.approx(efficacy, rel=0.01)
+    X, Y, Z = RGB_TO_XYZ @ fire_light(effect, scene).color
+    uv = np.array([4.0 * X, 6.0 * Y]) / (X + 15.0 * Y + 3.0 * Z)
+    assert np.linalg.norm(uv - _planckian_locus_uv(kelvin)) < 0.01, (kelvin, uv, np.linalg.norm(uv - _planckian_locus_uv(kelvin)))
 
 
 def test_flame_height_follows_the_heat_release_and_the_fuel():
