@@ -179,19 +179,27 @@ def test_cli_record_stops_cleanly_on_ctrl_c(server, tmp_path):
     process = subprocess.Popen([sys.executable, "-m", "igserver.client.cli", "--url", server.url, "record",
                                 "--mjpeg", str(out), "--frames", "0"], stderr=subprocess.PIPE, text=True,
                                env={**os.environ, "PYTHONFAULTHANDLER": "1"})
-    deadline = time.monotonic() + 60
-    while (not out.exists() or out.stat().st_size == 0) and time.monotonic() < deadline:
-        time.sleep(0.1)
+    # Ctrl-C only once it is recording: the first 8 kB of JPEGs reached the file (its write buffer's
+    # size). No clock decides the order: the deadline is a hang guard only (a process start and a
+    # stream's first frames take seconds on a loaded 2-core machine, not minutes); a recorder that
+    # exits or never writes fails here, not as a Ctrl-C that landed in its imports.
+    deadline = time.monotonic() + 300
+    while not (out.exists() and out.stat().st_size > 0):
+        if process.poll() is not None or time.monotonic() > deadline:
+            process.kill()
+            _, err = process.communicate()
+            pytest.fail(f"igclient record wrote nothing (exit {process.returncode}):\n{err[-4000:]}")
+        time.sleep(0.05)
     process.send_signal(signal.SIGINT)
     try:
-        # 60 s: it exits in well under a second on a quiet machine; the suite also runs niced on a
-        # loaded 2-core machine, where one such run took more than 30 s.
-        _, err = process.communicate(timeout=60)
+        # a hang guard as well: it exits in well under a second on a quiet machine, and in seconds with
+        # the suite niced on a loaded 2-core machine (one such run took more than 30 s)
+        _, err = process.communicate(timeout=300)
     except subprocess.TimeoutExpired:
         # Still running: SIGABRT makes faulthandler print every thread's stack, which says where
         # Ctrl-C got stuck (seen once under heavy load, never reproduced alone).
         process.send_signal(signal.SIGABRT)
-        _, err = process.communicate(timeout=30)
+        _, err = process.communicate(timeout=60)
         pytest.fail(f"igclient record did not stop on Ctrl-C:\n{err[-4000:]}")
     assert process.returncode == 0, err
     assert "stopped after" in err and "Traceback" not in err
