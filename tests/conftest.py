@@ -20,6 +20,9 @@ def renderer():
 # A module that can start other processes (a real server, the render process, the CLI, a browser)
 # names one of these: its tests are marked ``process``.
 PROCESS_NAMES = ("LoopbackServer", "RenderService", "subprocess", "cdp")
+# A test function that names one of these itself (``import subprocess`` inside it, a helper that runs a
+# server in a process of its own) is marked ``process`` too, the rest of its module not.
+FUNCTION_PROCESS_NAMES = PROCESS_NAMES + ("ServerProcess",)
 
 
 def pytest_collection_modifyitems(config, items):
@@ -29,5 +32,7 @@ def pytest_collection_modifyitems(config, items):
         if "renderer" in getattr(item, "fixturenames", ()):
             item.add_marker(pytest.mark.gl)
         module = getattr(item, "module", None)
-        if module is not None and any(hasattr(module, name) for name in PROCESS_NAMES):
+        code = getattr(getattr(item, "function", None), "__code__", None)
+        if (module is not None and any(hasattr(module, name) for name in PROCESS_NAMES)) or (
+                code is not None and any(name in code.co_names for name in FUNCTION_PROCESS_NAMES)):
             item.add_marker(pytest.mark.process)
