@@ -378,7 +378,14 @@ def test_ready_only_after_the_first_frame_with_precompute_progress(tmp_path, mon
             time.sleep(0.02)
         body = seen[-1][1]
         assert body["frames"] >= 1  # ready comes after the first frame, not when the process is up
-        assert body["last_precompute"]["phase"] == "atmosphere tables" and body["last_precompute"]["elapsed_s"] > 0
+        # the precompute's end is reported with the frame it preceded; on a loaded machine the answer
+        # that carries it may be read a moment after readiness turned true
+        until = time.monotonic() + 10.0
+        while body["last_precompute"] is None and time.monotonic() < until:
+            time.sleep(0.05)
+            body = httpx.get(srv.url + "/v1/ready", timeout=10).json()
+        assert body["last_precompute"] and body["last_precompute"]["phase"] == "atmosphere tables", (body, seen[-3:])
+        assert body["last_precompute"]["elapsed_s"] > 0
         assert any(code == 503 for code, _ in seen)
         # the first frame after ready comes in normal frame time (the tables are resident)
         t0 = time.perf_counter()
