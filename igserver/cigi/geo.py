@@ -48,19 +48,8 @@ class LocalFrame:
         return (self.lat0 + y / self.m_per_deg_lat, lon, z + self.alt0)
 
 
-def rotation(heading: float, pitch: float, roll: float) -> np.ndarray:
-    """Body (x starboard, y forward, z up) -> ENU for heading clockwise from north, pitch nose up,
-    roll right wing down (degrees): Rz(-heading) @ Rx(pitch) @ Ry(roll)."""
-    h, p, r = (math.radians(v) for v in (heading, pitch, roll))
-    ch, sh, cp, sp, cr, sr = math.cos(h), math.sin(h), math.cos(p), math.sin(p), math.cos(r), math.sin(r)
-    rz = np.array([[ch, sh, 0.0], [-sh, ch, 0.0], [0.0, 0.0, 1.0]])
-    rx = np.array([[1.0, 0.0, 0.0], [0.0, cp, -sp], [0.0, sp, cp]])
-    ry = np.array([[cr, 0.0, sr], [0.0, 1.0, 0.0], [-sr, 0.0, cr]])
-    return rz @ rx @ ry
-
-
 def angles(matrix: np.ndarray) -> tuple[float, float, float]:
-    """(heading 0..360, pitch, roll) of a body->ENU rotation (inverse of ``rotation``)."""
+    """(heading 0..360, pitch, roll) of a body->ENU rotation (inverse of render.camera.body_to_world)."""
     forward, starboard, up = matrix[:, 1], matrix[:, 0], matrix[:, 2]
     heading = math.degrees(math.atan2(forward[0], forward[1])) % 360.0
     pitch = math.degrees(math.asin(max(-1.0, min(1.0, forward[2]))))

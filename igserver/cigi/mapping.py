@@ -19,7 +19,8 @@ from . import environment
 from .components import component
 from .codec import Malformed, Packet
 from .datagram import Message
-from .geo import LocalFrame, angles, cigi_body, rotation
+from ..render.camera import body_to_world
+from .geo import LocalFrame, angles, cigi_body
 from .packets_host import (ArticulatedPartControl, ComponentControl, ConformalClampedEntityControl,
                            EntityControl, HatHotRequest, IGControl, LosSegmentRequest, LosVectorRequest,
                            RateControl, ShortArticulatedPartControl, ShortComponentControl, ViewControl,
@@ -322,7 +323,7 @@ def place_everything(work: Work) -> None:
     if view is not None and view.entity in session.entities:
         origin, matrix = session.world_pose(view.entity)
         eye = origin + matrix @ cigi_body(*view.offset)
-        heading, pitch, roll = angles(matrix @ rotation(*view.attitude))
+        heading, pitch, roll = angles(matrix @ body_to_world(*view.attitude))
         for key, value in (("position", [float(v) for v in eye]), ("heading", heading), ("pitch", pitch),
                            ("roll", roll)):
             work.set("camera", key, value)

@@ -15,7 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scene.model import Scene
-from .geo import LocalFrame, cigi_body, rotation
+from ..render.camera import body_to_world
+from .geo import LocalFrame, cigi_body
 from .packets_host import HatHotRequest, LosSegmentRequest, LosVectorRequest
 from .packets_ig import HatHotExtendedResponse, HatHotResponse, LosResponse
 from .session import ENTITY_PREFIX, Session
@@ -113,7 +114,7 @@ def boxes(scene: Scene, session: Session, types: TypeMap) -> list[Box]:
         else:
             continue  # a model made over REST: its bounds are not known here
         out.append(Box(number, np.array(entity.position, dtype=np.float64),
-                       rotation(entity.heading, entity.pitch, entity.roll), tuple(size)))
+                       body_to_world(entity.heading, entity.pitch, entity.roll), tuple(size)))
     return out
 
 

@@ -13,7 +13,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .geo import angles, cigi_body, rotation
+from ..render.camera import body_to_world
+from .geo import angles, cigi_body
 
 ENTITY_PREFIX = "cigi."
 
@@ -86,7 +87,7 @@ class Session:
     def world_pose(self, number: int, depth: int = 0) -> tuple[np.ndarray, np.ndarray]:
         """(ENU position, body->ENU rotation) of entity ``number`` (through its parents)."""
         entity = self.entities[number]
-        own = rotation(*entity.attitude)
+        own = body_to_world(*entity.attitude)
         if entity.parent is None or entity.parent not in self.entities or depth > 16:
             return np.array(entity.position, dtype=np.float64), own
         parent_position, parent_rotation = self.world_pose(entity.parent, depth + 1)
