@@ -139,8 +139,7 @@ def _view_sky_samples(sky: SkyFrame, scene: Scene, view, celestial, haze_height_
     if have_table:
         key = (id(sv), sv._key, sv.fills, np.asarray(view.rotation, np.float64).tobytes(), tuple(view.tangents),
                u["u_sky_view_sun_h"], u["u_horizon_elevation"], haze_height_m, bool(scene.ocean.enabled),
-               None if haze is None else (haze.beta.tobytes(), haze.top, haze.edge, haze.g, haze.omega,
-                                           u["u_haze_sun"], u["u_haze_moon"], u["u_haze_sky"]),
+               None if haze is None else (haze.key, u["u_haze_sun"], u["u_haze_moon"], u["u_haze_sky"]),
                _vec3(celestial.sun_dir), _vec3(celestial.moon_dir))
         hit = _view_sky_cache.get(key)
         if hit is not None:

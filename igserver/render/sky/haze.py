@@ -36,7 +36,7 @@ L_in = S (1 - exp(-tau_ray)).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -68,6 +68,13 @@ class HazeLayer:
     # under a snowfall (0.8) fills the layer with nearly as much light going up as down, so the
     # whiteout's horizon is as bright as its zenith; over 0.1 it was 0.55x as bright (a dark band).
     albedo: float = GROUND_ALBEDO
+
+    @property
+    def key(self) -> tuple:
+        """Every field, exactly: what a value derived from the layer is cached under (a field added
+        here joins every such key by itself)."""
+        return tuple(v.tobytes() if isinstance(v, np.ndarray) else v for v in
+                     (getattr(self, f.name) for f in fields(self)))
 
     # --- profile ------------------------------------------------------------------------------
     def density(self, h):
