@@ -227,6 +227,11 @@ def markdown_table(report: dict) -> str:
     return "\n".join(lines)
 
 
+def _write_json(path: str, report: dict) -> None:
+    with open(path, "w") as fh:
+        json.dump(report, fh, indent=2)
+
+
 def run(scenes: list[str], resolutions: list[tuple[int, int]], frames: int, assignments: list[str],
         json_path: str | None = None, presets: list[str] | None = None, markdown_path: str | None = None) -> dict:
     from .render.renderer import Renderer
@@ -254,6 +259,8 @@ def run(scenes: list[str], resolutions: list[tuple[int, int]], frames: int, assi
                 row = bench_scene(renderer, scene, frames, gpu_timer=gpu_timer)
                 row.update(scene=name, resolution=f"{width}x{height}", preset=preset)
                 report["runs"].append(row)
+                if json_path:  # after every row, so a run cut short by a time limit still leaves its rows
+                    _write_json(json_path, report)
                 passes = "  ".join(f"{k} {v['median']:.2f} ({v['p99']:.2f})" for k, v in row["pass_ms"].items())
                 extra = "".join(f"  |  {k}: " + ", ".join(f"{sk} {sv:.4g}" if isinstance(sv, float) else f"{sk} {sv}"
                                                            for sk, sv in v.items()) for k, v in row["stats"].items())
@@ -268,8 +275,7 @@ def run(scenes: list[str], resolutions: list[tuple[int, int]], frames: int, assi
                       f"({row['total_ms']['p99']:.2f})  |  {passes}{extra}  |  cpu ms calling thread/workers: {cpu}{gpu}",
                       flush=True)
     if json_path:
-        with open(json_path, "w") as fh:
-            json.dump(report, fh, indent=2)
+        _write_json(json_path, report)
     table = markdown_table(report)
     print(f"\nrenderer: {report['renderer']}\n\n{table}")
     if markdown_path:

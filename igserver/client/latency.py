@@ -3,11 +3,15 @@
 
 from __future__ import annotations
 
+import re
 import statistics
 import threading
 import time
+from collections import Counter
 
-from .http import IGClient
+from .http import MJPEG_HEADERS, IGClient
+
+_PART_QUALITY = re.compile(rb"X-IG-Quality: ([^\r]*)\r\n")
 
 
 def percentile(values: list[float], q: float) -> float:
@@ -28,8 +32,12 @@ def latency_bench(url: str, frames: int = 200, warmup: int = 10, mode: str = "ws
     ws-stream: a host that sends a patch every 1/``rate_hz`` s without waiting for frames (faster than
     the IG draws: the stream is saturated, frames are in flight); per frame received, the time from the
     sending of the state it shows.
+    mjpeg: GET /v1/stream.mjpg as a viewer reads it; per part, its arrival and its ``X-IG-Quality``
+    header (the operating point the overload controller chose). No state is sent: only the rate counts.
     Returns e2e, render (render process) and encode (server) times in ms, per frame.
     """
+    if mode == "mjpeg":
+        return mjpeg_rate(url, frames, warmup, token)
     e2e, render, encode = [], [], []
     with IGClient(url, token=token) as ig:
         base = ig.get_state().host_frame + 1
@@ -92,7 +100,35 @@ def latency_bench(url: str, frames: int = 200, warmup: int = 10, mode: str = "ws
     return result
 
 
+def mjpeg_rate(url: str, frames: int, warmup: int, token: str | None = None) -> dict:
+    """The MJPEG stream's frame intervals as a viewer sees them, and the operating points it showed."""
+    arrivals, points = [], []
+    with IGClient(url, token=token) as ig:
+        params = {"frames": frames + warmup}
+        with ig.http.stream("GET", "/v1/stream.mjpg", params=params, headers=MJPEG_HEADERS) as response:
+            response.raise_for_status()
+            pending = b""
+            for chunk in response.iter_bytes():
+                pending += chunk
+                while (match := _PART_QUALITY.search(pending)) is not None:
+                    arrivals.append(time.perf_counter())
+                    points.append(match.group(1).decode())
+                    pending = pending[match.end():]
+    arrivals, points = arrivals[warmup:], points[warmup:]
+    intervals = [(b - a) * 1e3 for a, b in zip(arrivals, arrivals[1:])]
+    result = {"mode": "mjpeg", "e2e_ms": [], "render_ms": [], "encode_ms": [], "interval_ms": intervals,
+              "operating_points": Counter(points).most_common(3)}
+    if len(arrivals) > 1:
+        result["fps"] = (len(arrivals) - 1) / (arrivals[-1] - arrivals[0])
+    return result
+
+
 def summarize(result: dict) -> dict:
+    if result["mode"] == "mjpeg":
+        intervals = result["interval_ms"]
+        return {"mode": "mjpeg", "frames": len(intervals) + 1, "interval_p50": percentile(intervals, 50),
+                "interval_p95": percentile(intervals, 95), "fps": result.get("fps", float("nan")),
+                "operating_points": result["operating_points"]}
     e2e, render, encode = result["e2e_ms"], result["render_ms"], result["encode_ms"]
     overhead = [a - b - c for a, b, c in zip(e2e, render, encode)]
     return {
@@ -111,6 +147,10 @@ def summarize(result: dict) -> dict:
 
 
 def format_summary(s: dict) -> str:
+    if s["mode"] == "mjpeg":
+        shown = "; ".join(f"{n}x {point}" for point, n in s["operating_points"])
+        return (f"mjpeg: {s['frames']} frames  {s['fps']:.1f} frames/s  interval p50 {s['interval_p50']:.1f} ms  "
+                f"p95 {s['interval_p95']:.1f} ms | most shown: {shown}")
     return (
         f"{s['mode']:>4}: {s['frames']} frames  e2e p50 {s['e2e_p50']:.2f} ms  p99 {s['e2e_p99']:.2f} ms | "
         f"render p50 {s['render_p50']:.2f} p99 {s['render_p99']:.2f} ms | encode p50 {s['encode_p50']:.2f} ms | "

@@ -31,7 +31,8 @@ def free_port() -> int:
 
 
 @contextlib.contextmanager
-def server_process(width: int, height: int, scene: str | None = None, port: int | None = None):
+def server_process(width: int, height: int, scene: str | None = None, port: int | None = None,
+                   target_fps: float = 0.0):
     """A real igserver on loopback in a child process; yields its URL once /v1/ready says so."""
     from igserver.client import IGClient
 
@@ -40,7 +41,10 @@ def server_process(width: int, height: int, scene: str | None = None, port: int 
                "--height", str(height)]
     if scene:
         command += ["--scene", scene]
-    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=os.environ.copy())
+    env = os.environ.copy()
+    if target_fps:  # the server's setting for the scene's quality.target_fps
+        env["IGSERVER_TARGET_FPS"] = str(target_fps)
+    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
     url = f"http://127.0.0.1:{port}"
     try:
         with IGClient(url) as ig:
@@ -76,14 +80,18 @@ def run_service_bench(argv: list[str] | None = None) -> int:
     parser.add_argument("--height", type=int, default=360)
     parser.add_argument("--frames", type=int, default=300)
     parser.add_argument("--scene", default=None, help="scene file or name (default: built-in defaults)")
-    parser.add_argument("--modes", default="ws,http,ws-stream")
+    parser.add_argument("--modes", default="ws,http,ws-stream",
+                        help="comma-separated: ws, http, ws-stream, mjpeg (the stream's rate and operating points)")
+    parser.add_argument("--target-fps", type=float, default=0.0,
+                        help="the frame rate the started server holds (quality.target_fps; 0 = off)")
     parser.add_argument("--rate", type=float, default=60.0, help="ws-stream: states sent per second")
     parser.add_argument("--url", default=None, help="bench a running server instead of starting one")
     parser.add_argument("--json", action="store_true", help="print the summaries as JSON")
     args = parser.parse_args(argv)
 
     with contextlib.ExitStack() as stack:
-        url = args.url or stack.enter_context(server_process(args.width, args.height, args.scene))
+        url = args.url or stack.enter_context(
+            server_process(args.width, args.height, args.scene, target_fps=args.target_fps))
         with IGClient(url) as ig:
             ready = ig.wait_ready()
             raw = ig.get_frame("raw")
@@ -94,6 +102,7 @@ def run_service_bench(argv: list[str] | None = None) -> int:
     encoders = compare_jpeg_encoders(rgba)
     if args.json:
         print(json.dumps({"renderer": ready.get("renderer"), "size": [raw.width, raw.height],
+                          "target_fps": args.target_fps,
                           "latency": summaries, "jpeg": encoders}, indent=2))
         return 0
     print(f"igserver service bench: {raw.width}x{raw.height}, {ready.get('renderer')}, loopback")
