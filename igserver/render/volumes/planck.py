@@ -83,6 +83,19 @@ def _light_rgb(kelvin: int) -> tuple[float, float, float]:
     return float(rgb[0]), float(rgb[1]), float(rgb[2])
 
 
+_RGB_TABLE_T = np.arange(500.0, 6001.0, 5.0)
+_RGB_TABLE = np.maximum(np.linalg.solve(RGB_TO_XYZ, np.stack([blackbody_xyz(t) for t in _RGB_TABLE_T]).T).T, 0.0)
+_RGB_TABLE /= _RGB_TABLE.max(axis=1, keepdims=True)
+
+
+def blackbody_chromaticity(kelvin) -> np.ndarray:
+    """(..., 3) linear Rec. 709 colour of a blackbody at ``kelvin`` (array or scalar), its brightest
+    channel 1: the integrated Planck x CIE colour, tabulated every 5 K over 500-6000 K and
+    interpolated per channel (within 0.002 of the direct integral; clamped outside the range)."""
+    t = np.clip(np.asarray(kelvin, dtype=np.float64), _RGB_TABLE_T[0], _RGB_TABLE_T[-1])
+    return np.stack([np.interp(t, _RGB_TABLE_T, _RGB_TABLE[:, c]) for c in range(3)], axis=-1)
+
+
 def blackbody_light_rgb(kelvin: float) -> np.ndarray:
     """Linear Rec. 709 colour of a blackbody at ``kelvin`` (to the nearest kelvin), unit luminance."""
     return np.array(_light_rgb(int(round(kelvin))))
