@@ -157,11 +157,29 @@ def set_uniforms(program, values: dict[str, object]) -> None:
                 continue
         except ValueError:  # a sequence holding arrays: compare nothing, write it
             pass
+        value = _fitted(member, value)
         if isinstance(value, bytes):
             member.write(value)
         else:
             member.value = value
         written[name] = key
+
+
+def _fitted(member, value):
+    """The part of an array value that the program's uniform holds. A driver drops the trailing elements
+    of a uniform array that the shader never reads (Mesa and NVIDIA both do, each by its own analysis),
+    so ``uniform vec4 a[8]`` may be 2 elements long in one driver and 8 in another. The caller writes
+    what the shader may read: the tail the program lacks is cut here, and bytes short of the program's
+    length are padded with zeros (elements the shader does not read, kept by a driver that could not
+    prove so)."""
+    n = member.array_length
+    if isinstance(value, bytes):
+        size = n * member.element_size
+        return value[:size] if len(value) >= size else value + bytes(size - len(value))
+    if (isinstance(value, (list, tuple)) and len(value) > n
+            and (n > 1 or member.dimension == 1 or isinstance(value[0], (list, tuple)))):
+        return value[0] if n == 1 else tuple(value[:n])
+    return value
 
 
 def _settable(program) -> dict:
