@@ -237,3 +237,22 @@ def test_plume_soot_by_fuel():
     assert sigma("oil") / sigma("wood") == pytest.approx((0.06 / 39.7) / (0.015 / 17.0), rel=1e-9)
     assert sigma("methanol") == 0.0
     assert 2.0 < sigma("oil") < 20.0  # 1/m: a dense black plume (its optical depth across ~ sigma 2 m)
+
+
+@pytest.mark.parametrize("kelvin, published", [(1000.0, (255, 56, 0)), (1500.0, (255, 109, 0)),
+                                               (1800.0, (255, 126, 0)), (2000.0, (255, 137, 18)),
+                                               (2500.0, (255, 161, 72))])
+def test_flame_colour_by_temperature_is_the_blackbodys(kelvin, published):
+    """The flame profile's colour at T is Planck's law integrated against the CIE observer: sRGB of a
+    blackbody scaled to its brightest channel, against Charity's published table ("What color is a
+    blackbody?", vendian.org, 2001: CIE 1964 10-deg observer, D65 white point). Bound 10 levels of
+    green and blue: the 2-deg (1931) observer here against the table's 10-deg one, and the
+    Wyman-Sloan-Shirley fit (measured 2-4 levels, 9 at 1,000 K where the observers differ most). Three sampled wavelengths gave (254, 150, 49) at
+    1,500 K: 41 levels too green, the yellow of a 2,800 K lamp."""
+    from igserver.render.volumes.profiles import blackbody_rgb
+
+    c = np.clip(blackbody_rgb(kelvin), 0.0, 1.0)
+    srgb = np.where(c <= 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055) * 255.0
+    assert abs(srgb[0] - published[0]) <= 1.0, (kelvin, srgb)
+    assert abs(srgb[1] - published[1]) <= 10.0, (kelvin, srgb)
+    assert abs(srgb[2] - published[2]) <= 10.0, (kelvin, srgb)

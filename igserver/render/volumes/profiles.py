@@ -5,8 +5,8 @@ column i the distance from the axis u = (i + 0.5) / U in [0,1] of the container'
 Channels: rgb = colour (fire: linear emitted colour, max ~1, scaled by the effect's luminance;
 smoke: albedo), a = density (relative extinction, 0..1).
 
-Fire colour follows temperature: blackbody chromaticity from Planck's law at three wavelengths,
-with brightness compressed to Tn^1.5 (a real 1000 K edge is ~1e-3 of a 1500 K core; the display
+Fire colour follows temperature: blackbody chromaticity from Planck's law integrated against the
+CIE 1931 observer (planck.py; ~1500 K orange-red, ~2000 K yellow-orange), with brightness compressed to Tn^1.5 (a real 1000 K edge is ~1e-3 of a 1500 K core; the display
 could not show both, a trainee expects to see the red tips).
 """
 
@@ -19,22 +19,18 @@ import numpy as np
 
 from ...effect_kinds import EFFECT_KINDS
 from ...photometry import LUMA
+from .planck import blackbody_chromaticity
 
 PROFILE_U = 64
 PROFILE_V = 128
 MAX_PROFILE_PIXELS = 4096 * 4096  # a profile is resampled to PROFILE_V x PROFILE_U: more is only memory
-WAVELENGTHS_UM = np.array([0.610, 0.550, 0.465])  # representative R, G, B
-C2 = 14388.0  # um K, second radiation constant
 SMOKE_ALBEDO = 0.55  # light grey smoke
 PLUME_VIRTUAL_ORIGIN = 0.43  # container heights below the base: a plume 0.3 of its top's width there
 
 
 def blackbody_rgb(kelvin) -> np.ndarray:
     """Linear RGB chromaticity (max channel 1) of a blackbody at ``kelvin`` (array or scalar)."""
-    t = np.asarray(kelvin, dtype=np.float64)[..., None]
-    lam = WAVELENGTHS_UM
-    radiance = lam**-5 / np.expm1(C2 / (lam * np.maximum(t, 100.0)))
-    return radiance / radiance.max(axis=-1, keepdims=True)
+    return blackbody_chromaticity(kelvin)
 
 
 def _smoothstep(e0, e1, x):
