@@ -7,6 +7,9 @@
 #include "common/brdf.glsl"
 #include "common/lights.glsl"
 #include "water/sea_tables.glsl"
+#ifdef WATER_UNDERWATER
+#include "water/underwater.glsl"
+#endif
 
 #ifndef MAX_HULLS
 #define MAX_HULLS 32
@@ -124,6 +127,11 @@ void main() {
     vec3 n = normalize(vec3(-slope, 1.0));
     float dist = length(v_rel);
     vec3 v = -v_rel / dist;
+#ifdef WATER_UNDERWATER  // the camera is below the surface (water/underwater.glsl)
+    out_color = vec4(pre_expose(underwater_mesh(n, v_normal, -v, dist, alpha, u_glint_dir, u_glint_illuminance)), 1.0);
+    out_distance = dist;
+    return;
+#endif
     float n_dot_v = dot(n, v);
     if (n_dot_v < 0.02) {  // facet turned away by the detail maps: bend it back toward the eye
         n = normalize(n + v * (0.02 - n_dot_v));

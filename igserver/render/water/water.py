@@ -34,6 +34,7 @@ from .detail import (DETAIL_MAPS, detail_map_levels, detail_means, detail_tiles,
 from .foam import FOAM_EDGE, FOAM_NOISE_SIZE, FOAM_NOISE_UNIT, FOAM_PERIOD, drawn_foam_threshold, foam_frame
 from .hulls import MAX_HULLS, blocks_near_hulls, hull_boxes
 from .sea_tables import SeaTables
+from .underwater import eye_depth, underwater_uniforms
 
 MAX_WAVES = 64
 # Texture units bound for the water draw (the frame keeps 8..15: haze table, sky-view table, 4D tables).
@@ -100,6 +101,7 @@ class WaterPass(RenderPass):
         self.foam_threshold: float | None = None  # tests: a J threshold instead of the calibrated one
         self._foam_noise_tex: moderngl.Texture | None = None
         self.stats: dict = {}
+        self._underwater: dict | None = None  # this frame's under-water uniforms when the eye is below the surface
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
         return scene.ocean.enabled
@@ -114,6 +116,8 @@ class WaterPass(RenderPass):
             defines["WATER_FIELD"] = 1
         if hulls:
             defines["WATER_HULLS"] = 1
+        if self._underwater is not None:  # the eye below the surface (water/underwater.glsl)
+            defines["WATER_UNDERWATER"] = 1
         return self.programs.program("water/water.vert.glsl", "water/water.frag.glsl", defines)
 
     def _atmosphere_define(self) -> dict:
@@ -313,6 +317,10 @@ class WaterPass(RenderPass):
         means = detail_means(tiles) if np.any(maps < used_maps) else np.zeros((DETAIL_MAPS, 4))
         self._update_detail(sea, t, resolution, tiles, int(maps.max()) if len(maps) else 0)
         shared = self._frame_uniforms(frame, sea, waves, tiles, selection, hulls, table_uniforms) if groups else None
+        self._underwater = None
+        if shared is not None and self._submerged(frame, sea, selection):
+            self._underwater = {**shared["values"], **underwater_uniforms(scene, view.position, selection.error_sphere)}
+            shared["values"] = self._underwater
         programs = {}
         for key, _, nodes, _ in groups:
             if key not in programs:
@@ -333,6 +341,7 @@ class WaterPass(RenderPass):
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.disable(moderngl.BLEND)
         under = self._sees_under_mesh(frame, sea, selection)
+        under = under or self._underwater is not None
         if under:
             self.ctx.disable(moderngl.CULL_FACE)
         else:
@@ -344,6 +353,7 @@ class WaterPass(RenderPass):
             self._vao(programs[key], nodes, slot, fan).render(moderngl.TRIANGLES, instances=len(nodes))
         self.ctx.disable(moderngl.CULL_FACE)
         self.stats["culled_back_faces"] = not under
+        self.stats["underwater"] = self._underwater is not None
         if under:
             self._fill_under_crests(frame, selection, table_uniforms)
 
@@ -403,10 +413,30 @@ class WaterPass(RenderPass):
         surface = float(sea.query(np.asarray(frame.view.position[:2])[None], frame.scene.time.sim_time)["height"][0])
         return height - surface <= frame.view.near + mesh_error + 0.05
 
+    @staticmethod
+    def _submerged(frame, sea: SeaSurface, selection: lod.LodSelection) -> bool:
+        """Whether the eye is below the sea's surface at its xy (underwater.eye_depth); an eye higher
+        above the mean level than every crest is not (no query)."""
+        height = float(frame.view.position[2]) - frame.scene.ocean.level
+        if height > 1.05 * selection.error_sphere:
+            return False
+        return eye_depth(frame.scene, sea, frame.view.position) > 0.0
+
+    def _fill_underwater(self, table_uniforms: dict) -> None:
+        """Under water: what the mesh does not cover (water/underwater.frag.glsl), after the mesh."""
+        program = self.programs.program("common/fullscreen.vert.glsl", "water/underwater.frag.glsl",
+                                        self._atmosphere_define())
+        set_uniforms(program, self._underwater)
+        set_uniforms(program, table_uniforms)
+        self.fullscreen(program)
+
     def _fill_under_crests(self, frame, selection: lod.LodSelection, table_uniforms: dict) -> None:
         """Rays that pass under the mesh (``_sees_under_mesh``) meet the water body: draw the sphere
         below every trough (level − ΣA, no near clip) in deep-water colour; the depth test keeps the
         mesh wherever it is nearer. Only then: it costs a full-screen pass."""
+        if self._underwater is not None:  # the eye below the surface: the water column and the bed instead
+            self._fill_underwater(table_uniforms)
+            return
         sphere = selection.error_sphere
         height = float(frame.view.position[2]) - frame.scene.ocean.level
         program = self.programs.program("common/fullscreen.vert.glsl", "water/body.frag.glsl",
