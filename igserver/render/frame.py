@@ -188,23 +188,40 @@ def build_frame(ctx: moderngl.Context, scene: Scene, state: FrameState | None = 
     # estimated from the sky-view table; the post pass meters the rendered frame and corrects it.
     samples = meter_samples(sky, scene, view, celestial, altitude - scene.location.altitude, lights)
     target, meter = display_metered_ev100(samples)
-    if scene.camera.exposure_ev is not None:
-        ev100 = float(scene.camera.exposure_ev)
-    elif state is not None and state.eye.ev100 is not None and 0.0 < scene.time.sim_time - state.eye.sim_time <= 1.0:
-        ev100 = 0.5 * (target + state.eye.ev100)  # mid-adaptation: between the last and the target
-    else:
-        ev100 = target
+    ev100 = provisional_ev100(scene, state, target)
     frame = FrameContext(ctx, scene, view, celestial, light, exposure_of_ev100(ev100), lights,
                          ev100=ev100, illuminance_lux=sky.horizontal_illuminance, meter_luminance=meter)
     frame.resources["atmosphere_tables"] = sky.tables
     frame.resources["sky_view"] = sky.sky_view
     frame.resources["haze"] = sky.haze
     frame.resources["frame_state"] = state
+    frame.resources["meter_samples"] = samples  # channels meter the union of their views (render/multiview.py)
     frame.uniforms = common_uniforms(frame)
     frame.uniforms.update(sky.uniforms)
     frame.defines = light_defines(celestial, lights)
     FrameBlock.get(ctx).update(frame.uniforms)
     return frame
+
+
+def provisional_ev100(scene: Scene, state: FrameState | None, target: float) -> float:
+    """The passes' exposure before the post pass meters the frame: the camera's fixed EV100, or
+    ``target`` (estimated from the sky-view table) eased by the adaptation state."""
+    if scene.camera.exposure_ev is not None:
+        ev100 = float(scene.camera.exposure_ev)
+    elif state is not None and state.eye.ev100 is not None and 0.0 < scene.time.sim_time - state.eye.sim_time <= 1.0:
+        ev100 = 0.5 * (target + state.eye.ev100)  # mid-adaptation: between the last and the target
+    else:
+        ev100 = target
+    return ev100
+
+
+def set_exposure(frame: FrameContext, ev100: float, meter_luminance: float) -> None:
+    """Give ``frame`` another provisional exposure (the frame block is written by the caller)."""
+    frame.ev100 = ev100
+    frame.exposure = exposure_of_ev100(ev100)
+    frame.meter_luminance = meter_luminance
+    frame.uniforms["u_exposure"] = frame.exposure
+    frame.uniforms["u_adaptation_luminance"] = float(meter_luminance)
 
 
 # common/lights.glsl skips the sun's or moon's term below this direction z (about -5.7 deg).

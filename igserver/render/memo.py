@@ -23,14 +23,30 @@ T = TypeVar("T")
 class Memo:
     """The last value of each named item with the key it was computed for."""
 
+    # How many keys of each item are kept, the most recently used: set per frame by the renderer to
+    # the number of views it draws. A frame of N channels (render/multiview.py) keeps each channel's
+    # view-keyed items past the other channels' (a still eyepoint selects once per channel, not once
+    # per channel per frame); 1 otherwise (the last frame's value).
+    slots = 1
+
     def __init__(self):
         self._held: dict[str, tuple[Hashable, object]] = {}
+        self._older: dict[str, list[tuple[Hashable, object]]] = {}  # up to slots - 1 earlier ones per item
         self.computed: Counter = Counter()
 
     def get(self, item: str, key: Hashable, compute: Callable[[], T]) -> T:
         held = self._held.get(item)
         if held is not None and held[0] == key:
             return held[1]
+        older = self._older.setdefault(item, [])
+        if held is not None and Memo.slots > 1:
+            older.insert(0, held)
+        hit = next((i for i, (k, _) in enumerate(older) if k == key), None)
+        if hit is not None:
+            self._held[item] = older.pop(hit)
+            del older[Memo.slots - 1:]
+            return self._held[item][1]
+        del older[max(Memo.slots - 1, 0):]
         value = compute()
         self._held[item] = (key, value)
         self.computed[item] += 1
@@ -38,6 +54,7 @@ class Memo:
 
     def clear(self) -> None:
         self._held.clear()
+        self._older.clear()
 
 
 def view_key(view) -> tuple:

@@ -19,6 +19,8 @@ from . import bindings, depth, gl_calls, presets
 from .context import capabilities, create_context, make_current, release_context
 from .frame import FrameState, build_frame
 from .graph import FrameGraph
+from .memo import Memo
+from .multiview import ChannelGroup, draw_channels
 from .overload import FrameQuality
 from .readback import ReadbackRing
 from .scaling import Upscaler, scaled_scene
@@ -43,6 +45,10 @@ class RenderResult:
     pass_cpu_ms: dict[str, tuple[float, float]] = field(default_factory=dict)
     host_frame: int = 0  # of the scene drawn: a frame returned later (frames in flight) names its own state
     sim_time: float = 0.0  # s, of the scene drawn
+    # A scene with channels (docs/channels.md): each channel's frame by id, in the scene's order (same
+    # exposure, host_frame, sim_time); ``rgba`` is then all of them side by side (scene/channels.py
+    # mosaic_layout) and pass_ms the sum over the channels. None for a scene without channels.
+    channels: dict[str, "RenderResult"] | None = None
 
 
 @dataclass
@@ -55,6 +61,7 @@ class _Drawn:
     drawn_at: float  # perf_counter s when its last pass was queued
     timed: bool
     queue_ms: float = 0.0  # ms to queue the readback (frames in flight)
+    views: list | None = None  # a frame of channels: its multiview.ChannelView list (targets per channel)
 
 
 class Renderer:
@@ -70,6 +77,8 @@ class Renderer:
         self.programs = ProgramCache(self._ctx, {**depth.shader_defines(self._ctx), **study})
         self.graph = FrameGraph(self._ctx, self.programs)
         self._targets: Targets | None = None
+        self._channel_targets: dict[str, Targets] = {}
+        self.channel_meters: dict = {}  # the post pass's meter texture of each channel (render/multiview.py)
         self.frames_rendered = 0
         self.frame_quality = FrameQuality()  # the overload controller, when a scene holds a frame rate
         # internal render scale (render/scaling.py): below 1 the passes draw at scale x the requested
@@ -103,9 +112,33 @@ class Renderer:
             self._targets = Targets(self.ctx, width, height)
         return self._targets
 
+    def channel_targets(self, cid: str, width: int, height: int) -> Targets:
+        """The render targets of channel ``cid`` (each channel keeps its own until the frame is read)."""
+        held = self._channel_targets.get(cid)
+        if held is None or held.size != (width, height):
+            if held is not None:
+                held.release()
+            held = self._channel_targets[cid] = Targets(self.ctx, width, height)
+        return held
+
+    def release_channel_targets(self, keep: set[str]) -> None:
+        for cid in [c for c in self._channel_targets if c not in keep]:
+            self._channel_targets.pop(cid).release()
+            meter = self.channel_meters.pop(cid, None)
+            if meter is not None:
+                meter.release()
+
+    def render_channels(self, scene: Scene, timed: bool = False) -> dict[str, RenderResult]:
+        """Every channel of ``scene`` (one state, one exposure) by channel id; a scene without channels
+        gives its camera's frame under the id ``""``."""
+        result = self.render(scene, timed)
+        return result.channels if result.channels is not None else {"": result}
+
     def render(self, scene: Scene, timed: bool = False) -> RenderResult:
         """Render ``scene`` and return its frame; with ``timed`` each pass is bracketed by ctx.finish()
         and a wall clock. Frames submitted before and not yet collected stay in flight."""
+        # A scene with channels renders them all (RenderResult.channels); its drawn "targets" are the
+        # channels' group (multiview.ChannelGroup), read as their mosaic.
         drawn = self._draw(scene, timed)
         t0 = time.perf_counter()
         data = drawn.targets.ldr_fbo.read(components=4, alignment=1)
@@ -172,10 +205,18 @@ class Renderer:
         result = drawn.result
         result.rgba = rgba
         result.total_ms = (end - drawn.start) * 1e3
+        if drawn.views is not None:  # each channel's pixels, cut from the mosaic
+            for cid, x, width, height in drawn.targets.layout:
+                part = result.channels[cid]
+                part.rgba, part.total_ms = np.ascontiguousarray(rgba[:height, x:x + width]), result.total_ms
         return result
 
     def _draw(self, scene: Scene, timed: bool) -> "_Drawn":
         """Every pass of ``scene`` queued into the LDR target; the frame's result without its pixels."""
+        if scene.channels:
+            result, views, start = draw_channels(self, scene, timed)
+            return _Drawn(result, ChannelGroup(views), start, time.perf_counter(), timed, views=views)
+        Memo.slots = 1
         start = time.perf_counter()
         make_current(self._ctx)
         quality, scale, decision = self.quality_for(scene)
@@ -243,6 +284,7 @@ class Renderer:
         make_current(self._ctx)
         if self._targets is not None:
             self._targets.release()
+        self.release_channel_targets(keep=set())
         if self._readback is not None:
             self._readback.release()
         if self._upscaler is not None:

@@ -21,6 +21,7 @@ from multiprocessing import shared_memory
 
 import numpy as np
 
+from ..scene.channels import mosaic_layout
 from ..scene.model import Scene
 
 RING_SLOTS = 3
@@ -58,6 +59,10 @@ class Frame:
     # the frame's operating point (render/overload.py: scale, rungs, error, target_fps, met; target 0
     # when the scene holds no frame rate)
     overload: dict | None = None
+    # A scene with channels (docs/channels.md): each channel's frame by id, in the scene's order, with
+    # this frame's ig_frame, host_frame, sim_time, exposure and tag; ``rgba`` is then the channels side
+    # by side (scene/channels.py mosaic_layout). None for a scene without channels.
+    channels: dict[str, "Frame"] | None = None
 
     @property
     def width(self) -> int:
@@ -433,6 +438,8 @@ class RenderService:
         else:
             delivered = self._in_flight[0][0]
         cam = delivered.camera if delivered is not None else None
+        if delivered is not None and delivered.channels:  # the channels side by side cross as one image
+            cam = mosaic_layout(delivered)[0]
         slot = self._slot_for(cam.width * cam.height * 4) if cam is not None else None
         ring = [shm.name for shm in self._ring]
         slot_name = slot.name if slot is not None else None
@@ -459,6 +466,9 @@ class RenderService:
         rgba = np.ndarray(shape, dtype=np.uint8, buffer=slot.buf).copy()
         self.ig_frame += 1
         self.warm = True  # after the count: /v1/ready (another thread) never sees warm with no frame counted
+        if delivered is not None and delivered.channels:
+            return with_channels(Frame(rgba, self.ig_frame, host_frame, total_ms, pass_ms, passes, sim_time, ev100,
+                                       illuminance, taken_tag, overload), delivered)
         return Frame(rgba, self.ig_frame, host_frame, total_ms, pass_ms, passes, sim_time, ev100, illuminance,
                      taken_tag, overload)
 
@@ -493,6 +503,17 @@ class RenderService:
             elif fraction == 0.0:
                 log.info("%s: precomputing (first use of these atmosphere parameters)", phase)
             deadline = time.monotonic() + self.render_timeout_s
+
+
+def with_channels(frame: Frame, scene: Scene) -> Frame:
+    """``frame`` (the mosaic of ``scene``'s channels) with each channel's frame cut from it."""
+    frame.channels = {}
+    for cid, x, width, height in mosaic_layout(scene)[1]:
+        part = np.ascontiguousarray(frame.rgba[:height, x:x + width])
+        frame.channels[cid] = Frame(part, frame.ig_frame, frame.host_frame, frame.render_ms, frame.pass_ms,
+                                    frame.passes, frame.sim_time, frame.ev100, frame.illuminance_lux, frame.tag,
+                                    frame.overload)
+    return frame
 
 
 class _Dead(Exception):

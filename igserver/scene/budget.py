@@ -18,6 +18,9 @@ where P = width * height and a fire that emits smoke is two volumes; ``auto`` qu
 set of atmosphere parameters (cached, with progress in /v1/ready), ``frame`` every frame. A state over
 either budget is rejected with a problem naming the fields to lower. ``IGSERVER_BUDGET_SCALE`` scales
 both budgets (a GPU renders ~100x more per second than llvmpipe).
+
+A scene with channels (docs/channels.md) counts every channel's pixels in P: three 640x360 channels
+cost like one 1920x360 frame.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ import os
 from dataclasses import dataclass
 
 from ..effect_kinds import EFFECT_KINDS
+from .channels import total_pixels
 
 # Work of the per-pixel passes, in march samples per pixel. Measured on llvmpipe:
 # a 7680x4320 frame without effects took 7-10 s on llvmpipe (~250 ns/px), a march sample ~3 ns.
@@ -82,6 +86,8 @@ def volume_count(scene) -> int:
 
 def estimate(scene) -> Cost:
     pixels = scene.camera.width * scene.camera.height
+    if scene.channels:  # the channels are drawn, not the camera's own frame
+        pixels = total_pixels(scene)
     steps, octaves, resolution, scale = VOLUME_PRESETS[volume_level(scene)]
     volumes = volume_count(scene)
     march = pixels / scale**2 * steps
@@ -108,6 +114,12 @@ def over_budget(scene) -> list[tuple[tuple, str]]:
         problems.append((where, f"a frame would cost {share:.1f}x the render budget ({cost.volumes} volumes at "
                                 f"{scene.camera.width}x{scene.camera.height}, quality {scene.quality.preset}): "
                                 f"{lower}"))
+        if scene.channels:  # name the channels' total, not the camera's size (unused while there are channels)
+            lower = lower.replace("a smaller camera.width/height", "fewer or smaller channels (their pixels add up)")
+            problems[-1] = (("effects",) if where == ("effects",) else ("channels",),
+                            f"a frame would cost {share:.1f}x the render budget ({cost.volumes} volumes in "
+                            f"{len(scene.channels)} channels of {cost.pixels} px in all, quality "
+                            f"{scene.quality.preset}): {lower}")
     if cost.tables > cost.table_budget:
         texels, density = TABLE_PRESETS[scene.atmosphere.quality]
         max_orders = int(cost.table_budget // (texels * 2 * density**2)) + 1

@@ -21,6 +21,7 @@ from ..assets import ASSET_NAME_PATTERN, AssetError, resolve_asset
 from ..assets.gltf import check_model
 from ..assets.images import ImageError, check_profile_image
 from ..effect_kinds import EFFECT_TYPES, FUEL_NAMES
+from .channels import MAX_CHANNELS, Channel, check_clips
 
 # Upper bound on any world coordinate (m). 1e7 m is beyond a continent; float64 keeps mm there.
 WORLD_LIMIT_M = 1.0e7
@@ -461,6 +462,9 @@ class Scene(Strict):
     entities: list[Entity] = Field(default_factory=list, max_length=MAX_ENTITIES)
     shadows: Shadows = Field(default_factory=Shadows)
     quality: Quality = Field(default_factory=Quality)
+    channels: list[Channel] = Field(
+        default_factory=list, max_length=MAX_CHANNELS,
+        description="views of the camera's eyepoint rendered together (docs/channels.md); empty = the camera alone")
 
     @field_validator("effects")
     @classmethod
@@ -476,6 +480,12 @@ class Scene(Strict):
     @classmethod
     def _entity_ids(cls, v):
         return _unique_ids(v, "entity")
+
+    @field_validator("channels")
+    @classmethod
+    def _channels(cls, v, info):
+        # camera is declared before channels: in info.data when it is valid
+        return check_clips(_unique_ids(v, "channel"), info.data.get("camera"))
 
     # -- render budget (svc-runtime): every accepted state renders within a bounded cost (scene/budget.py)
     @model_validator(mode="after")

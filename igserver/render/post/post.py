@@ -103,6 +103,10 @@ class PostPass(RenderPass):
 
     def execute(self, frame, targets) -> None:
         correction = self._meter(frame, targets)
+        self.finish(frame, targets, correction)
+
+    def finish(self, frame, targets, correction: float) -> None:
+        """Halos, exposure (``correction`` x the frame's provisional one), tone curve: HDR to LDR."""
         halos = halo_uniforms(frame, correction)
         self.stats = {"halos": halos["u_halo_count"]}  # lights whose fog halo is drawn (bench rows)
         defines = {}
@@ -147,6 +151,19 @@ class PostPass(RenderPass):
         scene = frame.scene
         if scene.camera.exposure_ev is not None:
             return 1.0
+        cells = self.meter_cells(frame, self.meter_dispatch(targets))
+        if len(cells) == 0:
+            return 1.0
+        target, meter = display_metered_ev100(cells)
+        state = frame.resources.get("frame_state")
+        ev = state.eye.update(target, scene.time.sim_time, scene.camera.adaptation) if state else target
+        frame.ev100 = ev
+        frame.meter_luminance = meter
+        return exposure_of_ev100(ev) / frame.exposure
+
+    def meter_dispatch(self, targets):
+        """Queue the reduction of ``targets``' HDR colour to the meter's cells (into ``_meter_tex``,
+        which the channels of a frame swap in and out: render/multiview.py); the texture."""
         w, h = targets.size
         # The GPU reduces the frame straight to the meter's cells (blocks of block x block pixels,
         # METER_CELLS across): one small read of a few kB per frame instead of a full-frame one.
@@ -168,13 +185,11 @@ class PostPass(RenderPass):
         prog.run((size[0] + 3) // 4, (size[1] + 3) // 4, 1)
         self._meter_sampler.clear(PASS_UNITS["HDR"])
         self.ctx.memory_barrier()
+        return tex
+
+    @staticmethod
+    def meter_cells(frame, tex) -> np.ndarray:
+        """The finite cells of a dispatched meter texture, in linear RGB before pre-exposure."""
         cells = np.frombuffer(tex.read(), dtype=np.float32).reshape(-1, 4)[:, :3].astype(np.float64)
         cells = cells[np.all(np.isfinite(cells), axis=1)] / max(frame.exposure, 1e-30)
-        if len(cells) == 0:
-            return 1.0
-        target, meter = display_metered_ev100(cells)
-        state = frame.resources.get("frame_state")
-        ev = state.eye.update(target, scene.time.sim_time, scene.camera.adaptation) if state else target
-        frame.ev100 = ev
-        frame.meter_luminance = meter
-        return exposure_of_ev100(ev) / frame.exposure
+        return cells

@@ -1,0 +1,164 @@
+"""Every channel of one state in one frame (docs/channels.md): the world once, the view per channel,
+one exposure.
+
+Order of a frame of N channels:
+
+1. per channel, its scene (render/channels.py) and frame data (``build_frame``: the sky, its light
+   and tables are world items, cached on their inputs, so only the first channel computes them);
+2. one provisional exposure from the union of the channels' meter samples, given to every channel;
+3. per channel, every pass but the post pass into the channel's own targets, and the GPU reduction
+   of its HDR colour to meter cells (queued, not read: the channels' rasterisation overlaps the
+   next channel's setup);
+4. one meter over the union of all channels' cells, one step of the eye's adaptation, one exposure;
+5. per channel, the post pass (halos, exposure, tone curve) with that exposure.
+
+So adjacent channels show the same luminance as the same grey, and the adaptation state moves once
+per frame, not once per channel. Items a pass keeps per view (LOD selections, visible sets, draw
+plans) are memoised per view (render/memo.py keeps one value per channel of the frame), so a still
+eyepoint costs no re-selection in any channel.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import bindings, depth, gl_calls, presets
+from .channels import channel_scene, side_by_side
+from .frame import build_frame, provisional_ev100, set_exposure
+from .frame_block import FrameBlock
+from .memo import Memo
+from .post.exposure import display_metered_ev100, exposure_of_ev100
+
+
+@dataclass
+class ChannelView:
+    id: str
+    scene: object
+    frame: object
+    targets: object
+    names: list
+
+
+class ChannelGroup:
+    """The channels' LDR targets as the renderer's readback sees one frame's: ``ldr_fbo.read()`` gives
+    the mosaic (the channels side by side, top-aligned, rows bottom-up as GL's), ``size`` its size,
+    ``parts`` each channel's (framebuffer, (width, height)) for a readback ring, ``layout``
+    [(id, x0, width, height)] (scene/channels.py mosaic_layout)."""
+
+    def __init__(self, views: list):
+        self.parts = [(v.targets.ldr_fbo, v.targets.size) for v in views]
+        self.layout, x = [], 0
+        for v in views:
+            self.layout.append((v.id, x, *v.targets.size))
+            x += v.targets.size[0]
+        self.size = (x, max(h for _, (_, h) in self.parts))
+        self.ldr_fbo = self
+
+    def read(self, components: int = 4, alignment: int = 1) -> bytes:
+        images = [np.frombuffer(fbo.read(components=4, alignment=1), np.uint8).reshape(h, w, 4)[::-1]
+                  for fbo, (w, h) in self.parts]
+        return side_by_side(images)[::-1].tobytes()
+
+
+def draw_channels(renderer, scene, timed: bool):
+    """Queue every pass of every channel of ``scene`` (renderer: a ``Renderer``); returns
+    (the frame's result without pixels, [ChannelView], start time)."""
+    from .renderer import RenderResult
+
+    start = time.perf_counter()
+    ctx = renderer.ctx
+    quality, _, decision = renderer.quality_for(scene)  # the render scale is not applied to channels
+    Memo.slots = len(scene.channels)
+    bindings.forget_bindings(ctx)
+    views = []
+    for channel in scene.channels:
+        sub = channel_scene(scene, channel)
+        frame = build_frame(ctx, sub, renderer.frame_state)
+        frame.quality = quality
+        targets = renderer.channel_targets(channel.id, channel.width, channel.height)
+        views.append(ChannelView(channel.id, sub, frame, targets, renderer.graph.plan(sub, frame.view)))
+    renderer.release_channel_targets(keep={v.id for v in views})
+
+    # One provisional exposure: the union of the views' samples, as one view's are metered.
+    samples = np.concatenate([v.frame.resources["meter_samples"] for v in views])
+    target, meter = display_metered_ev100(samples)
+    ev100 = provisional_ev100(scene, renderer.frame_state, target)
+    for v in views:
+        set_exposure(v.frame, ev100, meter)
+
+    post = renderer.graph.passes["post"]
+    auto = scene.camera.exposure_ev is None
+    pass_ms: dict[str, float] = {}
+    channel_ms: dict[str, dict[str, float]] = {v.id: {} for v in views}
+    if timed:
+        ctx.finish()
+        pass_ms["setup"] = (time.perf_counter() - start) * 1e3
+    meters, own_meter = {}, getattr(post, "_meter_tex", None)
+    for v in views:
+        FrameBlock.get(ctx).update(v.frame.uniforms)
+        v.targets.scene_fbo.use()
+        v.targets.scene_fbo.clear(0.0, 0.0, 0.0, 1.0, depth=depth.CLEAR_DEPTH)
+        ctx.depth_func = depth.NEAREST_WINS
+        for name in v.names:
+            if name == "post":
+                continue
+            t0 = time.perf_counter()
+            renderer.graph.passes[name].execute(v.frame, v.targets)
+            gl_calls.flush()
+            if timed:
+                ctx.finish()
+                _add(pass_ms, channel_ms[v.id], name, (time.perf_counter() - t0) * 1e3)
+        if auto:  # each channel's cells in a texture of its own, all read after the last channel is queued
+            post._meter_tex = renderer.channel_meters.get(v.id)
+            meters[v.id] = renderer.channel_meters[v.id] = post.meter_dispatch(v.targets)
+
+    post._meter_tex = own_meter  # the single view's, for frames without channels
+    t0 = time.perf_counter()
+    correction = 1.0
+    if auto:
+        cells = np.concatenate([post.meter_cells(v.frame, meters[v.id]) for v in views])
+        if len(cells):
+            target, meter = display_metered_ev100(cells)
+            state = renderer.frame_state
+            ev = state.eye.update(target, scene.time.sim_time, scene.camera.adaptation)
+            correction = exposure_of_ev100(ev) / views[0].frame.exposure
+            for v in views:
+                v.frame.ev100, v.frame.meter_luminance = ev, meter
+    for v in views:
+        t1 = time.perf_counter()
+        FrameBlock.get(ctx).update(v.frame.uniforms)
+        post.finish(v.frame, v.targets, correction)
+        gl_calls.flush()
+        if timed:
+            ctx.finish()
+            _add(pass_ms, channel_ms[v.id], "post", (time.perf_counter() - t1) * 1e3)
+    if timed:
+        pass_ms["meter"] = (time.perf_counter() - t0) * 1e3 - pass_ms.get("post", 0.0)
+
+    renderer.frames_rendered += 1
+    frame = views[0].frame
+    names = merged_order([v.names for v in views])
+    level = frame.quality.name if isinstance(frame.quality, presets.Rung) else frame.quality
+    common = dict(quality=level, ev100=frame.ev100, illuminance_lux=frame.illuminance_lux,
+                  host_frame=scene.host_frame, sim_time=scene.time.sim_time, overload=decision.fields())
+    result = RenderResult(None, names, pass_ms, 0.0, **common)
+    result.channels = {v.id: RenderResult(None, v.names, channel_ms[v.id], 0.0, **common) for v in views}
+    return result, views, start
+
+
+def merged_order(lists: list[list[str]]) -> list[str]:
+    """Every name of the channels' pass lists once, each after its predecessor in the list it came from."""
+    merged: list[str] = []
+    for names in lists:
+        for i, name in enumerate(names):
+            if name not in merged:
+                merged.insert(merged.index(names[i - 1]) + 1 if i else 0, name)
+    return merged
+
+
+def _add(total: dict, own: dict, name: str, ms: float) -> None:
+    total[name] = total.get(name, 0.0) + ms
+    own[name] = own.get(name, 0.0) + ms
