@@ -28,6 +28,7 @@
 // the 4D tables instead (the reference of `igserver quality light` for the sky-view table's error).
 #include "generated/bindings.glsl"
 #include "sky/atmosphere_functions.glsl"
+#include "common/fog_relief.glsl"
 
 uniform vec3 u_sky_zenith;      // cd/m^2
 uniform vec3 u_sky_horizon;     // cd/m^2
@@ -584,5 +585,5 @@ void aerial_terms(vec3 rel, out vec3 tau, out vec3 inscatter) {
 vec3 apply_aerial_perspective(vec3 radiance, vec3 rel) {
     vec3 tau, inscatter;
     aerial_terms(rel, tau, inscatter);
-    return radiance * exp(-min(tau, vec3(80.0))) + inscatter;
+    return radiance * exp(-min(tau, vec3(80.0))) + inscatter * fog_top_relief(rel / max(length(rel), 1e-6));
 }

@@ -14,6 +14,9 @@
 //     axis can then be reduced on the CPU modulo the period without a visible jump.
 // Output range is about [-1, 1] (scaled so the observed extremes are near +-1), mean 0.
 
+// Guarded: both the cirrus and the fog relief (common/fog_relief.glsl) include it into the sky pass.
+#ifndef NOISE_GLSL
+#define NOISE_GLSL
 uint noise_hash(ivec3 i, uint seed) {
     uvec3 v = uvec3(i) * uvec3(0x8da6b343u, 0xd8163841u, 0xcb1ab31fu);
     uint h = v.x ^ v.y ^ v.z ^ (seed * 0x9e3779b9u);
@@ -80,3 +83,4 @@ float turbulence3(vec3 p, vec3 period, int octaves, uint seed) {
     }
     return sum;
 }
+#endif  // NOISE_GLSL

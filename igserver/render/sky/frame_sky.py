@@ -145,6 +145,25 @@ def cirrus_offset_units(scene: Scene, camera_xy_m: np.ndarray) -> tuple[float, f
     return float(pos[0]), float(pos[1])
 
 
+FOG_RELIEF_CELL_M = 300.0  # common/atmosphere.glsl fog_top_relief: the noise's lattice unit on the top
+FOG_RELIEF_PERIOD_UNITS = 64.0
+FOG_RELIEF_DEPTH_FRACTION = 0.1  # the top heaves by ~10 % of the layer's depth (Stull 1988, ch. 11)
+FOG_RELIEF_MIN_SUN_DEG = 2.0  # below, the top is lit by the sky and its own glow: no sun on its slopes
+
+
+def fog_relief_uniforms(haze: HazeLayer | None, height_m: float, camera_xy_m, sun_elevation: float) -> tuple:
+    """u_fog_relief: the camera's position in the relief's noise units (wrapped on its period), its
+    height above a sunlit fog layer's top (m; 0, no relief, where it is not above one) and the
+    relief's amplitude (m)."""
+    on = (haze is not None and haze.top > 0.0 and float(haze.beta[1]) > 0.0
+          and height_m > haze.top + haze.edge and sun_elevation > FOG_RELIEF_MIN_SUN_DEG)
+    if not on:
+        return (0.0, 0.0, 0.0, 0.0)
+    pos = np.mod(np.asarray(camera_xy_m, dtype=np.float64) / FOG_RELIEF_CELL_M, FOG_RELIEF_PERIOD_UNITS)
+    amplitude = min(max(FOG_RELIEF_DEPTH_FRACTION * haze.top, 2.0), 40.0)
+    return (float(pos[0]), float(pos[1]), float(height_m - haze.top), amplitude)
+
+
 def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
               camera_xy_m: np.ndarray, transition: HazeTransition | None = None) -> SkyFrame:
     atm = scene.atmosphere
@@ -209,6 +228,7 @@ def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
     # from the geometry (terminator from the sun direction), so divide the phase back out. The sky
     # pass multiplies by the view transmittance.
     moon_lux = moon_toa / max(celestial.moon_phase, 1e-3)
+    uniforms["u_fog_relief"] = fog_relief_uniforms(haze, altitude_m - ground_m, camera_xy_m, celestial.sun_elevation)
     off_x, off_y = cirrus_offset_units(scene, camera_xy_m)
     sun_h = sun_horizontal(celestial.sun_dir)
     bottom = uniforms.get("u_bottom_radius_km", AtmosphereParameters.bottom_radius_km)

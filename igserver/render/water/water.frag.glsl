@@ -10,6 +10,7 @@
 #ifdef WATER_UNDERWATER
 #include "water/underwater.glsl"
 #endif
+#include "common/fog_relief.glsl"
 
 #ifndef MAX_HULLS
 #define MAX_HULLS 32
@@ -195,6 +196,7 @@ void main() {
     vec3 sand = BOTTOM_ALBEDO * mix(1.0, 0.6, smoothstep(-0.3, 0.0, v_depth)) * e_down / PI;  // Lambert
     lit = mix(sand, lit, wet);
 #endif
-    out_color = vec4(pre_expose(lit * v_air_t + v_air_s), 1.0);  // apply_aerial_perspective, per vertex
+    // apply_aerial_perspective, per vertex; a fog top's relief per pixel (its cells span few vertices)
+    out_color = vec4(pre_expose(lit * v_air_t + v_air_s * fog_top_relief(v_rel / dist)), 1.0);
     out_distance = dist;
 }
