@@ -13,11 +13,15 @@ from pathlib import Path
 from PIL import Image
 
 from igserver.render.renderer import Renderer
+from igserver.scene import apply_patch
 from igserver.scene.files import load_scene
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
-# picture -> (scene, width, height)
+BRIDGE = {"camera": {"position": [0.0, 0.0, 15.0], "pitch": -3.0}, "time": {"sim_time": 100.0}}
+AIR = {"camera": {"position": [0.0, 0.0, 300.0], "pitch": -20.0}, "time": {"sim_time": 100.0}}
+
+# picture -> (scene, width, height[, patch]): the patch puts the camera on a ship's bridge or in the air
 PICTURES = {
     "demo.jpg": ("demo", 800, 450),
     "surfaces_noon.jpg": ("harbour_noon", 640, 360),
@@ -29,16 +33,19 @@ PICTURES = {
     "water_beaufort5.jpg": ("sea_beaufort5", 640, 360),
     "water_beaufort9.jpg": ("sea_beaufort9", 640, 360),
     "water_beach.jpg": ("sea_beach", 640, 360),
+    "water_beaufort9_bridge.jpg": ("sea_beaufort9", 640, 360, BRIDGE),
+    "water_beaufort9_300m.jpg": ("sea_beaufort9", 640, 360, AIR),
+    "water_beaufort5_bridge.jpg": ("sea_beaufort5", 640, 360, BRIDGE),
     "water_harbour_fire.jpg": ("sea_harbour_fire", 640, 360),
 }
 
 
 def main(names: list[str]) -> int:
     renderer = Renderer()
-    for picture, (scene_name, width, height) in PICTURES.items():
+    for picture, (scene_name, width, height, *patch) in PICTURES.items():
         if names and picture not in names and scene_name not in names:
             continue
-        scene = load_scene(scene_name)
+        scene = apply_patch(load_scene(scene_name), patch[0]) if patch else load_scene(scene_name)
         scene = scene.model_copy(update={"camera": scene.camera.model_copy(update={"width": width, "height": height})})
         rgba = renderer.render(scene).rgba
         Image.fromarray(rgba[..., :3]).save(DOCS / picture, quality=88)

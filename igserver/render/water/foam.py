@@ -12,23 +12,76 @@ from ...water.surface import SeaSurface, whitecap_coverage
 from ..bindings import FRAME_UNITS
 from ..camera import CameraView
 
-# The foam water.frag.glsl draws: a fraction f rising from 0 at J = threshold + FOAM_EDGE[0] to 1 at
-# threshold − FOAM_EDGE[1] (smoothstep), dithered into streaks by noise through a ramp of width
-# FOAM_SOFT (its mean over the noise: foam_mean).
+# The foam foam.glsl draws: a probability rising from 0 at J = threshold + FOAM_EDGE[0] to 1 at
+# threshold − FOAM_EDGE[1] (smoothstep), now and FOAM_LAG seconds ago (the same water particle) with
+# the older foam's opacity fading as exp(−lag / FOAM_DECAY_S); the strongest of the three is the
+# opacity, dithered into streaks by noise through a ramp of width FOAM_SOFT (its mean over the noise:
+# foam_mean).
 FOAM_EDGE = (0.02, 0.06)
 FOAM_SOFT = 0.25
+FOAM_LAG = (1.5, 4.0)  # s
+FOAM_DECAY_S = 3.5  # s: e-folding time of a whitecap's brightness (Monahan 1971: 3.53 s)
+FOAM_OLD_BRIGHTNESS = 0.5  # old foam's opacity (foam.glsl FOAM_OLD): its contrast over the sea relative to fresh foam's
+SURF_FOAM_JACOBIAN = 0.97  # J threshold where the waves break on a bathymetry (surf zone): every compressed crest
 
 
 def foam_mean(f: np.ndarray) -> np.ndarray:
-    """The drawn foam's mean over the dither noise (u uniform on [0, 1]) at foam fraction f:
-    E[clamp((f − (1 − w) u) / w, 0, 1)], w = FOAM_SOFT, in closed form (water.frag.glsl foam_mean)."""
+    """The drawn foam's mean over the dither noise (u uniform on [0, 1]) at opacity f:
+    E[clamp((f − (1 − w) u) / w, 0, 1)], w = FOAM_SOFT, in closed form (foam.glsl foam_mean)."""
     w = FOAM_SOFT
     covered = np.where(f < w, f * f / (2.0 * w), np.where(
         f <= 1.0 - w, f - 0.5 * w, (f - w) + (w * w - (f - 1.0 + w) ** 2) / (2.0 * w)))
     return covered / (1.0 - w)
 
 
-FOAM_STREAK_SIZE = (24.0, 3.0)  # m along and across the wind: a noise cell of the streaks
+def foam_decay() -> tuple[float, float]:
+    """Opacity of the foam FOAM_LAG seconds old."""
+    return tuple(math.exp(-lag / FOAM_DECAY_S) for lag in FOAM_LAG)
+
+
+def foam_coverage(threshold: float, j_now: np.ndarray, j_past: tuple[np.ndarray, np.ndarray],
+                  streaks: float = 0.0) -> np.ndarray:
+    """The foam's mean cover per point, weighted by its brightness (foam.glsl foam_vertex, then the
+    dither's mean and the fresh/old colour): what a photograph of the sea counts as whitecap."""
+    edge = FOAM_EDGE[0] + FOAM_EDGE[1]
+
+    def probability(j):
+        x = np.clip((threshold + FOAM_EDGE[0] - j) / edge, 0.0, 1.0)
+        return x * x * (3.0 - 2.0 * x)
+
+    now = foam_mean(probability(j_now))
+    d1, d2 = foam_decay()
+    m = np.maximum(now, foam_mean(np.maximum(d1 * probability(j_past[0]),
+                                             np.maximum(d2 * probability(j_past[1]), streaks))))
+    fresh = np.where(m > 1e-6, now / np.maximum(m, 1e-6), 1.0)
+    return m * (FOAM_OLD_BRIGHTNESS + (1.0 - FOAM_OLD_BRIGHTNESS) * fresh)
+
+
+def streak_size(wind: float) -> tuple[float, float]:
+    """m along and across the wind: a noise cell of the streaks. Wind-row foam streaks lengthen with
+    the wind (Beaufort 7-9: "foam blown in streaks along the wind", denser and longer as it rises):
+    2.5 m per m/s along (57 m at Beaufort 9), 10 to 75 m; 3 m across (detail.foam_streaks_needed's
+    bound is set on the across size)."""
+    return min(max(2.5 * wind, 10.0), 75.0), FOAM_STREAK_SIZE[1]
+
+
+def streak_opacity(wind: float) -> float:
+    """Opacity of the old foam lying in wind rows over the whole sea (dithered into streaks): none
+    below Beaufort 7 (13.9 m/s, "foam begins to be blown in streaks"), 0.25 from Beaufort 11 (28.5
+    m/s, "sea completely covered with long white patches of foam lying along the wind"). Counted in
+    the whitecap calibration (Monahan's W): the whitecaps make up the rest."""
+    x = min(max((wind - 13.9) / (28.5 - 13.9), 0.0), 1.0)
+    return 0.25 * x * x * (3.0 - 2.0 * x)
+
+
+def spray_strength(wind: float) -> float:
+    """0..1: spindrift blown off the crests, from Beaufort 8 (17.2 m/s: "edges of crests begin to
+    break into spindrift") to full at Beaufort 11 (28.5 m/s: "edges of crests blown into froth")."""
+    x = min(max((wind - 17.2) / (28.5 - 17.2), 0.0), 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+FOAM_STREAK_SIZE = (24.0, 3.0)  # m: the across size bounds the streaks' fade (detail.py); along: streak_size
 FOAM_STREAK_FADE = 0.75  # cells a pixel spans where the streaks have faded to their mean (water.frag.glsl)
 FOAM_DRIFT = 0.03  # × wind speed: the surface drift that carries the streaks downwind
 FOAM_PERIOD = 64.0  # noise cells per side of the tabulated noise: 1.5 km along the wind, 192 m across
@@ -36,20 +89,37 @@ FOAM_NOISE_SIZE = 256  # texels per side: 4 per noise cell (bilinear; the shader
 FOAM_NOISE_UNIT = FRAME_UNITS["FOAM_NOISE"]
 
 
-def foam_frame(scene: Scene, view: CameraView) -> dict:
-    """The streak noise's frame (water.frag.glsl foam_cover): downwind axis and cell sizes, and the
-    camera's noise coordinates, drifted downwind by the time, reduced mod the period in float64 so
-    the streaks stay put on the sea at any distance from the origin and any sim_time."""
+def wave_lags(sea: SeaSurface, max_waves: int) -> bytes:
+    """Per mesh wave (1 − cos ωL₁, sin ωL₁, 1 − cos ωL₂, sin ωL₂) for the lags FOAM_LAG: the phase
+    turns gerstner.glsl needs for J at t − L (u_wave_lag)."""
+    table = np.zeros((max_waves, 4), dtype=np.float64)
+    n = min(sea.waves.n, max_waves)
+    for c, lag in enumerate(FOAM_LAG):
+        turn = sea.waves.omega[:n] * lag
+        table[:n, 2 * c] = 1.0 - np.cos(turn)
+        table[:n, 2 * c + 1] = np.sin(turn)
+    return table.astype(np.float32).tobytes()
+
+
+def foam_frame(scene: Scene, view: CameraView, sea: SeaSurface, wind: float, max_waves: int) -> dict:
+    """The foam's per-frame uniforms: the streak noise's frame (water.frag.glsl foam_cover) — downwind
+    axis and cell sizes, and the camera's noise coordinates, drifted downwind by the time, reduced mod
+    the period in float64 so the streaks stay put on the sea at any distance from the origin and any
+    sim_time — the lags' decay and the spray's strength."""
     to = math.radians(scene.weather.wind_direction + 180.0)  # the wind blows from wind_direction
     axis = np.array([math.sin(to), math.cos(to)])
     across = np.array([-axis[1], axis[0]])
     cam = np.asarray(view.position[:2], dtype=np.float64)
-    drift = FOAM_DRIFT * scene.weather.wind_speed * scene.time.sim_time  # m downwind
-    offset = np.mod([(float(cam @ axis) - drift) / FOAM_STREAK_SIZE[0], float(cam @ across) / FOAM_STREAK_SIZE[1]],
-                    FOAM_PERIOD)
-    return {"u_foam_frame": (*axis, 1.0 / FOAM_STREAK_SIZE[0], 1.0 / FOAM_STREAK_SIZE[1]),
+    size = streak_size(wind)
+    t = scene.time.sim_time
+    along, side = float(cam @ axis), float(cam @ across)
+    offset = np.mod([(along - FOAM_DRIFT * wind * t) / size[0], side / size[1]], FOAM_PERIOD)
+    hs = 4.0 * math.sqrt(float(np.sum(sea.waves.amplitude ** 2)) / 2.0)
+    return {"u_foam_frame": (*axis, 1.0 / size[0], 1.0 / size[1]),
             "u_foam_offset": tuple(float(x) for x in offset), "u_foam_period": FOAM_PERIOD,
-            "u_foam_noise": FOAM_NOISE_UNIT}
+            "u_foam_noise": FOAM_NOISE_UNIT, "u_foam_decay": (*foam_decay(), SURF_FOAM_JACOBIAN, streak_opacity(wind)),
+            "u_spray": (spray_strength(wind), 1.0 / max(hs, 1e-3)),
+            "u_wave_lag": wave_lags(sea, max_waves)}
 
 
 _FOAM_CACHE: dict[tuple, tuple[SeaSurface, float]] = {}
@@ -71,13 +141,12 @@ def drawn_foam_threshold(sea: SeaSurface, wind: float) -> float:
     coverage = whitecap_coverage(wind)
     threshold = -1.0
     if coverage > 0.0 and sea.n > 0:
-        j = sea.jacobian_samples
+        j, past = jacobian_history(sea)
+        streaks = streak_opacity(wind)
         area = np.maximum(j, 0.0)
-        edge = FOAM_EDGE[0] + FOAM_EDGE[1]
 
         def drawn(t: float) -> float:
-            x = np.clip((t + FOAM_EDGE[0] - j) / edge, 0.0, 1.0)
-            return float(np.average(foam_mean(x * x * (3.0 - 2.0 * x)), weights=area))
+            return float(np.average(foam_coverage(t, j, past, streaks), weights=area))
 
         lo, hi = float(j.min()) - FOAM_EDGE[0], float(j.max()) + FOAM_EDGE[1]  # drawn 0 .. 1
         for _ in range(40):  # bisection: the drawn mean rises with the threshold
@@ -86,3 +155,15 @@ def drawn_foam_threshold(sea: SeaSurface, wind: float) -> float:
         threshold = 0.5 * (lo + hi)
     _FOAM_CACHE[key] = (sea, threshold)
     return threshold
+
+
+def jacobian_history(sea: SeaSurface, points: int = 4000, times=(0.0, 7.3, 19.1),
+                     seed: int = 11) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
+    """J of the mesh waves at ``points`` rest points over 1 km² at ``times``, and at the same points
+    FOAM_LAG seconds earlier (deterministic)."""
+    xy = np.random.default_rng(seed).uniform(-500.0, 500.0, (points, 2))
+
+    def at(shift: float) -> np.ndarray:
+        return np.concatenate([sea.evaluate(xy, t - shift, full=False)["jacobian"] for t in times])
+
+    return at(0.0), (at(FOAM_LAG[0]), at(FOAM_LAG[1]))

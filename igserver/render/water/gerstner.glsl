@@ -18,6 +18,7 @@ uniform float u_wave_norm;              // n, the number of mesh waves
 uniform float u_steepness;              // Q over the reference depth (no field)
 uniform float u_second_order;           // alpha of z2 (surface.py; 0: linear Gerstner)
 uniform float u_sea_depth;              // m, the depth limit's h (no field); <= 0: unlimited
+uniform vec4 u_wave_lag[MAX_WAVES];     // per wave: 1 - cos(w lag), sin(w lag) for the foam's two lags (foam.py)
 
 #ifdef WATER_FIELD
 uniform sampler2DArray u_field;         // per wave: R (rad), F, Kx, Ky (rad/m)
@@ -35,6 +36,7 @@ struct SeaSample {
     float jacobian;  // horizontal Jacobian det(dP/dp): 1 flat, -> 0 where crests pinch (foam)
     float lost_var;  // slope variance of the waves faded out by the LOD
     float lost_jvar; // variance of J those waves would add (the foam's probability, water.frag.glsl)
+    vec2 jacobian_past; // J at t - FOAM_LAG (foam.py): J + the first-order change, sum b k (sin th - sin(th + w lag))
     float depth;     // m (1e4 where no field: deep)
     float breaking;  // 0 unbroken .. 1: how much the breaking cap cut the waves (surf zone)
 };
@@ -86,6 +88,7 @@ SeaSample sea_displace(vec2 p, float spacing) {
     vec2 gx2 = vec2(0.0);   // grad X = sum s K cos
     vec2 gy2 = vec2(0.0);   // -grad Y = sum s K sin
     float mean2 = 0.0;      // sum s^2
+    vec2 lag = vec2(0.0);   // first-order J(t - lag) - J(t), both lags
     for (int i = 0; i < u_wave_count; ++i) {
         vec4 w = u_wave[i];
         float theta = dot(w.xy, p) + u_wave_phase[i];
@@ -114,6 +117,8 @@ SeaSample sea_displace(vec2 p, float spacing) {
         jxy -= bk.x * s * kv.y;
         jyx -= bk.y * s * kv.x;
         jyy -= bk.y * s * kv.y;
+        vec4 wl = u_wave_lag[i];  // theta(t - lag) = theta + w lag
+        lag += dot(bk, kv) * (s * wl.xz - c * wl.yw);
         grad += a * c * kv;
         float s2 = a * sqrt(u_second_order * kmag);
         xy2 += s2 * vec2(s, c);
@@ -134,6 +139,7 @@ SeaSample sea_displace(vec2 p, float spacing) {
     r.jacobian = jxx * jyy - jxy * jyx;
     r.lost_var = lost;
     r.lost_jvar = lost_j;
+    r.jacobian_past = r.jacobian + lag;
     r.depth = depth;
     r.breaking = breaking;
     return r;

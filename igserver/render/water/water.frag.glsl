@@ -11,6 +11,7 @@
 #include "water/underwater.glsl"
 #endif
 #include "common/fog_relief.glsl"
+#include "water/foam.glsl"
 
 #ifndef MAX_HULLS
 #define MAX_HULLS 32
@@ -37,6 +38,7 @@ in float v_lost_var;
 in float v_lost_jvar;
 in float v_depth;
 in float v_breaking;
+in vec3 v_foam;
 in vec3 v_air_t;
 in vec3 v_air_s;
 
@@ -46,39 +48,37 @@ layout(location = 1) out float out_distance;
 const float WATER_R0 = 0.02037;                    // Fresnel reflectance air-water, normal incidence
 const vec3 ABSORPTION = vec3(0.35, 0.07, 0.045);    // 1/m, coastal water (red first)
 const vec3 BOTTOM_ALBEDO = vec3(0.35, 0.30, 0.22);  // sand
-const vec3 FOAM_ALBEDO = vec3(0.75);
-uniform float u_foam_jacobian;  // J below which the sea turns white (water.py drawn_foam_threshold)
-uniform vec2 u_foam_edge;       // J above / below it where the foam starts / is solid (water.py FOAM_EDGE)
 uniform vec4 u_foam_frame;      // xy: unit downwind direction; zw: 1 / streak length, 1 / width (1/m)
 uniform vec2 u_foam_offset;     // noise coordinates of the camera, drifted downwind, mod FOAM_PERIOD (CPU)
 uniform float u_foam_period;    // noise cells per side of the tabulated noise
 layout(binding = UNIT_FOAM_NOISE) uniform sampler2D u_foam_noise; // the streak noise, about uniform on [0, 1] (water/foam_noise.frag.glsl)
 
-// Foam: the J edge gives each point's foam fraction f; the streak noise (tabulated, about uniform u
-// on [0, 1]) dithers it — white where f exceeds u — through a ramp of width FOAM_SOFT, scaled so
-// f = 0 draws none and f = 1 all. Crests (f near 1) are solid, their flanks carry streaks. The noise
-// frame is stretched along the wind, anchored to the world and drifts downwind with the surface.
-// Where a pixel spans 3/4 of a noise cell the streaks would alias: the dither's mean over u,
-// foam_mean(f) (water.py foam_mean, which the coverage calibration uses).
-const float FOAM_SOFT = 0.25;
-float foam_mean(float f) {
-    float w = FOAM_SOFT;
-    float covered = f < w ? f * f / (2.0 * w)
-                  : f <= 1.0 - w ? f - 0.5 * w
-                  : (f - w) + (w * w - (f - 1.0 + w) * (f - 1.0 + w)) / (2.0 * w);
-    return covered / (1.0 - w);
+// Foam: the vertex's mean cover m (foam.glsl foam_vertex) is dithered into streaks by the noise
+// (tabulated, about uniform u on [0, 1]): the opacity f = foam_mean_inverse(m), white where f exceeds
+// (1 - FOAM_SOFT) u, through a ramp of width FOAM_SOFT — the mean over u is m again. The noise frame
+// is stretched along the wind (cells longer the stronger the wind: foam.py streak_size), anchored to
+// the world and drifts downwind with the surface. Where a pixel spans 3/4 of a noise cell the streaks
+// would alias: the mean m itself. Spindrift: where the same noise is low (between the streaks) a
+// white veil over the crests.
+float streak_noise(vec2 rest, vec2 cells, vec2 offset, out float contrast) {
+    vec2 q = vec2(dot(rest, u_foam_frame.xy) * cells.x,
+                  dot(rest, vec2(-u_foam_frame.y, u_foam_frame.x)) * cells.y) + offset;
+    contrast = clamp(1.5 - 2.0 * length(fwidth(q)), 0.0, 1.0);  // none past 3 texels a pixel
+    return textureLod(u_foam_noise, q / u_foam_period, 0.0).r;  // no mipmaps: no implicit LOD
 }
+const float SPRAY_MEAN = 0.375;  // mean of smoothstep(0.35, 0.9, u), u uniform on [0, 1]
 #if WATER_FOAM_STREAKS
-float foam_cover(float f, vec2 rest) {
-    vec2 q = vec2(dot(rest, u_foam_frame.xy) * u_foam_frame.z,
-                  dot(rest, vec2(-u_foam_frame.y, u_foam_frame.x)) * u_foam_frame.w) + u_foam_offset;
-    float contrast = clamp(1.5 - 2.0 * length(fwidth(q)), 0.0, 1.0);  // none past 3 texels a pixel
-    float u = textureLod(u_foam_noise, q / u_foam_period, 0.0).r;  // no mipmaps: no implicit LOD
-    float dithered = clamp((f - (1.0 - FOAM_SOFT) * u) / FOAM_SOFT, 0.0, 1.0);
-    return mix(foam_mean(f), dithered, contrast);
+// Also the spindrift's pattern from the same noise sample (one texture read: a second, blown lookup
+// doubled the water pass's cost on llvmpipe).
+float foam_cover(float m, vec2 rest, out float spray) {
+    float contrast;
+    float u = streak_noise(rest, u_foam_frame.zw, u_foam_offset, contrast);
+    spray = mix(SPRAY_MEAN, smoothstep(0.35, 0.9, 1.0 - u), contrast);
+    float dithered = clamp((foam_mean_inverse(m) - (1.0 - FOAM_SOFT) * u) / FOAM_SOFT, 0.0, 1.0);
+    return mix(m, dithered, contrast);
 }
 #else  // a block where every pixel spans 3/4 of a noise cell (water.py foam_streaks_needed): the mean
-float foam_cover(float f, vec2 rest) { return foam_mean(f); }
+float foam_cover(float m, vec2 rest, out float spray) { spray = SPRAY_MEAN; return m; }
 #endif
 
 vec4 detail(sampler2D tex, vec3 map) {
@@ -168,27 +168,19 @@ void main() {
     vec3 body = DEEP_ALBEDO * e_down / PI;
 #endif
     vec3 lit = fresnel * sky + direct + (1.0 - fresnel) * body;
-    // Whitecaps where the Gerstner surface pinches (J small), torn into streaks by the wind. Where the
-    // LOD faded waves out of the mesh, their part of J is unknown here: the foam fraction is then the
-    // probability that the full J is under the edge, given the J the mesh keeps and the variance the
-    // faded waves carry (v_lost_jvar), a normal CDF, which smoothstep over ±2.2 sigma follows within
-    // 0.03 — so a sea seen from high up, its short waves all faded, keeps its whitecap coverage.
-    float foam_centre = u_foam_jacobian + 0.5 * (u_foam_edge.x - u_foam_edge.y);
-    float foam_width = sqrt(0.25 * (u_foam_edge.x + u_foam_edge.y) * (u_foam_edge.x + u_foam_edge.y)
-                            + 4.84 * v_lost_jvar);
-    float foam = foam_cover(smoothstep(-1.0, 1.0, (foam_centre - v_jacobian) / foam_width), v_rest);
-    // Surf zone: where the breaking cap cut the waves, the broken water is white on the crests
-    // (J < 1 on the compressed crests, > 1 in the troughs), in soft bands mottled by the detail slopes.
-#ifdef WATER_FIELD
-    foam = max(foam, smoothstep(0.1, 0.7, v_breaking) * smoothstep(1.02, 0.9, v_jacobian)
-                     * smoothstep(0.15, 0.85, 0.5 + 4.0 * (d1.x - d2.y)));
-#endif
+    // Whitecaps where the Gerstner surface pinches (J small) now or a few seconds ago (fresh white,
+    // older grey-green and thinner), torn into streaks by the wind (foam.glsl); spindrift off crests.
+    float spray;
+    float foam = foam_cover(v_foam.x, v_rest, spray);
+    foam *= mix(FOAM_OLD, 1.0, clamp(v_foam.y, 0.0, 1.0));
+    spray *= u_spray.x * v_foam.z;
     // Foam is a rough white surface on the facet n: the sun and the moon by n.l, the sky by the part
     // of the dome the facet sees ((1 + n_z) / 2), local lights as on a level surface — so the foam on a
     // crest facing the sun is brighter than on its lee (a level downwelling value drew a flat sheet).
     vec3 e_foam = u_sun_illuminance * max(dot(n, u_sun_dir), 0.0) + u_moon_illuminance * max(dot(n, u_moon_dir), 0.0)
                 + PI * u_sky_ambient * (0.5 + 0.5 * n.z) + e_local;
-    lit = mix(lit, FOAM_ALBEDO * e_foam / PI, foam);
+    lit = mix(lit, FOAM_FRESH * e_foam / PI, foam);
+    lit = mix(lit, FOAM_FRESH * e_foam / PI, spray);  // spray: a white veil over whatever is below
     // Dry land of the bathymetry (h <= 0): no water, the bare beach at the water level (there is no
     // terrain pipeline yet), wet sand darker for the last few centimetres.
 #ifdef WATER_FIELD

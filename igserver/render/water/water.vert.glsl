@@ -2,6 +2,7 @@
 #include "common/frame.glsl"
 #include "water/sea_tables.glsl"
 #include "water/gerstner.glsl"
+#include "water/foam.glsl"
 
 uniform vec2 u_morph[24];      // per level: morph start, end distance (m)
 uniform float u_patch_quads;   // G
@@ -19,6 +20,7 @@ out float v_lost_var;
 out float v_lost_jvar;
 out float v_depth;
 out float v_breaking;
+out vec3 v_foam;               // foam mean cover, freshness, crest (foam.glsl foam_vertex)
 out vec3 v_air_t;               // aerial perspective as L -> L * v_air_t + v_air_s, per vertex
 out vec3 v_air_s;
 
@@ -47,6 +49,7 @@ void main() {
     v_lost_jvar = s.lost_jvar;
     v_depth = s.depth;
     v_breaking = s.breaking;
+    v_foam = foam_vertex(s.jacobian, s.jacobian_past, s.lost_jvar, s.breaking, s.pos.z);
     // Aerial perspective is affine in the radiance and smooth in distance: the per-frame table of the
     // shared function over the sea (sea_tables.glsl) per vertex, interpolated per pixel.
     sea_aerial_perspective(v_rel, v_air_t, v_air_s);
