@@ -337,7 +337,8 @@ class FramePump:
         """A frame of the latest accepted state: the pump's if it shows that revision, else render one."""
         latest = self.latest
         if latest is not None and latest.revision == self.store.revision and (
-                not self.store.clock.running or time.perf_counter() - latest.rendered_at < self.animation_interval):
+                not self.store.clock.running
+                or time.perf_counter() - latest.rendered_at < self._animation_interval(self.store.scene)):
             return latest
         encoded = await self.gateway.render(self.store.scene, self.store.revision, self.store.accepted_at)
         self.publish(encoded)
@@ -359,8 +360,9 @@ class FramePump:
             shown = self._submitted_revision if gateway.in_flight else (latest.revision if latest else None)
             stale = shown is None or shown != self.store.revision
             since = time.perf_counter() - last_render
-            # a running clock animates the scene (fades, flicker, waves): render at the animation rate
-            wait = self.animation_interval if self.store.clock.running else self.keepalive_s
+            # a running clock animates the scene (fades, flicker, waves): render at the animation rate, or
+            # at the frame rate the scene asks the IG to hold when that is higher (quality.target_fps)
+            wait = self._animation_interval(self.store.scene) if self.store.clock.running else self.keepalive_s
             if not stale and since < wait:
                 if gateway.in_flight:  # nothing new to draw: show the frame in flight now, not a frame later
                     await self._take(gateway.collect())
@@ -380,6 +382,10 @@ class FramePump:
                     self._submitted_revision = revision
             else:
                 await self._take(gateway.render(scene, revision, accepted_at))
+
+    def _animation_interval(self, scene: Scene) -> float:
+        target = scene.quality.target_fps
+        return min(self.animation_interval, 1.0 / target) if target > 0 else self.animation_interval
 
     async def _take(self, call) -> bool:
         """Await a gateway call; publish the frame it returns and encode it for the streams beside the next

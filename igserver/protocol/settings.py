@@ -65,7 +65,8 @@ class ServerSettings(BaseSettings):
     ws_max_credits: int = Field(16, ge=1, le=1024, description="most credits a WebSocket client may hold")
     timed_passes: bool = Field(True, description="time each render pass for /metrics, on one frame in 30")
     animation_fps: float = Field(
-        30.0, gt=0, le=1000, description="stream render rate while the IG clock runs (sim_time animates the scene)")
+        30.0, gt=0, le=1000, description="stream render rate while the IG clock runs (sim_time animates the scene); a scene's "
+        "quality.target_fps above it sets the rate instead")
     render_timeout_s: float = Field(
         30.0, gt=0, le=3600,
         description="a render silent this long (s; no frame, no progress) is abandoned and its state falls back")
