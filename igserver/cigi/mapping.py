@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from ..scene.model import Scene
-from . import environment
+from . import environment, views
 from .components import component
 from .codec import Malformed, Packet
 from .datagram import Message
@@ -60,6 +60,7 @@ class Work:
         self.lists = {name: {item["id"]: item for item in self.tree[name]} for name in ("entities", "effects", "lights")}
         self.changed_lists: set[str] = set()
         self.moved = False  # an entity pose changed: children, effects, lights and the camera follow
+        self.views_changed = False  # a view was defined or turned: the channels follow (views.py)
 
     def set(self, section: str, key: str, value: Any, sub: str | None = None) -> None:
         node = self.patch.setdefault(section, {})
@@ -107,6 +108,7 @@ def ig_control(work: Work, p: IGControl, sync_setting: bool) -> bool:
             work.drop(kind, lambda item_id: not item_id.startswith(ENTITY_PREFIX))
         session.entities.clear()
         session.view = None
+        views.drop_views(work)
         session.regions.clear()
         session.regional.clear()
         return False
@@ -132,6 +134,7 @@ def load_database(work: Work, number: int) -> None:
     work.frame = LocalFrame.of(scene.location)
     session.entities.clear()
     session.view = None
+    session.views.clear()  # the database's scene brings its own channels
     session.database = session.database_status = number
     work.plan.replaced = True
 
@@ -261,8 +264,8 @@ def short_articulated_part(work: Work, p: ShortArticulatedPartControl) -> None:
 # -- the eyepoint ---------------------------------------------------------------------------------------
 
 def view_control(work: Work, p: ViewControl) -> None:
-    if p.view_id != 0:
-        work.plan.skipped["view_not_0"] += 1
+    if p.view_id != 0:  # another view: a channel of the same eyepoint
+        views.view_control(work, p)
         return
     work.entity(p.entity_id, "View Control")
     view = work.session.view
@@ -274,12 +277,14 @@ def view_control(work: Work, p: ViewControl) -> None:
                      p.roll if p.roll_enable else roll)
     work.session.view = view
     work.moved = True
+    work.views_changed = True  # the other views' offsets are from this one
 
 
 def view_definition(work: Work, p: ViewDefinition) -> None:
     if p.view_id != 0:
-        work.plan.skipped["view_not_0"] += 1
+        views.view_definition(work, p)
         return
+    work.views_changed = True  # channel "0" has the camera's frustum
     if p.projection != 0:
         work.plan.skipped["orthographic_view"] += 1
     camera = work.tree["camera"]
@@ -359,6 +364,8 @@ def map_message(message: Message, scene: Scene, session: Session, types: TypeMap
             HANDLERS[type(packet)](work, packet)
     if work.moved:
         place_everything(work)
+    if work.views_changed:
+        views.place_views(work)
     for kind in work.changed_lists:
         work.patch[kind] = list(work.lists[kind].values())
     return work.plan

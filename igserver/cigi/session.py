@@ -49,9 +49,20 @@ class ViewAttachment:
 
 
 @dataclass
+class ViewSpec:
+    """A view N > 0 as the host defined it (a channel: cigi/views.py)."""
+
+    attitude: tuple[float, float, float] = (0.0, 0.0, 0.0)  # deg (yaw, pitch, roll) relative to its entity
+    frustum: dict | None = None  # signed CIGI half-angles {left, right, top, bottom}, deg; None: not defined
+    near: float | None = None  # m
+    far: float | None = None
+
+
+@dataclass
 class Session:
     entities: dict[int, CigiEntity] = field(default_factory=dict)
     view: ViewAttachment | None = None
+    views: dict[int, ViewSpec] = field(default_factory=dict)  # views N > 0: channels (replaced, never edited)
     regions: dict[int, dict] = field(default_factory=dict)  # Environmental Region Control, as sent
     regional: dict[str, dict] = field(default_factory=dict)  # weather/sea for a region or entity: not rendered
     lights: dict[str, dict] = field(default_factory=dict)  # light id -> {"intensity" while on, "height"}
@@ -67,7 +78,7 @@ class Session:
 
     def copy(self) -> "Session":
         """A copy whose containers are new: the mapping replaces entries (``touch``), never edits them."""
-        return dataclasses.replace(self, entities=dict(self.entities), regions=dict(self.regions),
+        return dataclasses.replace(self, entities=dict(self.entities), views=dict(self.views), regions=dict(self.regions),
                                    regional=dict(self.regional), lights=dict(self.lights),
                                    celestial=dict(self.celestial), atmosphere=dict(self.atmosphere))
 

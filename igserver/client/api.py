@@ -31,6 +31,10 @@ def water_query(points, sim_time: float | None) -> dict:
     return body
 
 
+def channel_param(channel: str | None) -> dict:
+    return {} if channel is None else {"channel": channel}
+
+
 class Api:
     """The calls both clients make. ``token``: the server's bearer token, if it has one."""
 
@@ -105,16 +109,25 @@ class Api:
 
     # -- frames
     @operation
-    def get_frame(self, format: str = "jpeg", quality: int = 85) -> Frame:
-        response = check((yield Call("GET", "/v1/frame", params={"format": format, "quality": quality},
-                                     headers={"Accept": "*/*"})))
+    def channels(self) -> list[dict]:
+        """The current state's channels: id, width, height, attitude offsets, half-angles, near/far (a state
+        without channels: the camera, id "", implicit)."""
+        return (yield from answer("GET", "/v1/channels"))["channels"]
+
+    @operation
+    def get_frame(self, format: str = "jpeg", quality: int = 85, channel: str | None = None) -> Frame:
+        """A frame of the current state: ``channel``'s image (None: the first channel, or the camera)."""
+        params = {"format": format, "quality": quality, **channel_param(channel)}
+        response = check((yield Call("GET", "/v1/frame", params=params, headers={"Accept": "*/*"})))
         return Frame.from_response(response, format)
 
     @operation
-    def render(self, state: Scene | dict, replace: bool = False, format: str = "jpeg", quality: int = 85) -> Frame:
-        """The frame of exactly this state (a patch, or a whole state with replace=True)."""
-        response = check((yield Call("POST", "/v1/render", body=scene_tree(state),
-                                     params={"replace": replace, "format": format, "quality": quality})))
+    def render(self, state: Scene | dict, replace: bool = False, format: str = "jpeg", quality: int = 85,
+               channel: str | None = None) -> Frame:
+        """The frame of exactly this state (a patch, or a whole state with replace=True). A state with
+        channels answers every channel (``Frame.channels``, by id) unless ``channel`` names one."""
+        params = {"replace": replace, "format": format, "quality": quality, **channel_param(channel)}
+        response = check((yield Call("POST", "/v1/render", body=scene_tree(state), params=params)))
         return Frame.from_message(unpack(response.content))
 
     # -- effects

@@ -9,7 +9,7 @@ from typing import AsyncIterator, Iterator
 
 import httpx
 
-from .api import Api
+from .api import Api, channel_param
 from .multipart import MultipartJpegParser, iter_multipart_jpegs
 from .steps import Call, Run
 from .stream import AsyncFrameStream, FrameStream
@@ -41,15 +41,19 @@ class IGClient(Api):
                 run.reply = self.http.request(**step.request()) if isinstance(step, Call) else time.sleep(step.seconds)
         return run.value
 
-    def mjpeg(self, frames: int = 0, fps: float = 0) -> Iterator[bytes]:
-        """JPEG images of the MJPEG stream, parsed from the multipart body."""
-        params = {"frames": frames, "fps": fps}
+    def mjpeg(self, frames: int = 0, fps: float = 0, channel: str | None = None) -> Iterator[bytes]:
+        """JPEG images of the MJPEG stream (``channel``'s; None: the first channel, or the camera), parsed
+        from the multipart body."""
+        params = {"frames": frames, "fps": fps, **channel_param(channel)}
         with self.http.stream("GET", "/v1/stream.mjpg", params=params, headers=MJPEG_HEADERS) as response:
             check(response)
             yield from iter_multipart_jpegs(response.iter_bytes())
 
-    def stream(self, credits: int = 2, format: str = "jpeg", quality: int = 85, auto_ack: bool = True) -> FrameStream:
-        return FrameStream(self.ws_url(), credits, format, quality, auto_ack, self.auth_headers())
+    def stream(self, credits: int = 2, format: str = "jpeg", quality: int = 85, auto_ack: bool = True,
+               channels: list[str] | None = None) -> FrameStream:
+        """The WebSocket. ``channels``: each frame carries these channels of one state together
+        (``Frame.channels``; ``[]``: every channel); None: the first channel alone."""
+        return FrameStream(self.ws_url(), credits, format, quality, auto_ack, self.auth_headers(), channels)
 
 
 class AsyncIGClient(Api):
@@ -76,9 +80,9 @@ class AsyncIGClient(Api):
                                    else asyncio.sleep(step.seconds))
         return run.value
 
-    async def mjpeg(self, frames: int = 0, fps: float = 0) -> AsyncIterator[bytes]:
+    async def mjpeg(self, frames: int = 0, fps: float = 0, channel: str | None = None) -> AsyncIterator[bytes]:
         """JPEG images of the MJPEG stream: ``async for jpeg in ig.mjpeg(frames=10)``."""
-        params = {"frames": frames, "fps": fps}
+        params = {"frames": frames, "fps": fps, **channel_param(channel)}
         async with self.http.stream("GET", "/v1/stream.mjpg", params=params, headers=MJPEG_HEADERS) as response:
             check(response)
             parser = MultipartJpegParser()
@@ -87,5 +91,5 @@ class AsyncIGClient(Api):
                     yield jpeg
 
     def stream(self, credits: int = 2, format: str = "jpeg", quality: int = 85,
-               auto_ack: bool = True) -> AsyncFrameStream:
-        return AsyncFrameStream(self.ws_url(), credits, format, quality, auto_ack, self.auth_headers())
+               auto_ack: bool = True, channels: list[str] | None = None) -> AsyncFrameStream:
+        return AsyncFrameStream(self.ws_url(), credits, format, quality, auto_ack, self.auth_headers(), channels)

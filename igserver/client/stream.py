@@ -26,14 +26,18 @@ class StreamCalls:
     acknowledged at once, so the server sends the next one."""
 
     def __init__(self, url: str, credits: int, format: str, quality: int, auto_ack: bool,
-                 headers: dict | None = None):
+                 headers: dict | None = None, channels: list[str] | None = None):
         self.url, self.credits, self.format, self.quality, self.auto_ack = url, credits, format, quality, auto_ack
         self.headers = headers or {}
+        self.channels = channels
         self._next_id = 0
         self._early_frames: list[Frame] = []  # frames that arrived while waiting for a query result
 
     def hello(self) -> bytes:
-        return pack({"type": "hello", "credits": self.credits, "format": self.format, "quality": self.quality})
+        hello = {"type": "hello", "credits": self.credits, "format": self.format, "quality": self.quality}
+        if self.channels is not None:
+            hello["channels"] = list(self.channels)
+        return pack(hello)
 
     def _message(self, body: dict) -> tuple[int, bytes]:
         self._next_id += 1

@@ -37,6 +37,10 @@ class Frame:
     render_ms: float
     encode_ms: float = 0.0
     received_at: float = field(default_factory=time.perf_counter)
+    channel: str | None = None  # the channel shown, when the state has channels
+    # every channel of the frame by id (a message of several channels): this frame's own fields are the
+    # first channel's; each part has the same frame and host_frame
+    channels: dict[str, "Frame"] | None = None
 
     def rgba(self):
         """Decoded pixels, (height, width, 4) uint8 numpy array, top row first."""
@@ -52,14 +56,27 @@ class Frame:
 
     @classmethod
     def from_message(cls, message: dict) -> "Frame":
+        if "channels" in message:  # several channels of one frame, keyed by channel id
+            parts = {cid: cls(message["frame"], message["host_frame"], image["width"], image["height"],
+                              message["format"], image["data"], message["render_ms"], image.get("encode_ms", 0.0),
+                              channel=cid)
+                     for cid, image in message["channels"].items()}
+            first = next(iter(parts.values()), None)
+            if first is None:  # every channel asked for left the state
+                return cls(message["frame"], message["host_frame"], 0, 0, message["format"], b"",
+                           message["render_ms"], channels={})
+            return cls(first.frame, first.host_frame, first.width, first.height, first.format, first.data,
+                       first.render_ms, first.encode_ms, channel=first.channel, channels=parts)
         return cls(message["frame"], message["host_frame"], message["width"], message["height"],
-                   message["format"], message["data"], message["render_ms"], message.get("encode_ms", 0.0))
+                   message["format"], message["data"], message["render_ms"], message.get("encode_ms", 0.0),
+                   channel=message.get("channel"))
 
     @classmethod
     def from_response(cls, response: httpx.Response, fmt: str) -> "Frame":
         h = response.headers
         return cls(int(h["x-ig-frame"]), int(h["x-ig-host-frame"]), int(h["x-ig-width"]), int(h["x-ig-height"]),
-                   fmt, response.content, float(h["x-ig-render-ms"]), float(h.get("x-ig-encode-ms", 0)))
+                   fmt, response.content, float(h["x-ig-render-ms"]), float(h.get("x-ig-encode-ms", 0)),
+                   channel=h.get("x-ig-channel"))
 
 
 def scene_tree(state: Scene | dict) -> dict:

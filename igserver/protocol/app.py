@@ -3,7 +3,7 @@
 Routes (details in OpenAPI at /docs and /openapi.json):
   GET /v1/health, GET /v1/ready, GET /metrics
   GET|PUT|PATCH /v1/state
-  GET /v1/frame, POST /v1/render, GET /v1/stream.mjpg, WS /v1/ws
+  GET /v1/channels, GET /v1/frame, POST /v1/render, GET /v1/stream.mjpg, WS /v1/ws
   GET|POST /v1/effects, GET|PATCH|DELETE /v1/effects/{id}
   GET|PATCH /v1/clock
   GET /  (viewer page)

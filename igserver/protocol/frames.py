@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from ..render.overload import quality_header
 from ..render.worker import RenderError, RenderTimeout
 from ..scene.model import Scene
+from .channels import frame_parts
 from .imaging import encode_frame
 from .metrics import ServiceMetrics
 from .state import StateStore
@@ -56,41 +57,66 @@ class EncodedFrame:
     def host_frame(self) -> int:
         return self.frame.host_frame
 
-    def encoded(self, fmt: str, quality: int, metrics: ServiceMetrics | None = None) -> tuple[bytes, float]:
-        """(bytes, encode_ms), cached per (format, quality). Blocking: call from a thread."""
-        key = (fmt, quality if fmt == "jpeg" else 0)
+    def part(self, channel: str | None = None):
+        """The Frame of one channel (None: the first; a scene without channels: the frame itself)."""
+        parts = frame_parts(self.frame)
+        return parts[next(iter(parts)) if channel is None else channel]
+
+    @property
+    def channel_ids(self) -> list[str]:
+        return list(frame_parts(self.frame))
+
+    def encoded(self, fmt: str, quality: int, metrics: ServiceMetrics | None = None,
+                channel: str | None = None) -> tuple[bytes, float]:
+        """(bytes, encode_ms) of one channel's image (None: the first), cached per (channel, format, quality).
+        Blocking: call from a thread."""
+        channel = self.channel_ids[0] if channel is None else channel
+        key = (channel, fmt, quality if fmt == "jpeg" else 0)
         with self._lock:
             hit = self._encoded.get(key)
             if hit is None:
                 t0 = time.perf_counter()
-                data = encode_frame(self.frame.rgba, fmt, quality)
+                data = encode_frame(self.part(channel).rgba, fmt, quality)
                 hit = (data, (time.perf_counter() - t0) * 1e3)
                 self._encoded[key] = hit
                 if metrics is not None:
                     metrics.encode_ms.observe(hit[1], format=fmt)
         return hit
 
-    async def encoded_async(self, fmt: str, quality: int, metrics: ServiceMetrics | None = None) -> tuple[bytes, float]:
+    async def encoded_async(self, fmt: str, quality: int, metrics: ServiceMetrics | None = None,
+                            channel: str | None = None) -> tuple[bytes, float]:
         """``encoded`` off the event loop; a cached encoding is returned without a thread hop."""
-        hit = self._encoded.get((fmt, quality if fmt == "jpeg" else 0))
+        channel = self.channel_ids[0] if channel is None else channel
+        hit = self._encoded.get((channel, fmt, quality if fmt == "jpeg" else 0))
         if hit is not None:
             return hit
-        return await asyncio.to_thread(self.encoded, fmt, quality, metrics)
+        return await asyncio.to_thread(self.encoded, fmt, quality, metrics, channel)
+
+    async def encoded_channels(self, fmt: str, quality: int, channels: list[str],
+                               metrics: ServiceMetrics | None = None) -> dict[str, tuple[bytes, float]]:
+        """{channel: (bytes, encode_ms)} of several channels, encoded side by side (the encoder releases the GIL)."""
+        encodings = await asyncio.gather(*(self.encoded_async(fmt, quality, metrics, c) for c in channels))
+        return dict(zip(channels, encodings))
 
     @property
     def sim_time(self) -> float:
         return self.frame.sim_time
 
-    def headers(self) -> dict[str, str]:
+    def headers(self, channel: str | None = None) -> dict[str, str]:
+        """The frame's headers; X-IG-Width/Height are the channel's (None: the first), X-IG-Channel its id
+        (empty: the camera of a scene without channels)."""
+        part = self.part(channel)
+        named = {"X-IG-Channel": self.channel_ids[0] if channel is None else channel}
         return {
             "X-IG-Host-Frame": str(self.host_frame),
             "X-IG-Frame": str(self.ig_frame),
             "X-IG-Sim-Time": f"{self.sim_time:.6f}",
             "X-IG-Render-Ms": f"{self.frame.render_ms:.3f}",
-            "X-IG-Width": str(self.frame.width),
-            "X-IG-Height": str(self.frame.height),
+            "X-IG-Width": str(part.width),
+            "X-IG-Height": str(part.height),
             "X-IG-EV100": f"{self.frame.ev100:.3f}",
             "X-IG-Illuminance-Lux": f"{self.frame.illuminance_lux:.6g}",
+            **named,
             **quality_headers(self.frame),
         }
 
@@ -209,6 +235,7 @@ class RenderGateway:
         when it was asked for (its render_call_ms includes the time it spent in flight)."""
         call_ms = (time.perf_counter() - t0) * 1e3
         self.metrics.frames_rendered.inc()
+        self.metrics.observe_channels(list(frame_parts(frame)))
         self.metrics.frame_ms.observe(frame.render_ms)
         self.metrics.observe_quality(getattr(frame, "overload", None))
         for name, ms in (frame.pass_ms or {}).items():
@@ -403,7 +430,8 @@ class FramePump:
         if encoded is not None:
             # the stream format is known: encode once, off the event loop and off the render thread; a
             # client that asks for it meanwhile waits on the same encoding (EncodedFrame's lock)
-            task = asyncio.get_running_loop().create_task(encoded.encoded_async("jpeg", self.jpeg_quality, self.metrics))
+            task = asyncio.get_running_loop().create_task(
+                encoded.encoded_channels("jpeg", self.jpeg_quality, encoded.channel_ids, self.metrics))
             self._encodes.add(task)
             task.add_done_callback(self._encodes.discard)
             self.publish(encoded)

@@ -71,6 +71,14 @@ class ServiceMetrics:
         self.protocol_errors = LabelledCounter("igserver_protocol_errors", "Rejected requests and messages", r,
                                                ["kind"])
         self.render_errors = LabelledCounter("igserver_render_errors", "Render calls that failed after retry", r)
+        # Channels (docs/channels.md): every frame renders every channel of one state in one process, so the
+        # channels' counts move together (frame lock is exact); a channel that leaves the state leaves here
+        self.channel_frames = Counter("igserver_channel_frames_rendered",
+                                      "Frames rendered per channel (\"\": the camera of a scene without channels)",
+                                      ["channel"], registry=r)
+        self._channel_ids: tuple[str, ...] = ()
+        Gauge("igserver_channels", "Channels of the last frame rendered", registry=r).set_function(
+            lambda: len(self._channel_ids))
         # The operating point of the last frame (render/overload.py); target_fps 0 while no target is held
         self.quality = {key: Gauge(f"igserver_quality_{key}", help_text, registry=r) for key, help_text in (
             ("scale", "Internal render scale of the last frame"),
@@ -85,6 +93,16 @@ class ServiceMetrics:
         values = {} if not report else {**report, "target_met": float(report["met"])}
         for key, gauge in self.quality.items():
             gauge.set(float(values.get(key, float("nan"))))
+
+    def observe_channels(self, ids: list[str]) -> None:
+        """One frame rendered of channels ``ids``; the series of channels no longer rendered are removed."""
+        ids = tuple(ids)
+        if ids != self._channel_ids:
+            for gone in set(self._channel_ids) - set(ids):
+                self.channel_frames.remove(gone)
+            self._channel_ids = ids
+        for channel in ids:
+            self.channel_frames.labels(channel=channel).inc()
 
     def gauge(self, name: str, help_text: str, read: Callable[[], float]) -> None:
         """A value read at scrape time (connected clients, render-process restarts)."""

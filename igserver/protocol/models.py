@@ -127,6 +127,33 @@ class FrameMessage(BaseModel):
     ev100: float = Field(0.0, description="exposure the frame was rendered with (EV100)")
     illuminance_lux: float = Field(0.0, description="natural horizontal illuminance at the camera (lux)")
     quality: QualityReport | None = Field(None, description="the frame's operating point (X-IG-Quality as a map)")
+    channel: str | None = Field(None, description="the channel shown, when the state has channels")
+
+
+class ChannelImage(BaseModel):
+    """One channel's image in a ChannelsFrameMessage."""
+
+    width: int
+    height: int
+    data: bytes = Field(..., description="encoded image (raw: RGBA rows, top row first)")
+    encode_ms: float
+
+
+class ChannelsFrameMessage(BaseModel):
+    """Several channels of one frame (WebSocket after hello ``channels``; POST /v1/render of a state with
+    channels, for msgpack callers): one IG frame number and host_frame for all of them."""
+
+    type: Literal["frame"] = "frame"
+    frame: int = Field(..., description="IG frame number (every channel's)")
+    host_frame: int = Field(..., description="host_frame of the state every channel shows")
+    format: Literal["jpeg", "png", "raw"]
+    render_ms: float = Field(..., description="render time of the frame (all channels) in the render process")
+    ev100: float = Field(0.0, description="exposure of every channel (one exposure per frame)")
+    illuminance_lux: float = 0.0
+    quality: QualityReport | None = None
+    channels: dict[str, ChannelImage] = Field(..., description="by channel id, in the state's order")
+    missing: list[str] | None = Field(None, description="channels asked for in hello that this frame has not "
+                                      "(they left the state)")
 
 
 # --- WebSocket /v1/ws messages (documented in the AsyncAPI document and /v1/ws-protocol; routers/ws.py)
@@ -138,6 +165,10 @@ class HelloMessage(BaseModel):
                          "(at most the server's ws_max_credits)")
     format: Literal["jpeg", "png", "raw"] = "jpeg"
     quality: int = Field(85, ge=1, le=100, description="JPEG quality")
+    channels: list[str] | None = Field(None, max_length=16, description="channel ids of the current state: each "
+                                       "frame message then carries these channels of one state together "
+                                       "(ChannelsFrameMessage); [] = every channel; absent = the first channel "
+                                       "alone (FrameMessage)")
     id: int | str | None = None
 
 

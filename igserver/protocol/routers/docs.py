@@ -17,7 +17,8 @@ from fastapi.openapi.docs import get_redoc_html
 from fastapi.responses import HTMLResponse, JSONResponse, Response
 
 from ...scene.model import Scene
-from ..models import AckMessage, CreditMessage, ErrorMessage, FrameMessage, HelloMessage, StateMessage
+from ..models import (AckMessage, ChannelsFrameMessage, CreditMessage, ErrorMessage, FrameMessage, HelloMessage,
+                      StateMessage)
 from ..problems import Problem
 from . import ws
 
@@ -25,7 +26,7 @@ router = APIRouter(tags=["docs"])
 
 REF = "#/components/schemas/{model}"
 CLIENT_MESSAGES = (HelloMessage, StateMessage, AckMessage, CreditMessage)
-SERVER_MESSAGES = (FrameMessage, ErrorMessage)
+SERVER_MESSAGES = (FrameMessage, ChannelsFrameMessage, ErrorMessage)
 
 
 @lru_cache(maxsize=1)

@@ -1,7 +1,9 @@
 """WebSocket ``/v1/ws``: msgpack both ways, credit-based flow control.
 
 Client -> server (binary msgpack maps):
-  ``{"type": "hello", "credits": 2, "format": "jpeg", "quality": 85}``  optional, first; sets the window
+  ``{"type": "hello", "credits": 2, "format": "jpeg", "quality": 85, "channels": ["port", "ahead"]}``
+                                                    optional, first; sets the window, the format and the
+                                                    channels each frame message carries (``[]``: all)
   ``{"type": "patch", "state": {...}, "id": 7}``   merge a partial state (``"replace"``: a whole state)
   ``{"type": "ack", "frame": 123}``                 one frame consumed: one credit back
   ``{"type": "credit", "n": 4}``                    grant more credits
@@ -9,6 +11,10 @@ Client -> server (binary msgpack maps):
                                                     sea height/normal/velocity (routers/query.py)
 Server -> client:
   ``{"type": "frame", "frame", "host_frame", "width", "height", "format", "data", "render_ms", "encode_ms", "ev100", "illuminance_lux", "quality"}``
+      (the first channel, ``channel`` naming it when the state has channels), or after a hello with
+      ``channels``: ``{"type": "frame", "frame", "host_frame", "format", "render_ms", "ev100", "illuminance_lux",
+      "quality", "channels": {id: {"width", "height", "data", "encode_ms"}}, "missing"?: [ids]}``: every
+      channel asked for, of one state, in one message (one credit)
   ``{"type": "error", "id": 7, "problem": {...}}``  a rejected message (RFC 9457 members); nothing changed
   ``{"type": "query_result", "id": 8, "query": "water-height", "sim_time", "height", "normal", "velocity"}``
 
@@ -37,7 +43,9 @@ from ..dependencies import get_runtime
 from ...render.worker import release_free_memory
 from ..flow import drained, transport_of
 from ..problems import ProblemError
-from .frames import check_raw_size, frame_message
+from ..channels import choose, state_channel_ids
+from ...scene.channels import MAX_CHANNELS
+from .frames import channels_message, check_raw_channels, check_raw_size, frame_message
 
 router = APIRouter(tags=["stream"])
 
@@ -57,6 +65,7 @@ class Session:
         self.greeted = asyncio.Event()  # frames flow after the client's first message (normally hello)
         self.send_lock = asyncio.Lock()  # frames and error replies come from two tasks
         self.sent_raw = False
+        self.channels: list[str] | None = None  # hello's channels ([]: all); None: the first channel alone
 
     async def send(self, value: dict) -> None:
         data = encode(value, MSGPACK)
@@ -88,19 +97,9 @@ class Session:
                 encoded = await runtime.pump.next_frame(seen, timeout=None)
                 if last_frame >= 0 and encoded.ig_frame > last_frame + 1:
                     runtime.metrics.frames_dropped.inc(encoded.ig_frame - last_frame - 1, stream="ws")
-                if self.format == "raw":
-                    try:
-                        check_raw_size(runtime, "raw", encoded.frame.width, encoded.frame.height)
-                    except ProblemError as problem:  # the frame grew past the raw limit: go on in jpeg
-                        self.format = "jpeg"
-                        await self.send({"type": "error", "problem": problem.document("/v1/ws")})
-                if self.format == "raw":  # the pixels themselves go into the message: no raw copy cached
-                    data, encode_ms = memoryview(encoded.frame.rgba).cast("B"), 0.0
-                    self.sent_raw = True
-                else:
-                    data, encode_ms = await encoded.encoded_async(self.format, self.quality, runtime.metrics)
+                message = await self.message_of(encoded)
                 self.credits -= 1
-                await self.send(frame_message(encoded, self.format, data, encode_ms))
+                await self.send(message)
                 runtime.metrics.frames_sent.inc(stream="ws")
                 if encoded.revision != last_revision:
                     if last_frame >= 0:
@@ -108,7 +107,34 @@ class Session:
                                                            stream="ws")
                     last_revision = encoded.revision
                 last_frame = encoded.ig_frame
-                del encoded, data
+                del encoded, message
+
+    async def message_of(self, encoded) -> dict:
+        """The frame message this client asked for: the first channel's image (no ``channels`` in hello), or
+        the asked channels of the frame in one map (``missing``: asked channels the frame has not)."""
+        runtime = self.runtime
+        ids = encoded.channel_ids
+        wanted = [ids[0]] if self.channels is None else [c for c in (self.channels or ids) if c in ids]
+        if self.format == "raw":
+            try:
+                parts = [encoded.part(c) for c in wanted]
+                check_raw_size(runtime, "raw", 0, 0, pixels=sum(p.width * p.height for p in parts),
+                               what="the frame's width/height or the channels asked for")
+            except ProblemError as problem:  # the frame grew past the raw limit: go on in jpeg
+                self.format = "jpeg"
+                await self.send({"type": "error", "problem": problem.document("/v1/ws")})
+        if self.format == "raw":  # the pixels themselves go into the message: no raw copy cached
+            images = {c: (memoryview(encoded.part(c).rgba).cast("B"), 0.0) for c in wanted}
+            self.sent_raw = True
+        else:
+            images = await encoded.encoded_channels(self.format, self.quality, wanted, runtime.metrics)
+        if self.channels is None:
+            return frame_message(encoded, self.format, *images[wanted[0]], wanted[0])
+        message = channels_message(encoded, self.format, images)
+        missing = [c for c in self.channels if c not in ids]
+        if missing:
+            message["missing"] = missing
+        return message
 
     # -- client -> server
     async def receive_messages(self) -> None:
@@ -176,7 +202,7 @@ class Session:
                                [{"pointer": "#/type", "detail": "expected hello, patch, replace, ack, credit or query"}])
 
     def configure(self, tree: dict) -> None:
-        unknown = set(tree) - {"type", "credits", "format", "quality", "id"}
+        unknown = set(tree) - {"type", "credits", "format", "quality", "id", "channels"}
         if unknown:
             name = sorted(unknown)[0]
             raise ProblemError("validation", f"unknown field {name!r}", [{"pointer": f"#/{name}", "detail": "extra field"}])
@@ -190,11 +216,33 @@ class Session:
         if not isinstance(credits, int) or isinstance(credits, bool) or not 0 <= credits <= self.max_credits:
             raise ProblemError("validation", f"credits must be 0..{self.max_credits}",
                                [{"pointer": "#/credits", "detail": "out of range"}])
-        camera = self.runtime.store.scene.camera
-        check_raw_size(self.runtime, fmt, camera.width, camera.height)
-        self.format, self.quality = fmt, quality
+        scene = self.runtime.store.scene
+        channels = self.channels_asked(tree["channels"], scene) if "channels" in tree else self.channels
+        ids = state_channel_ids(scene)
+        check_raw_channels(self.runtime, fmt, scene,
+                           [ids[0]] if channels is None else [c for c in (channels or ids) if c in ids])
+        self.format, self.quality, self.channels = fmt, quality, channels
         self.credits = 0
         self.add_credits(credits)
+
+
+    @staticmethod
+    def channels_asked(value, scene) -> list[str]:
+        """hello's ``channels``: ids of the current state's channels, each once (``[]``: every channel of
+        each frame); a 422 naming the offending item otherwise."""
+        if not isinstance(value, list) or len(value) > MAX_CHANNELS:
+            raise ProblemError("validation", f"channels must be a list of at most {MAX_CHANNELS} channel ids",
+                               [{"pointer": "#/channels", "detail": "expected a list of channel ids"}])
+        ids = state_channel_ids(scene)
+        for i, channel in enumerate(value):
+            if not isinstance(channel, str):
+                raise ProblemError("validation", f"#/channels/{i}: a channel id is a string",
+                                   [{"pointer": f"#/channels/{i}", "detail": "expected a string"}])
+            if channel in value[:i]:
+                raise ProblemError("validation", f"#/channels/{i}: channel {channel!r} is asked for twice",
+                                   [{"pointer": f"#/channels/{i}", "detail": "duplicate channel id"}])
+            choose(ids, channel, f"#/channels/{i}")
+        return list(value)
 
 
 @router.websocket("/v1/ws")
