@@ -529,6 +529,15 @@ def test_minified_detail_maps_leave_the_picture(renderer):
             assert np.abs(texel[:2]).max() < 1e-5 * np.sqrt(means[c, 2:].max())
 
 
+@pytest.fixture
+def box_mips(monkeypatch):
+    """detail_map_levels with the 2x2 box mip chain (detail.BAND_LIMITED_MIPS False), the one the
+    band-limited chain replaced (tests/test_detail_mips.py checks that one)."""
+    from igserver.render.water import detail
+    monkeypatch.setattr(detail, "BAND_LIMITED_MIPS", False)
+
+
+@pytest.mark.usefixtures("box_mips")
 @pytest.mark.parametrize("resolution", [32, 128])
 def test_detail_maps_are_the_waves_at_the_texel_centres(resolution):
     # detail_map_levels sums the tile's waves by an inverse FFT: at every texel centre it must equal

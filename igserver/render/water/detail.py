@@ -13,6 +13,7 @@ from ...water.spectrum import WaveSet
 from ...water.surface import SeaSurface
 from ..camera import CameraView
 from . import lod
+from .detail_mips import band_limited_levels
 from .foam import FOAM_STREAK_FADE, FOAM_STREAK_SIZE
 
 DETAIL_MAPS = 3
@@ -26,6 +27,9 @@ DETAIL_MAPS = 3
 DETAIL_MIN_CYCLES = 5.0
 DETAIL_RATIO = 7.7
 DETAIL_MIN_WAVES = 4
+# Mip levels 1.. of each map band-limited (detail_mips.py); False: each the 2×2 box mean of the one
+# above (the tests' reference: it folds the waves near a level's Nyquist into a lattice).
+BAND_LIMITED_MIPS = True
 
 
 def _detail_bands(sea: SeaSurface) -> tuple[np.ndarray, np.ndarray]:
@@ -88,6 +92,8 @@ def detail_map_levels(waves: np.ndarray, resolution: int) -> list[np.ndarray]:
     level = np.empty((n_side, n_side, 4), np.float32)  # float64 values rounded once, as a float32 stack
     level[..., 0], level[..., 1] = s.real, s.imag
     level[..., 2], level[..., 3] = s.real * s.real, s.imag * s.imag
+    if BAND_LIMITED_MIPS:  # detail_mips.py: no level folds a wave it cannot carry
+        return [level, *band_limited_levels(waves, n_side)]
     levels = [level]
     while level.shape[0] > 1:
         level = 0.25 * (level[0::2, 0::2] + level[0::2, 1::2] + level[1::2, 0::2] + level[1::2, 1::2])

@@ -7,6 +7,7 @@
 #include "common/brdf.glsl"
 #include "common/lights.glsl"
 #include "water/sea_tables.glsl"
+#include "water/detail_filter.glsl"
 #ifdef WATER_UNDERWATER
 #include "water/underwater.glsl"
 #endif
@@ -82,7 +83,13 @@ float foam_cover(float m, vec2 rest, out float spray) { spray = SPRAY_MEAN; retu
 #endif
 
 vec4 detail(sampler2D tex, vec3 map) {
+#if WATER_DETAIL_FADE  // the mean slope faded by the pixel's footprint (water/detail_filter.glsl)
+    vec2 uv = v_rest * map.x + map.yz;
+    vec4 d = texture(tex, uv);
+    return vec4(d.xy * detail_fade(uv), d.zw);
+#else
     return texture(tex, v_rest * map.x + map.yz);
+#endif
 }
 
 // GGX specular of the water for a light of illuminance e from direction l.

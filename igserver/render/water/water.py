@@ -99,6 +99,7 @@ class WaterPass(RenderPass):
         self.skip_faded_streaks = True  # False: every block reads the foam's streak noise (tests' reference)
         self.coarse_flat_sides = True  # False: every fan keeps its G segments a side (tests' reference)
         self.foam_threshold: float | None = None  # tests: a J threshold instead of the calibrated one
+        self.detail_fade = True  # False: the detail maps' slopes unfaded by the footprint (tests' reference)
         self._foam_noise_tex: moderngl.Texture | None = None
         self.stats: dict = {}
         self._underwater: dict | None = None  # this frame's under-water uniforms when the eye is below the surface
@@ -118,6 +119,7 @@ class WaterPass(RenderPass):
             defines["WATER_HULLS"] = 1
         if self._underwater is not None:  # the eye below the surface (water/underwater.glsl)
             defines["WATER_UNDERWATER"] = 1
+        defines["WATER_DETAIL_FADE"] = int(self.detail_fade)
         return self.programs.program("water/water.vert.glsl", "water/water.frag.glsl", defines)
 
     def _atmosphere_define(self) -> dict:

@@ -1,0 +1,18 @@
+// The detail maps' footprint filter (water.frag.glsl detail()): each map's mean slope fades out where
+// a pixel spans too much of the map's longest wave, and what fades goes to the roughness — the map's
+// second moments are kept, so the variance the shader derives, E[s^2] - (w E[s])^2, grows by what the
+// slope lost (variance to roughness; LEAN mapping). A map's tile is DETAIL_MIN_CYCLES of its longest
+// wave (detail.py) and its band spans a wavelength ratio of 7.7: the fade starts where that wave is
+// 16 pixels long (the band's middle wave, 2.8 times shorter, ~6 pixels) and is complete at 8 (the
+// middle wave at 3 pixels, the shortest at 1). Without it a tile of a dozen waves at snapped
+// directions drew a diamond lattice over the near water seen level from 2 m, each frame a different
+// one for a moving camera (the waves shift by most of a period between frames at 5 m/s).
+const float DETAIL_LONGEST_CYCLES = 5.0;        // detail.py DETAIL_MIN_CYCLES
+const vec2 DETAIL_FADE_PX = vec2(8.0, 16.0);     // longest wave's length (px): gone, whole
+
+float detail_fade(vec2 uv) {
+    vec2 dx = dFdx(uv), dy = dFdy(uv);
+    float footprint = sqrt(max(dot(dx, dx), dot(dy, dy)));  // tile widths a pixel spans, the longer axis
+    float period_px = 1.0 / (DETAIL_LONGEST_CYCLES * max(footprint, 1e-9));
+    return smoothstep(DETAIL_FADE_PX.x, DETAIL_FADE_PX.y, period_px);
+}
