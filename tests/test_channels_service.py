@@ -20,6 +20,7 @@ from PIL import Image
 from websockets.sync.client import connect
 
 from igserver.client import IGClient, IGError, iter_multipart_jpegs
+from igserver.client.cli import main as igclient
 from igserver.protocol.runtime import ServerSettings
 from igserver.protocol.testing import LoopbackServer
 from igserver.scene import Scene
@@ -296,3 +297,14 @@ def test_metrics_count_frames_per_channel(server, http):
     assert metrics.value("igserver_channels") == 3
     text = http.get("/metrics").text
     assert 'igserver_channel_frames_rendered_total{channel="ahead"}' in text
+
+
+def test_igclient_channels_frame_and_record(server, http, tmp_path, capsys):
+    url = ["--url", server.url]
+    assert igclient(url + ["channels"]) == 0
+    assert [line.split("\t")[0] for line in capsys.readouterr().out.splitlines()] == IDS
+    assert igclient(url + ["frame", "--channel", "stbd", str(tmp_path / "stbd.png")]) == 0
+    assert Image.open(tmp_path / "stbd.png").size == (80, 45)
+    assert igclient(url + ["record", "--png-dir", str(tmp_path / "rec"), "--frames", "2", "--channel", "ahead"]) == 0
+    assert [Image.open(p).size for p in sorted((tmp_path / "rec").iterdir())] == [(96, 54)] * 2
+    assert igclient(url + ["frame", "--channel", "aft", str(tmp_path / "x.png")]) != 0

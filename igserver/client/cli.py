@@ -1,4 +1,4 @@
-"""``igclient``: the host client from the shell (send, set, state, frame, play, record, effects, bench)."""
+"""``igclient``: the host client from the shell (send, set, state, channels, frame, play, record, effects, bench)."""
 
 from __future__ import annotations
 
@@ -56,11 +56,21 @@ def _cmd_frame(args) -> int:
                          "(.raw: RGBA bytes, top row first)")
     fmt = FRAME_SUFFIXES[suffix]
     with _client(args) as ig:
-        frame = ig.get_frame(fmt)
+        frame = ig.get_frame(fmt, channel=args.channel)
     Path(args.output).write_bytes(frame.data)
     layout = " RGBA8, top row first" if fmt == "raw" else ""
-    print(f"{args.output}: frame {frame.frame}, host_frame {frame.host_frame}, {frame.width}x{frame.height}{layout}, "
-          f"render {frame.render_ms:.1f} ms")
+    shown = f"channel {frame.channel!r}, " if frame.channel else ""
+    print(f"{args.output}: {shown}frame {frame.frame}, host_frame {frame.host_frame}, {frame.width}x{frame.height}"
+          f"{layout}, render {frame.render_ms:.1f} ms")
+    return 0
+
+
+def _cmd_channels(args) -> int:
+    with _client(args) as ig:
+        for c in ig.channels():
+            name = "(camera)" if c["implicit"] else c["id"]
+            print(f"{name}\t{c['width']}x{c['height']}\theading {c['heading']:g} pitch {c['pitch']:g} roll {c['roll']:g}"
+                  f"\tfov left {c['fov_left']:g} right {c['fov_right']:g} up {c['fov_up']:g} down {c['fov_down']:g}")
     return 0
 
 
@@ -105,16 +115,22 @@ def _cmd_record(args) -> int:
         with _client(args) as ig:
             if args.mjpeg:
                 with open(args.mjpeg, "wb") as out:
-                    for jpeg in ig.mjpeg(frames=args.frames, fps=args.fps):
+                    for jpeg in ig.mjpeg(frames=args.frames, fps=args.fps, channel=args.channel):
                         # an .mjpg file of concatenated JPEGs: ffmpeg/ffplay read it with -f mjpeg
                         out.write(jpeg)
                         count += 1
             else:
                 folder = Path(args.png_dir)
                 folder.mkdir(parents=True, exist_ok=True)
-                with ig.stream(credits=2, format="png") as stream:
+                channels = None if args.channel is None else [args.channel]
+                with ig.stream(credits=2, format="png", channels=channels) as stream:
                     for n in range(args.frames or 100):
                         frame = stream.recv()
+                        if args.channel is not None:
+                            if args.channel not in frame.channels:
+                                print(f"{target}: channel {args.channel!r} left the state", file=sys.stderr)
+                                break
+                            frame = frame.channels[args.channel]
                         (folder / f"frame_{n:05d}_{frame.host_frame}.png").write_bytes(frame.data)
                         count += 1
     except KeyboardInterrupt:  # Ctrl-C is how an open-ended recording ends: keep what was written
@@ -200,7 +216,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("frame", help="save a frame of the current state (.jpg, .png or .raw RGBA)")
     p.add_argument("output")
+    p.add_argument("--channel", help="the channel's image (igclient channels lists them; default: the first)")
     p.set_defaults(run=_cmd_frame)
+
+    p = sub.add_parser("channels", help="list the state's channels (size, attitude offsets, half-angles)")
+    p.set_defaults(run=_cmd_channels)
 
     p = sub.add_parser("play", help="play a scenario (JSON lines of patches; # comments) at a rate")
     p.add_argument("scenario")
@@ -214,6 +234,7 @@ def build_parser() -> argparse.ArgumentParser:
     target.add_argument("--png-dir", help="output folder for PNG frames")
     p.add_argument("--frames", type=int, default=100, help="frames to record (MJPEG: 0 = until interrupted)")
     p.add_argument("--fps", type=float, default=0, help="MJPEG rate cap")
+    p.add_argument("--channel", help="record this channel (default: the first)")
     p.set_defaults(run=_cmd_record)
 
     p = sub.add_parser("effects", help="list, add, start, stop (fade), remove or change effects",
