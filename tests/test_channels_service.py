@@ -11,6 +11,9 @@ from __future__ import annotations
 import email.parser
 import email.policy
 import io
+import re
+import threading
+import time
 
 import httpx
 import msgpack
@@ -222,6 +225,51 @@ def test_ws_channels_of_each_frame_together_under_a_host_changing_every_frame(se
     # every channel of a frame shows its host frame's look: each channel of an even host frame is blue
     # sky, each of an odd one yellow-grey ground
     assert min(min(m.values()) for m in sky) > 5 and max(max(m.values()) for m in ground) < -5, looks
+
+
+MJPEG_HEAD = re.compile(rb"Content-Length: (\d+)\r\nX-IG-Frame: (\d+)\r\nX-IG-Host-Frame: (\d+)\r\n"
+                        rb"X-IG-Render-Ms: [^\r]*\r\nX-IG-Channel: ([^\r]*)\r\n(?:[^\r]*\r\n)*\r\n")
+
+
+def _read_parts(url: str, channel: str, count: int, out: list) -> None:
+    """(IG frame, host_frame, channel, blueness) of ``count`` parts of one channel's MJPEG stream."""
+    buffer = b""
+    with httpx.stream("GET", url + "/v1/stream.mjpg", params={"channel": channel, "frames": count},
+                      timeout=60) as response:
+        for chunk in response.iter_bytes():
+            buffer += chunk
+            while (match := MJPEG_HEAD.search(buffer)) and len(buffer) >= match.end() + int(match[1]):
+                data = buffer[match.end():match.end() + int(match[1])]
+                out.append((int(match[2]), int(match[3]), match[4].decode(), blueness(jpeg(data))))
+                buffer = buffer[match.end() + int(match[1]):]
+
+
+def test_mjpeg_streams_of_two_channels_show_the_same_frames_under_a_changing_host(server, http):
+    """Two MJPEG streams, one per channel, while a host sends a new state every 40 ms, turning the camera
+    between sky (even host_frame) and ground (odd): a frame number means the same state in both streams
+    (same host_frame), and each part shows its host_frame's look."""
+    parts: dict[str, list] = {"port": [], "stbd": []}
+    readers = [threading.Thread(target=_read_parts, args=(server.url, cid, 15, parts[cid])) for cid in parts]
+    for reader in readers:
+        reader.start()
+    host_frame = 2000
+    while any(reader.is_alive() for reader in readers) and host_frame < 2400:
+        pitch = 60.0 if host_frame % 2 == 0 else -60.0
+        http.patch("/v1/state", json={"host_frame": host_frame, "camera": {"pitch": pitch}}).raise_for_status()
+        host_frame += 1
+        time.sleep(0.04)
+    for reader in readers:
+        reader.join(30)
+    assert all(len(p) == 15 for p in parts.values()), {k: len(v) for k, v in parts.items()}
+    by_frame = [{frame: host for frame, host, _, _ in p} for p in parts.values()]
+    common = set(by_frame[0]) & set(by_frame[1])
+    assert common and all(by_frame[0][f] == by_frame[1][f] for f in common), by_frame
+    for cid, seen in parts.items():
+        assert {c for _, _, c, _ in seen} == {cid}
+        assert [f for f, *_ in seen] == sorted(f for f, *_ in seen)
+        looks = [(host, blue) for _, host, _, blue in seen if host >= 2000]
+        assert len({host for host, _ in looks}) > 3, looks  # the stream followed the host
+        assert all((blue > 5) if host % 2 == 0 else (blue < -5) for host, blue in looks), (cid, looks)
 
 
 def test_ws_hello_channels_rejections_change_nothing(server, http):
