@@ -66,6 +66,12 @@ def test_viewer_shows_the_channels_side_by_side(server):
         httpx.patch(server.url + "/v1/state", json={"host_frame": 77}).raise_for_status()
         page.wait_for("document.getElementById('channels').dataset.hostFrame === '77'")
         assert int(page.evaluate("document.getElementById('channels').dataset.frame")) > first
+        # a host turns a channel: its caption follows, the images keep coming on the same socket
+        turned = [dict(c, heading=-55.0) if c["id"] == "port" else c for c in CHANNELS]
+        httpx.patch(server.url + "/v1/state", json={"channels": turned, "host_frame": 78}).raise_for_status()
+        page.wait_for("document.querySelector('#channels figure[data-channel=\"port\"] figcaption')"
+                      ".textContent.includes('heading -55')")
+        page.wait_for("document.getElementById('channels').dataset.hostFrame === '78'")
         # no channels: back to the camera's MJPEG stream
         httpx.patch(server.url + "/v1/state", json={"channels": []}).raise_for_status()
         page.wait_for("document.getElementById('channels').offsetParent === null && "
