@@ -130,6 +130,31 @@ class FrameMessage(BaseModel):
     channel: str | None = Field(None, description="the channel shown, when the state has channels")
 
 
+class ChannelInfo(BaseModel):
+    """One channel a frame delivers (GET /v1/channels)."""
+
+    id: str = Field(..., description='channel id ("" for the camera of a state without channels)')
+    implicit: bool = Field(..., description="true: the camera of a state without channels")
+    width: int = Field(..., description="px")
+    height: int = Field(..., description="px")
+    heading: float = Field(..., description="deg, offset from the camera's heading, right positive")
+    pitch: float = Field(..., description="deg, offset from the camera's pitch, up positive")
+    roll: float = Field(..., description="deg, offset from the camera's roll")
+    fov_left: float = Field(..., description="deg, half-angle from the axis to the left edge")
+    fov_right: float = Field(..., description="deg")
+    fov_up: float = Field(..., description="deg")
+    fov_down: float = Field(..., description="deg")
+    near: float = Field(..., description="m, in effect (the camera's when the channel leaves it unset)")
+    far: float = Field(..., description="m, in effect")
+
+
+class ChannelList(BaseModel):
+    """GET /v1/channels: the channels of the current state, in order."""
+
+    revision: int = Field(..., description="accepted state revision")
+    channels: list[ChannelInfo]
+
+
 class ChannelImage(BaseModel):
     """One channel's image in a ChannelsFrameMessage."""
 

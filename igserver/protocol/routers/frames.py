@@ -16,7 +16,7 @@ from ..dependencies import Message, ReplyFormat, Runtime, reply
 from ..flow import drained, transport_of
 from ..frames import EncodedFrame, quality_headers
 from ..imaging import MEDIA_TYPES
-from ..models import PATCH_SCHEMA, PROBLEM_RESPONSES, QUALITY_HEADER_DOC, QueryBool, body_doc
+from ..models import PATCH_SCHEMA, PROBLEM_RESPONSES, ChannelList, QUALITY_HEADER_DOC, QueryBool, body_doc
 from ..problems import ProblemError
 from ...render.worker import RenderError
 from ...scene.channels import channel_sizes
@@ -164,7 +164,9 @@ CHANNEL_QUERY = Query(None, max_length=32, description="channel id (GET /v1/chan
     "`roll` (deg, offsets from the camera), `fov_left`, `fov_right`, `fov_up`, `fov_down` (deg, half-angles), "
     "`near`, `far` (m, in effect). A scene without channels has one implicit channel, the camera "
     "(id `\"\"`, `implicit: true`).",
-    responses={200: {"content": {"application/json": {}, MSGPACK: {}}}},
+    response_model=ChannelList,
+    responses={200: {"content": {MSGPACK: {}}, "headers": {"X-IG-Revision": {"description": "accepted state "
+                     "revision", "schema": {"type": "integer"}}}}},
 )
 async def get_channels(runtime: Runtime, fmt: ReplyFormat):
     store = runtime.store
