@@ -356,3 +356,28 @@ def test_igclient_channels_frame_and_record(server, http, tmp_path, capsys):
     assert igclient(url + ["record", "--png-dir", str(tmp_path / "rec"), "--frames", "2", "--channel", "ahead"]) == 0
     assert [Image.open(p).size for p in sorted((tmp_path / "rec").iterdir())] == [(96, 54)] * 2
     assert igclient(url + ["frame", "--channel", "aft", str(tmp_path / "x.png")]) != 0
+
+
+def test_ws_channels_that_leave_the_state_are_reported_missing(server, http):
+    with connect(ws_url(server), compression=None, max_size=1 << 24) as ws:
+        ws.send(pack({"type": "hello", "credits": 1, "channels": ["stbd", "port"]}))
+        assert list(unpack(ws.recv(30))["channels"]) == ["stbd", "port"]
+        http.patch("/v1/state", json={"host_frame": 610, "channels": CHANNELS[:2]}).raise_for_status()
+        while True:
+            ws.send(pack({"type": "ack"}))
+            message = unpack(ws.recv(30))
+            if message["host_frame"] == 610:
+                break
+        assert list(message["channels"]) == ["port"] and message["missing"] == ["stbd"]
+
+
+def test_raw_limit_counts_every_channel_of_a_message(server, http, monkeypatch):
+    """Three raw channels are 55,872 bytes: over a 50,000-byte limit together, each alone within it."""
+    monkeypatch.setattr(server.runtime, "settings", server.runtime.settings.model_copy(
+        update={"max_raw_frame_bytes": 50_000}))
+    before = snapshot(http)
+    response = http.post("/v1/render", json={"host_frame": 620}, params={"format": "raw"})
+    assert response.status_code == 413 and pointers(response) == ["#/format"]
+    assert snapshot(http) == before
+    one = http.post("/v1/render", json={"host_frame": 621}, params={"format": "raw", "channel": "port"})
+    assert one.status_code == 200 and len(one.content) == 96 * 54 * 4
