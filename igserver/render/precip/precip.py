@@ -66,6 +66,9 @@ class PrecipPass(RenderPass):
 
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
+        if frame.resources.get("eye_under_water"):  # the water pass put the eye below the surface: no rain
+            self.stats = {"particles": 0, "tiles": 0, "streaks": 0, "drops_per_streak": 0}
+            return
         settings = self.knobs(frame)
         particles = particle_frame(scene, view, settings, self.pool)
         near = particles.levels[0].particles if particles.levels else 0

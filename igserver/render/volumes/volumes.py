@@ -518,6 +518,8 @@ class VolumesPass(RenderPass):
         settings = self.knobs(frame)
         self._frame += 1
         self.stats = {"modelled": 0, "drawn": 0, "voxels": 0}
+        if frame.resources.get("eye_under_water"):  # the water pass put the eye below the surface: fire and
+            return  # smoke are in the air, the water hides them (docs/water.md#under-water)
         # The volumes follow the effects, their fade levels now, the wind that bends them and the view.
         t = scene.time.sim_time
         key = (tuple(scene.effects), tuple(fade_level(e, t) for e in scene.effects), scene.weather.wind_speed,

@@ -41,6 +41,7 @@ MAX_WAVES = 64
 DETAIL_UNIT0 = PASS_UNITS["SEA_DETAIL0"]  # and the next two
 FIELD_UNIT = PASS_UNITS["SEA_FIELD"]
 FIELD_SCALAR_UNIT = PASS_UNITS["SEA_FIELD_SCALAR"]
+UNDERWATER_DISTANCE_UNIT = FIELD_UNIT  # the frame's distance, read before the sea is drawn (then the field again)
 
 
 @dataclass(frozen=True)
@@ -339,6 +340,8 @@ class WaterPass(RenderPass):
                       "foam_streak_blocks": int(np.count_nonzero(streaks))}
         if len(selection.nodes) == 0:
             return
+        if self._underwater is not None:
+            self._objects_under_water(targets, table_uniforms, sea)
         targets.scene_fbo.use()
         self.ctx.enable(moderngl.DEPTH_TEST)
         self.ctx.disable(moderngl.BLEND)
@@ -356,6 +359,7 @@ class WaterPass(RenderPass):
         self.ctx.disable(moderngl.CULL_FACE)
         self.stats["culled_back_faces"] = not under
         self.stats["underwater"] = self._underwater is not None
+        frame.resources["eye_under_water"] = self._underwater is not None  # later passes (precipitation)
         if under:
             self._fill_under_crests(frame, selection, table_uniforms)
 
@@ -431,6 +435,28 @@ class WaterPass(RenderPass):
         set_uniforms(program, self._underwater)
         set_uniforms(program, table_uniforms)
         self.fullscreen(program)
+
+    def _objects_under_water(self, targets, table_uniforms: dict, sea: SeaSurface) -> None:
+        """Under water, before the sea is drawn: what the surfaces pass drew seen through the water
+        (water/underwater_objects.frag.glsl), the colour times the transmittance, then plus the light
+        scattered in (two blended full-screen passes over the colour alone, reading the distance)."""
+        program = self.programs.program("common/fullscreen.vert.glsl", "water/underwater_objects.frag.glsl",
+                                        self._atmosphere_define())
+        set_uniforms(program, self._underwater)
+        set_uniforms(program, table_uniforms)
+        use_texture(targets.distance, UNDERWATER_DISTANCE_UNIT)
+        set_uniforms(program, {"u_uw_distance": UNDERWATER_DISTANCE_UNIT})
+        targets.color_fbo.use()
+        self.ctx.disable(moderngl.DEPTH_TEST)
+        self.ctx.enable(moderngl.BLEND)
+        for step, func in ((0, (moderngl.ZERO, moderngl.SRC_COLOR)), (1, (moderngl.ONE, moderngl.ONE))):
+            self.ctx.blend_func = func
+            set_uniforms(program, {"u_uw_pass": step})
+            self.fullscreen(program)
+        self.ctx.blend_func = moderngl.DEFAULT_BLENDING
+        self.ctx.disable(moderngl.BLEND)
+        if sea.field is not None:  # the distance borrowed the field's unit
+            use_texture(self._field_tex[0], FIELD_UNIT)
 
     def _fill_under_crests(self, frame, selection: lod.LodSelection, table_uniforms: dict) -> None:
         """Rays that pass under the mesh (``_sees_under_mesh``) meet the water body: draw the sphere
