@@ -88,6 +88,10 @@ class ProgramCache:
     def __len__(self) -> int:
         return len(self._programs)
 
+    def __iter__(self):
+        """The programs compiled so far (draw and compute)."""
+        return iter(list(self._programs.values()))
+
 
 def _note_block_reads(program, defines: dict, sources: tuple[str, ...]):
     """Keep on ``program`` what ``block_reads`` needs to tell which frame-block fields it reads."""

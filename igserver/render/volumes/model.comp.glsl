@@ -24,7 +24,12 @@ layout(rg16f, binding = 0) writeonly uniform image3D u_volume;
 layout(rgba16f, binding = 0) writeonly uniform image3D u_volume;
 #endif
 #ifdef SMOKE
+#ifndef SHADOWS
+// Not declared in the SHADOWS variant: left unset there, it would share unit 0 with u_profile as
+// another sampler type, and GL refuses the dispatch wherever a compiler counts such a sampler as
+// active (tests/test_gl_hazards.py).
 uniform sampler3D u_shadows;  // (t_sun, t_sky) per voxel, from the SHADOWS variant
+#endif
 #endif
 uniform sampler2D u_profile;
 uniform ivec3 u_size;
@@ -73,7 +78,7 @@ void main() {
 #ifdef SHADOWS
     imageStore(u_volume, id, vec4(shadow(n, u_sun_local), shadow(n, vec3(0.0, 0.0, 1.0)), 0.0, 0.0));
     return;
-#endif
+#else
     vec3 q = n * u_extent;                              // metres from the base centre
     vec3 p = q / u_wavelength - vec3(0.0, 0.0, u_tau);
     float turb = turbulence3(p, vec3(0.0, 0.0, u_period), u_octaves, u_seed);
@@ -95,5 +100,6 @@ void main() {
     // Dying fire cools: red survives longest (a blackbody's blue and green fall first).
     vec3 cool = pow(vec3(1.0, 0.75, 0.5), vec3(3.0 * u_cooling));
     imageStore(u_volume, id, vec4(prof.rgb * cool * (1.0 - 0.6 * u_cooling), density));
+#endif
 #endif
 }
