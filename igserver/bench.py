@@ -235,12 +235,15 @@ def _write_json(path: str, report: dict) -> None:
 def run(scenes: list[str], resolutions: list[tuple[int, int]], frames: int, assignments: list[str],
         json_path: str | None = None, presets: list[str] | None = None, markdown_path: str | None = None) -> dict:
     from .render.renderer import Renderer
+    from .source_id import source_id
 
     renderer = Renderer()
     gpu_timer = timer_queries_unusable(renderer)
     report = {"renderer": renderer.caps.renderer, "gl_version": renderer.caps.version, "frames": frames,
               "gpu_timer": gpu_timer or "timer queries", "runs": []}
+    report["source"] = source_id()  # which code was measured (source_id.py)
     print(f"renderer: {renderer.caps.renderer} | GL {renderer.caps.version} | {frames} frames, medians (p99) in ms"
+          f" | source {report['source']}"
           f" | GPU ms per pass: {gpu_timer or 'timer queries'}")
     patch = patch_from_assignments(assignments)
     for name in scenes:

@@ -49,10 +49,18 @@ def _scene_from_args(args):
     return apply_patch(scene, patch)
 
 
+def cmd_source_id(args) -> int:
+    from .source_id import source_id
+
+    print(source_id())
+    return 0
+
+
 def cmd_render(args) -> int:
     from PIL import Image
 
     from .render.worker import RenderError, RenderService
+    from .source_id import source_id
 
     scene = _scene_from_args(args)
     try:
@@ -64,14 +72,17 @@ def cmd_render(args) -> int:
         return 1
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     Image.fromarray(frame.rgba[:, :, :3]).save(args.out)
+    source = source_id()  # which code made the picture (source_id.py): pictures from two machines compare
     if getattr(args, "json", False):
         import json
 
         print(json.dumps({"out": str(args.out), "width": frame.width, "height": frame.height, "passes": frame.passes,
                           "render_ms": round(frame.render_ms, 3), "ev100": round(frame.ev100, 3),
+                          "source": source,
                           "illuminance_lux": float(f"{frame.illuminance_lux:.6g}")}))
         return 0
     print(f"wrote {args.out} ({frame.width}x{frame.height}, passes {' '.join(frame.passes)}, "
+          f"source {source}, "
           f"{frame.render_ms:.1f} ms, EV100 {frame.ev100:.2f}, {frame.illuminance_lux:.4g} lx)")
     return 0
 
@@ -164,6 +175,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the frame's read-out (EV100, illuminance) as JSON")
     p.add_argument("--preset", choices=PRESET_CHOICES, help="quality preset (= --set quality.preset=...)")
     p.set_defaults(func=cmd_render)
+
+    p = sub.add_parser("source-id", help="digest of this tree's package files, as printed with pictures and "
+                                         "stored in benchmark reports (igserver/source_id.py)")
+    p.set_defaults(func=cmd_source_id)
 
     p = sub.add_parser("bench", help="frame time per pass and in total")
     p.add_argument("--scenes", help="comma-separated scene names (default: all example scenes)")

@@ -18,6 +18,9 @@ def test_render_writes_png_with_overrides(tmp_path):
     image = Image.open(out)
     assert image.size == (80, 48)
     assert "passes sky post" in proc.stdout
+    from igserver.source_id import source_id
+
+    assert f"source {source_id()}" in proc.stdout  # which tree made the picture
 
 
 def test_bad_override_is_a_clear_error(tmp_path):
@@ -36,6 +39,9 @@ def test_bench_prints_per_pass_medians(tmp_path):
     import json
 
     report = json.loads((tmp_path / "b.json").read_text())
+    from igserver.source_id import source_id
+
+    assert report["source"] == source_id()
     run0 = report["runs"][0]
     assert run0["pass_ms"]["sky"]["median"] > 0
     # CPU split per pass: the calling thread's share and the other threads' (llvmpipe's workers).
