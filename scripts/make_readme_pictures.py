@@ -20,8 +20,9 @@ DOCS = Path(__file__).resolve().parents[1] / "docs"
 
 BRIDGE = {"camera": {"position": [0.0, 0.0, 15.0], "pitch": -3.0}, "time": {"sim_time": 100.0}}
 AIR = {"camera": {"position": [0.0, 0.0, 300.0], "pitch": -20.0}, "time": {"sim_time": 100.0}}
+SHORE = {"camera": {"position": [405.0, -200.0, 6.0], "heading": 350.0, "pitch": -8.0}, "time": {"sim_time": 100.0}}
 
-# picture -> (scene, width, height[, patch]): the patch puts the camera on a ship's bridge or in the air
+# picture -> (scene, width, height[, patch]): the patch puts the camera on a ship's bridge, in the air or on the beach
 PICTURES = {
     "demo.jpg": ("demo", 800, 450),
     "surfaces_noon.jpg": ("harbour_noon", 640, 360),
@@ -36,6 +37,7 @@ PICTURES = {
     "water_beaufort9_bridge.jpg": ("sea_beaufort9", 640, 360, BRIDGE),
     "water_beaufort9_300m.jpg": ("sea_beaufort9", 640, 360, AIR),
     "water_beaufort5_bridge.jpg": ("sea_beaufort5", 640, 360, BRIDGE),
+    "water_beach_shore.jpg": ("sea_beach", 640, 360, SHORE),
     "water_harbour_fire.jpg": ("sea_harbour_fire", 640, 360),
 }
 

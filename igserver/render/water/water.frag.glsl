@@ -13,6 +13,9 @@
 #endif
 #include "common/fog_relief.glsl"
 #include "water/foam.glsl"
+#ifdef WATER_FIELD
+#include "water/shore.glsl"
+#endif
 
 #ifndef MAX_HULLS
 #define MAX_HULLS 32
@@ -188,12 +191,15 @@ void main() {
                 + PI * u_sky_ambient * (0.5 + 0.5 * n.z) + e_local;
     lit = mix(lit, FOAM_FRESH * e_foam / PI, foam);
     lit = mix(lit, FOAM_FRESH * e_foam / PI, spray);  // spray: a white veil over whatever is below
-    // Dry land of the bathymetry (h <= 0): no water, the bare beach at the water level (there is no
-    // terrain pipeline yet), wet sand darker for the last few centimetres.
+    // Dry land of the bathymetry (h <= 0): the bare beach at the water level (there is no terrain
+    // pipeline yet), under the swash that runs up it and back with each wave (shore.glsl), its front
+    // white, the sand it wets darker (wet sand reflects about 60 % of dry sand's light).
 #ifdef WATER_FIELD
-    float wet = smoothstep(0.0, 0.05, v_depth);
-    vec3 sand = BOTTOM_ALBEDO * mix(1.0, 0.6, smoothstep(-0.3, 0.0, v_depth)) * e_down / PI;  // Lambert
-    lit = mix(sand, lit, wet);
+    float land = shore_elevation(v_rest, v_depth);
+    vec3 sw = swash(v_rest, land);
+    float water = max(smoothstep(0.0, 0.05, -land), sw.x);
+    vec3 sand = BOTTOM_ALBEDO * mix(1.0, 0.6, sw.z) * e_down / PI;  // Lambert
+    lit = mix(mix(sand, lit, water), FOAM_FRESH * e_foam / PI, sw.y);
 #endif
     // apply_aerial_perspective, per vertex; a fog top's relief per pixel (its cells span few vertices)
     out_color = vec4(pre_expose(lit * v_air_t + v_air_s * fog_top_relief(v_rel / dist)), 1.0);

@@ -33,6 +33,7 @@ from .detail import (DETAIL_MAPS, detail_map_levels, detail_means, detail_tiles,
                      foam_streaks_needed, minified_maps_from)
 from .foam import FOAM_EDGE, FOAM_NOISE_SIZE, FOAM_NOISE_UNIT, FOAM_PERIOD, drawn_foam_threshold, foam_frame
 from .hulls import MAX_HULLS, blocks_near_hulls, hull_boxes
+from .shore import shore_uniforms
 from .sea_tables import SeaTables
 from .underwater import eye_depth, underwater_uniforms
 
@@ -381,7 +382,7 @@ class WaterPass(RenderPass):
         values = {**frame.uniforms, **table_uniforms, **glint_light(frame.uniforms), **self._wave_values(sea, waves),
                   "u_morph": morph.tobytes(), **units,
                   "u_min_slope_var": 2e-4 + detail_unresolved_var(sea), "u_foam_jacobian": threshold,
-                  "u_foam_edge": FOAM_EDGE, **foam_frame(scene, view, sea, wind, MAX_WAVES), "u_hull_count": len(hulls)}
+                  "u_foam_edge": FOAM_EDGE, **foam_frame(scene, view, sea, wind, MAX_WAVES), **shore_uniforms(scene, view, sea), "u_hull_count": len(hulls)}
         if hulls:
             mats = np.zeros((MAX_HULLS, 4, 4), dtype=np.float32)
             mats[: len(hulls)] = np.transpose(np.asarray(hulls), (0, 2, 1))
