@@ -1,4 +1,4 @@
-"""Command line: ``igserver serve | health | render | bench | quality``."""
+"""Command line: ``igserver serve | cluster | health | render | bench | quality``."""
 
 from __future__ import annotations
 
@@ -106,6 +106,12 @@ def cmd_serve(args) -> int:
                  preset=args.preset)
 
 
+def cmd_cluster(args) -> int:
+    from .cluster.cli import run
+
+    return run(args.config, check=args.check)
+
+
 def cmd_health(args) -> int:
     """Container health check: is the local server ready (a frame can be served)? Reads the IGSERVER_* settings."""
     import httpx
@@ -160,6 +166,12 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Every setting is also an IGSERVER_* environment variable (docs/operations.md: Settings).")
     add_serve_arguments(p, "demo")
     p.set_defaults(func=cmd_serve)
+
+    p = sub.add_parser("cluster", help="the service with its channels rendered by Ray actors, one GPU each "
+                                       "(docs/cluster.md; needs igserver[cluster])")
+    p.add_argument("--config", required=True, help="cluster configuration (TOML): scene, channels, workers, Ray")
+    p.add_argument("--check", action="store_true", help="check the configuration and print the plan; start nothing")
+    p.set_defaults(func=cmd_cluster)
 
     p = sub.add_parser("health", help="exit 0 when the local server is ready (Docker HEALTHCHECK)")
     p.add_argument("--live", action="store_true", help="only check that the server process answers")

@@ -2,8 +2,8 @@
 # Install what igserver needs: the Mesa EGL system packages (when missing and we are root) and a
 # project-local virtual environment (.venv) with the pinned Python dependencies. Idempotent: a
 # second run with nothing to do takes about a second. Used by the quick start, CI and the Dockerfiles.
-# Environment: IGSERVER_EXTRAS (default "test,quality": the tests draw the quality report's plots too; empty
-# for a runtime-only install, as the Docker image does),
+# Environment: IGSERVER_EXTRAS (default "test,quality,cluster": the tests draw the quality report's plots and
+# run a local Ray cluster too; empty for a runtime-only install, as the Docker image does),
 # IGSERVER_EDITABLE (default 1; 0 installs a regular, non-editable copy into .venv).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -31,7 +31,7 @@ stamp=".venv/.installed"
 if [ ! -x .venv/bin/python ]; then
   "$python" -m venv .venv
 fi
-extras="${IGSERVER_EXTRAS-test,quality}"
+extras="${IGSERVER_EXTRAS-test,quality,cluster}"
 target="."
 [ -n "$extras" ] && target=".[$extras]"
 editable="-e"

@@ -189,12 +189,14 @@ def serve(
     device_index: int | None = None,
     preset: str | None = None,
     service=None,
+    scene: Scene | None = None,
 ) -> int:
     """Load the scene, bind, start the app under uvicorn, print the viewer URL; returns when the server stops.
 
     Exit status 2 (with a message, no traceback) when the scene, the port or the security settings are wrong.
     ``preset``: the initial scene's quality preset (``quality.preset``). ``service``: a render service in
-    place of the render process (tests).
+    place of the render process (tests, ``igserver cluster``). ``scene``: the initial scene itself, in place
+    of ``scene_path``.
     """
     import uvicorn
 
@@ -212,7 +214,8 @@ def serve(
         print(f"igserver: refusing to listen on {host} without a token: anyone on the network could drive the IG. "
               "Set IGSERVER_TOKEN (or --token-file), or bind 127.0.0.1.", file=sys.stderr)
         return 2
-    scene = load_scene(scene_path) if scene_path else Scene()
+    if scene is None:
+        scene = load_scene(scene_path) if scene_path else Scene()
     size = {k: v for k, v in (("width", width), ("height", height)) if v}
     if size:
         scene = apply_patch(scene, {"camera": size})

@@ -50,6 +50,9 @@ class IGRuntime:
         self.service = service
         self.metrics = ServiceMetrics()
         service.render_timeout_s = self.settings.render_timeout_s
+        register = getattr(service, "register_metrics", None)
+        if callable(register):  # a service with metrics of its own (igserver/cluster: frame lock, restarts)
+            register(self.metrics)
         self.gateway = RenderGateway(service, self.metrics, timed=self.settings.timed_passes)
         self.store = StateStore(scene or service.state, on_accept=self.gateway.push_state)
         self.clock = self.store.clock

@@ -16,8 +16,9 @@ from .runtime import IGRuntime, ServerSettings
 
 
 class LoopbackServer:
-    def __init__(self, scene: Scene | None = None, settings: ServerSettings | None = None):
-        self.app = create_app(scene=scene or Scene(), settings=settings)
+    def __init__(self, scene: Scene | None = None, settings: ServerSettings | None = None, service=None):
+        # service: the render service behind the app (None: the render process; igserver/cluster's)
+        self.app = create_app(service, scene=scene or Scene(), settings=settings)
         self.runtime: IGRuntime = self.app.state.runtime
         # proto=IPPROTO_TCP matters: asyncio only sets TCP_NODELAY on accepted sockets whose proto says TCP,
         # and without it Nagle holds each response body for a delayed ACK (~40 ms per request)

@@ -107,3 +107,69 @@ def capabilities(ctx: moderngl.Context) -> Capabilities:
         max_3d_texture_size=int(info.get("GL_MAX_3D_TEXTURE_SIZE", 0)),
         software="llvmpipe" in renderer or "softpipe" in renderer,
     )
+
+
+EGL_EXTENSIONS = 0x3055
+EGL_CUDA_DEVICE_NV = 0x323A
+
+
+def egl_devices_cuda() -> list[int | None]:
+    """Per EGL device (in ``eglQueryDevicesEXT`` order, the order glcontext's ``device_index`` counts), its
+    CUDA device ordinal (``EGL_NV_device_cuda``), None for a device that is not an NVIDIA GPU (Mesa's
+    software device). Empty when EGL cannot enumerate devices."""
+    import ctypes
+
+    name = ctypes.util.find_library("EGL")
+    if name is None:
+        return []
+    egl = ctypes.CDLL(name)
+    egl.eglGetProcAddress.restype = ctypes.c_void_p
+    egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
+
+    def proc(symbol: bytes, restype, *argtypes):
+        address = egl.eglGetProcAddress(symbol)
+        return ctypes.CFUNCTYPE(restype, *argtypes)(address) if address else None
+
+    query_devices = proc(b"eglQueryDevicesEXT", ctypes.c_uint, ctypes.c_int, ctypes.POINTER(ctypes.c_void_p),
+                         ctypes.POINTER(ctypes.c_int))
+    query_string = proc(b"eglQueryDeviceStringEXT", ctypes.c_char_p, ctypes.c_void_p, ctypes.c_int)
+    query_attrib = proc(b"eglQueryDeviceAttribEXT", ctypes.c_uint, ctypes.c_void_p, ctypes.c_int,
+                        ctypes.POINTER(ctypes.c_ssize_t))
+    if query_devices is None:
+        return []
+    devices = (ctypes.c_void_p * 32)()
+    count = ctypes.c_int(0)
+    if not query_devices(32, devices, ctypes.byref(count)):
+        return []
+    out: list[int | None] = []
+    for i in range(count.value):
+        extensions = (query_string(devices[i], EGL_EXTENSIONS) or b"") if query_string else b""
+        ordinal = ctypes.c_ssize_t(-1)
+        if b"EGL_NV_device_cuda" in extensions and query_attrib is not None \
+                and query_attrib(devices[i], EGL_CUDA_DEVICE_NV, ctypes.byref(ordinal)):
+            out.append(int(ordinal.value))
+        else:
+            out.append(None)
+    return out
+
+
+def egl_device_for_visible_gpu(visible: str | None, devices: list[int | None] | None = None) -> int | None:
+    """The EGL device index of the first GPU in ``CUDA_VISIBLE_DEVICES`` (what Ray sets for an actor with
+    ``num_gpus=1``: the physical GPU's index). EGL enumerates every GPU whatever that variable says, so the
+    index is mapped: the EGL device whose CUDA ordinal is that index, else the k-th NVIDIA EGL device, else
+    the only one. None when nothing is visible or no NVIDIA EGL device exists (the default device then)."""
+    first = (visible or "").split(",")[0].strip()
+    if not first or first.startswith("-"):
+        return None
+    devices = egl_devices_cuda() if devices is None else devices
+    nvidia = [i for i, ordinal in enumerate(devices) if ordinal is not None]
+    if not nvidia:
+        return None
+    if first.isdigit():
+        physical = int(first)
+        for i, ordinal in enumerate(devices):
+            if ordinal == physical:
+                return i
+        if physical < len(nvidia):
+            return nvidia[physical]
+    return nvidia[0]

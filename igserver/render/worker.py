@@ -63,6 +63,9 @@ class Frame:
     # this frame's ig_frame, host_frame, sim_time, exposure and tag; ``rgba`` is then the channels side
     # by side (scene/channels.py mosaic_layout). None for a scene without channels.
     channels: dict[str, "Frame"] | None = None
+    # channels of the scene the frame went without: a cluster worker missed the frame's barrier
+    # (igserver/cluster/service.py); always empty from the render process
+    missing: list[str] = field(default_factory=list)
 
     @property
     def width(self) -> int:
