@@ -121,3 +121,30 @@ def test_objects_under_water_fade_with_distance(renderer):
 
     near, far = contrast(5.0), contrast(40.0)
     assert far < 0.07 * near, (near, far)
+
+
+def test_caustics_on_a_shallow_bed(renderer):
+    """Sunlight through the rippled surface onto a sand bed 1 m below the eye (2 m deep, eye at -1 m,
+    looking 60 deg down, noon sun): ray optics gives the bed irradiance 1 / |det(I - a H)| of its mean,
+    a = h (1 - 1/n), H the surface's Hessian (e.g. Nye 1999, "Natural focusing and fine structure of
+    light"): a net of bright lines over darker cells. The bed's luminance varies (std/mean > 0.25: 0.83
+    measured, 0.01 evenly lit) while its mean stays within 25 % of the evenly lit bed's (0.95 measured;
+    0.93-1.16 over winds of 3-25 m/s and beds 1-4 m below the eye: light is moved, not made)."""
+    water = renderer.graph.passes["water"]
+    s = _scene(camera={"position": [0.0, 0.0, -1.0], "pitch": -60.0, "exposure_ev": 14.0},
+               ocean={"enabled": True, "bathymetry": {"type": "uniform", "depth": 2.0}},
+               time={"utc": "2026-06-21T11:30:00Z"})
+
+    def bed() -> np.ndarray:
+        renderer.render(s)
+        return (renderer.read_hdr()[..., :3].astype(np.float64) @ LUMA)[32:]  # the lower half: bed only
+
+    try:
+        water.caustics = False
+        even = bed()
+        water.caustics = True
+        lit = bed()
+    finally:
+        water.caustics = True
+    assert lit.std() / lit.mean() > 0.25 and even.std() / even.mean() < 0.1, (lit.std(), even.std())
+    assert abs(lit.mean() / even.mean() - 1.0) < 0.25, (lit.mean(), even.mean())

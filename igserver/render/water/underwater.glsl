@@ -57,6 +57,10 @@ float uw_bed_distance(vec3 p, vec3 dir) {
     return above > 0.0 && closing < 0.0 ? -above / closing : 1e30;
 }
 
+#ifdef UW_CAUSTICS
+float uw_caustics(vec3 bed, float depth);  // the sun's irradiance on the bed at bed over its mean (1)
+#endif
+
 // Radiance reaching p along the ray from p in direction dir through the water: the bed if the ray
 // meets it, else the column to infinity.
 vec3 uw_column(vec3 p, vec3 dir, out float hit) {
@@ -65,7 +69,13 @@ vec3 uw_column(vec3 p, vec3 dir, out float hit) {
     vec3 l = uw_inscatter(dir.z, hit, z0);
     if (hit < 1e29) {
         float bed_depth = z0 - dir.z * hit;
+#ifdef UW_CAUSTICS  // the sun's part focused by the surface (water/underwater.frag.glsl)
+        vec3 e_sun = u_sun_illuminance * max(u_sun_dir.z, 0.0);
+        float focus = uw_caustics(p + dir * hit, bed_depth);
+        vec3 e_bed = 0.98 * (sea_downwelling() + (focus - 1.0) * e_sun) * exp(-UW_K * max(bed_depth, 0.0));
+#else
         vec3 e_bed = 0.98 * sea_downwelling() * exp(-UW_K * max(bed_depth, 0.0));
+#endif
         l += UW_BED_ALBEDO * e_bed / PI * exp(-UW_K * hit);
     }
     return l;

@@ -102,6 +102,7 @@ class WaterPass(RenderPass):
         self.coarse_flat_sides = True  # False: every fan keeps its G segments a side (tests' reference)
         self.foam_threshold: float | None = None  # tests: a J threshold instead of the calibrated one
         self.detail_fade = True  # False: the detail maps' slopes unfaded by the footprint (tests' reference)
+        self.caustics = True  # False: the bed under water evenly lit (tests' reference)
         self._foam_noise_tex: moderngl.Texture | None = None
         self.stats: dict = {}
         self._underwater: dict | None = None  # this frame's under-water uniforms when the eye is below the surface
@@ -320,10 +321,12 @@ class WaterPass(RenderPass):
         # Tile averages of the maps some block does not read (empty maps average 0).
         means = detail_means(tiles) if np.any(maps < used_maps) else np.zeros((DETAIL_MAPS, 4))
         self._update_detail(sea, t, resolution, tiles, int(maps.max()) if len(maps) else 0)
+        self._maps_written = int(maps.max()) if len(maps) else 0  # the under-water caustics read these
         shared = self._frame_uniforms(frame, sea, waves, tiles, selection, hulls, table_uniforms) if groups else None
         self._underwater = None
         if shared is not None and self._submerged(frame, sea, selection):
             self._underwater = {**shared["values"], **underwater_uniforms(scene, view.position, selection.error_sphere)}
+            self._detail_map_values = shared["detail_map"].tobytes()
             shared["values"] = self._underwater
         programs = {}
         for key, _, nodes, _ in groups:
@@ -433,8 +436,13 @@ class WaterPass(RenderPass):
         """Under water: what the mesh does not cover (water/underwater.frag.glsl), after the mesh."""
         program = self.programs.program("common/fullscreen.vert.glsl", "water/underwater.frag.glsl",
                                         self._atmosphere_define())
+        if not self.caustics:  # the bed evenly lit (the tests' reference)
+            program = self.programs.program("common/fullscreen.vert.glsl", "water/underwater.frag.glsl",
+                                            {**self._atmosphere_define(), "UW_EVEN_BED": 1})
         set_uniforms(program, self._underwater)
         set_uniforms(program, table_uniforms)
+        set_uniforms(program, {"u_detail_map": self._detail_map_values,
+                               "u_uw_caustic_maps": min(self._maps_written, 2)})
         self.fullscreen(program)
 
     def _objects_under_water(self, targets, table_uniforms: dict, sea: SeaSurface) -> None:
