@@ -90,6 +90,12 @@ def cmd_render(args) -> int:
 def cmd_bench(args) -> int:
     from . import bench
 
+    if args.channels:
+        from .bench_channels import run_channels
+
+        scenes = args.scenes.split(",") if args.scenes else ["demo"]
+        run_channels(scenes, args.resolutions, args.frames, args.set or [], args.channels, args.json)
+        return 0
     scenes = args.scenes.split(",") if args.scenes else bench.DEFAULT_SCENES
     presets = args.presets.split(",") if args.presets else ([args.preset] if args.preset else None)
     bench.run(scenes, args.resolutions, args.frames, args.set or [], args.json, presets, args.markdown)
@@ -202,6 +208,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--presets", help="comma-separated quality presets, one run each (e.g. low,medium,high)")
     p.add_argument("--preset", choices=PRESET_CHOICES, help="one quality preset (default: the scene's)")
     p.add_argument("--set", action="append", metavar="PATH=VALUE")
+    p.add_argument("--channels", type=int, choices=range(1, 17), metavar="N",
+                   help="N channels of one state against one channel (the cost ratio; default scene demo, "
+                        "each channel of --resolutions)")
     p.add_argument("--service", action="store_true",
                    help="end-to-end latency through the real server (flags: --frames --width --height --modes --json)")
     p.set_defaults(func=cmd_bench)

@@ -20,6 +20,7 @@ eyepoint costs no re-selection in any channel.
 
 from __future__ import annotations
 
+import itertools
 import time
 from dataclasses import dataclass
 
@@ -27,6 +28,7 @@ import numpy as np
 
 from . import bindings, depth, gl_calls, presets
 from .channels import channel_scene, side_by_side
+from .common.aerial_table import AerialTable
 from .frame import build_frame, provisional_ev100, set_exposure
 from .frame_block import FrameBlock
 from .memo import Memo
@@ -63,6 +65,39 @@ class ChannelGroup:
         return side_by_side(images)[::-1].tobytes()
 
 
+# Resident objects (render/resident.py) that hold one view's table: each channel has its own.
+VIEW_RESIDENTS = (AerialTable,)
+# Each view's counters start at a base of their own, far from every other's (a view that recomputes
+# counts up from it): a key made of one cannot equal another view's. Negative: a single view's count
+# up from 0.
+_COUNTER_BASES = itertools.count(1)
+COUNTER_SPACING = 1 << 32
+
+
+def swap_view_state(ctx, passes: dict, held: dict) -> dict:
+    """Put one view's state into ``passes`` and the resident objects (``held``: what an earlier swap
+    returned for that view, or {} for a new view) and return the state it replaces, in that form."""
+    out: dict = {}
+    for name, render_pass in passes.items():
+        attrs = render_pass.view_state + render_pass.view_counters
+        if not attrs:
+            continue
+        out[name] = {a: render_pass.__dict__[a] for a in attrs if a in render_pass.__dict__}
+        mine = held.get(name, {})
+        for a in attrs:
+            if a in mine:
+                render_pass.__dict__[a] = mine[a]
+            elif a in render_pass.view_counters:
+                render_pass.__dict__[a] = -next(_COUNTER_BASES) * COUNTER_SPACING
+            else:
+                render_pass.__dict__.pop(a, None)
+    for cls in VIEW_RESIDENTS:
+        out[cls] = cls._resident.pop(ctx, None)
+        if held.get(cls) is not None:
+            cls._resident[ctx] = held[cls]
+    return out
+
+
 def draw_channels(renderer, scene, timed: bool):
     """Queue every pass of every channel of ``scene`` (renderer: a ``Renderer``); returns
     (the frame's result without pixels, [ChannelView], start time)."""
@@ -78,6 +113,7 @@ def draw_channels(renderer, scene, timed: bool):
         sub = channel_scene(scene, channel)
         frame = build_frame(ctx, sub, renderer.frame_state)
         frame.quality = quality
+        frame.resources["view_slot"] = channel.id  # a channel's frame (passes.DepthCopyPass)
         targets = renderer.channel_targets(channel.id, channel.width, channel.height)
         views.append(ChannelView(channel.id, sub, frame, targets, renderer.graph.plan(sub, frame.view)))
     renderer.release_channel_targets(keep={v.id for v in views})
@@ -97,24 +133,47 @@ def draw_channels(renderer, scene, timed: bool):
         ctx.finish()
         pass_ms["setup"] = (time.perf_counter() - start) * 1e3
     meters, own_meter = {}, getattr(post, "_meter_tex", None)
+    state = {"single": None, "current": None}  # the passes' state of single-view frames; the view in them
+
+    def enter(v: ChannelView) -> None:
+        """Make ``v`` the view the passes draw: its pass state, its frame block, its framebuffer."""
+        switched = state["current"] != v.id
+        if switched:
+            swapped = swap_view_state(ctx, renderer.graph.passes, renderer.view_states.get(v.id, {}))
+            if state["current"] is None:
+                state["single"] = swapped
+            else:
+                renderer.view_states[state["current"]] = swapped
+            state["current"] = v.id
+        _use_view(ctx, v, switched)
+        ctx.depth_func = depth.NEAREST_WINS
+
+    schedule: dict[str, list[ChannelView]] = {}  # per pass, the channels that draw it
     for v in views:
-        FrameBlock.get(ctx).update(v.frame.uniforms)
         v.targets.scene_fbo.use()
         v.targets.scene_fbo.clear(0.0, 0.0, 0.0, 1.0, depth=depth.CLEAR_DEPTH)
-        ctx.depth_func = depth.NEAREST_WINS
         for name in v.names:
             if name == "post":
                 continue
+            schedule.setdefault(name, []).append(v)
+    # Pass-major: every channel's surfaces, then every channel's water, ...: the driver rasterises
+    # one channel while the next is set up, and a pass that must wait for the frame so far (the
+    # depth copy, the meter) waits once for all channels rather than once each.
+    for name in merged_order([v.names for v in views]):
+        for v in schedule.get(name, []):
+            enter(v)
             t0 = time.perf_counter()
             renderer.graph.passes[name].execute(v.frame, v.targets)
             gl_calls.flush()
             if timed:
                 ctx.finish()
                 _add(pass_ms, channel_ms[v.id], name, (time.perf_counter() - t0) * 1e3)
+    for v in views:
         if auto:  # each channel's cells in a texture of its own, all read after the last channel is queued
             post._meter_tex = renderer.channel_meters.get(v.id)
             meters[v.id] = renderer.channel_meters[v.id] = post.meter_dispatch(v.targets)
-
+    if state["current"] is not None:
+        renderer.view_states[state["current"]] = swap_view_state(ctx, renderer.graph.passes, state["single"])
     post._meter_tex = own_meter  # the single view's, for frames without channels
     t0 = time.perf_counter()
     correction = 1.0
@@ -147,6 +206,13 @@ def draw_channels(renderer, scene, timed: bool):
     result = RenderResult(None, names, pass_ms, 0.0, **common)
     result.channels = {v.id: RenderResult(None, v.names, channel_ms[v.id], 0.0, **common) for v in views}
     return result, views, start
+
+
+def _use_view(ctx, v: ChannelView, switched: bool) -> None:
+    """The frame block (when the view changed) and the framebuffer of channel ``v``."""
+    if switched:
+        FrameBlock.get(ctx).update(v.frame.uniforms)
+    v.targets.scene_fbo.use()
 
 
 def merged_order(lists: list[list[str]]) -> list[str]:

@@ -17,6 +17,13 @@ class RenderPass:
     reads_scene_distance: bool = False  # needs the depth copy before it runs
 
     preset_pipeline: str | None = None  # the name its knobs are registered under in render/presets.py
+    # Attributes that hold what the pass keeps for one view between frames (a view-keyed table, a LOD
+    # selection, what a later pass of the same view reads): a frame of channels gives each channel its
+    # own (render/multiview.py swap_view_state; an attribute a view has not set yet is absent, so the
+    # class's default or the code's getattr default applies). ``view_counters``: version numbers
+    # that keys are made of, unique to each view.
+    view_state: tuple[str, ...] = ()
+    view_counters: tuple[str, ...] = ()
 
     def __init__(self, ctx: moderngl.Context, programs: ProgramCache):
         self.ctx = ctx

@@ -79,6 +79,7 @@ class Renderer:
         self._targets: Targets | None = None
         self._channel_targets: dict[str, Targets] = {}
         self.channel_meters: dict = {}  # the post pass's meter texture of each channel (render/multiview.py)
+        self.view_states: dict = {}  # each channel's per-view pass state (multiview.swap_view_state)
         self.frames_rendered = 0
         self.frame_quality = FrameQuality()  # the overload controller, when a scene holds a frame rate
         # internal render scale (render/scaling.py): below 1 the passes draw at scale x the requested
@@ -127,6 +128,7 @@ class Renderer:
             meter = self.channel_meters.pop(cid, None)
             if meter is not None:
                 meter.release()
+            self.view_states.pop(cid, None)
 
     def render_channels(self, scene: Scene, timed: bool = False) -> dict[str, RenderResult]:
         """Every channel of ``scene`` (one state, one exposure) by channel id; a scene without channels

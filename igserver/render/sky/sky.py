@@ -196,6 +196,7 @@ def surface_below(scene) -> bool:
 
 class SkyPass(RenderPass):
     name = "sky"
+    view_state = ("_held_targets", "_cirrus_fbo", "_cirrus_fbo_key", "_cirrus_drawn")  # the cirrus table
 
     def execute(self, frame, targets) -> None:
         model = frame.scene.atmosphere.model

@@ -122,6 +122,9 @@ class SurfacesPass(RenderPass):
     def needed(self, scene: Scene, view: CameraView) -> bool:
         return (scene.ground.enabled and not scene.ocean.enabled) or any(e.visible for e in scene.entities)
 
+    # what the blended pass of the same view reads (render/multiview.py runs the views' passes interleaved)
+    view_state = ("_key_shadow", "_bound_shadow_maps", "_aerial_exact_frame", "last_shadow_passes")
+
     # --- instances --------------------------------------------------------------------------
     def _instances(self, scene: Scene, view: CameraView) -> dict[str, Batch]:
         """The frame's batches, recomputed only when an input changes: the visible entities, the

@@ -267,6 +267,9 @@ class VolumesPass(RenderPass):
     name = "volumes"
     reads_scene_distance = True
     preset_pipeline = "volumes"
+    view_state = ("_scale_state", "_fade")  # each view's march scale and its cross-fade (_layers)
+    _scale_state = (None, None)
+    _fade = None
 
     def __init__(self, ctx, programs):
         super().__init__(ctx, programs)

@@ -83,6 +83,9 @@ def glint_light(uniforms: dict) -> dict:
 class WaterPass(RenderPass):
     name = "water"
     preset_pipeline = "water"
+    view_state = ("_selection",)  # the LOD selection (select)
+    view_counters = ("_selection_version",)
+    _selection = None
 
     def __init__(self, ctx, programs):
         super().__init__(ctx, programs)

@@ -1,0 +1,153 @@
+"""Channels rendered (docs/channels.md): no seam at a shared edge, one exposure for all channels, a
+channel equal to the camera renders the camera's frame, frames in flight carry every channel, the
+world work is shared and each view's kept from frame to frame."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from helpers import luminance
+
+from igserver.render.common.aerial_table import AerialTable
+from igserver.scene import Scene, apply_patch, load_scene
+
+HALF = 20.0  # deg: two channels of 20 deg each side of their axis, meeting at the camera's heading
+UP = 15.0
+
+
+def channel(cid: str, heading: float, width: int = 160, height: int = 120, half: float = HALF, up: float = UP) -> dict:
+    return dict(id=cid, heading=heading, fov_left=half, fov_right=half, fov_up=up, fov_down=up, width=width,
+                height=height)
+
+
+@pytest.fixture(scope="module")
+def harbour() -> Scene:
+    """The demo's dusk harbour, turned so that the shared edge runs through the fire, its smoke, the
+    patrol boat and its reflection on the sea, in the rain; one fixed exposure so that pixels compare."""
+    return apply_patch(load_scene("demo"), {"camera": {"heading": 304.0, "pitch": 2.0, "exposure_ev": 10.25}})
+
+
+def test_seam_continues_as_one_wide_view(renderer, harbour):
+    """Channels at headings -20 and +20 deg (20 deg each side) share the plane of their facing edges.
+    Against one wide view centred on that edge, with the same angular pixel size at the edge and its
+    rows mapped to the channels' edge rows (a row at tangent t of the channel's edge column looks at
+    elevation atan(t cos 20 deg)): the columns beside the edge are the wide view's columns beside
+    its centre line. Tolerances from the wide view itself: the step across the seam is no larger
+    than twice the wide view's step between its two centre columns (5 grey levels there: the fire's
+    edge), each edge column within 4 grey levels (mean |difference|) of the wide view's, and 4-column
+    bands within 1.5 % (a channel exposed 0.1 EV apart fails: 7 %)."""
+    pair = renderer.render(apply_patch(harbour, {"channels": [channel("l", -HALF), channel("r", HALF)]}))
+    width = 160
+    # the wide view's columns at the edge as large as the channels' there: d(angle)/d(px) matched
+    wide_width = round(width * math.tan(math.radians(2 * HALF))
+                       / (math.tan(math.radians(HALF)) * math.cos(math.radians(HALF)) ** 2) / 2) * 2
+    up = math.degrees(math.atan(math.tan(math.radians(UP)) * math.cos(math.radians(HALF))))
+    wide = renderer.render(apply_patch(harbour, {"channels": [channel("w", 0.0, wide_width, 120, 2 * HALF, up)]}))
+    left, right = luminance(pair.channels["l"].rgba), luminance(pair.channels["r"].rgba)
+    w = luminance(wide.channels["w"].rgba)
+    c = wide_width // 2
+    seam = np.abs(left[:, -1] - right[:, 0]).mean()
+    centre_step = np.abs(w[:, c - 1] - w[:, c]).mean()
+    assert seam <= 2.0 * centre_step + 0.5, (seam, centre_step)
+    assert np.abs(left[:, -1] - w[:, c - 1]).mean() < 4.0
+    assert np.abs(right[:, 0] - w[:, c]).mean() < 4.0
+    assert left[:, -4:].mean() == pytest.approx(w[:, c - 4:c].mean(), rel=0.015)
+    assert right[:, :4].mean() == pytest.approx(w[:, c:c + 4].mean(), rel=0.015)
+    # the seam crosses the picture's detail (fire, hull, reflection): a real test of continuity
+    assert centre_step > 2.0
+
+
+def test_one_exposure_for_all_channels(renderer):
+    """A channel toward a 20 deg sun over the sea and one looking down away from it meter 1.2 EV apart
+    alone; together they show one exposure (the union metered), between the two."""
+    scene = apply_patch(Scene(), {"camera": {"heading": 180.0},
+                                  "time": {"sun_override": {"elevation": 20.0, "azimuth": 180.0}},
+                                  "channels": [dict(id="sun", pitch=-10.0, width=160, height=90),
+                                               dict(id="away", heading=180.0, pitch=-30.0, width=160, height=90)]})
+    both = renderer.render(scene)
+    shared = {cid: part.ev100 for cid, part in both.channels.items()}
+    assert shared["sun"] == shared["away"] == both.ev100
+    alone = {c.id: renderer.render(apply_patch(scene, {"channels": [c.model_dump()]})).ev100 for c in scene.channels}
+    assert alone["sun"] - alone["away"] > 0.8
+    assert alone["away"] < both.ev100 < alone["sun"]
+
+
+def test_a_channel_equal_to_the_camera_renders_the_cameras_frame(renderer):
+    """Scenes without channels are drawn as before; one channel with the camera's frustum and size
+    is the same picture, to the byte (the channel path adds nothing to a view)."""
+    camera = {"frustum": {"left": -30.0, "right": 30.0, "bottom": -18.0, "top": 18.0}, "width": 320, "height": 192}
+    plain = apply_patch(load_scene("demo"), {"camera": camera})
+    same = apply_patch(plain, {"channels": [dict(id="c", width=320, height=192)]})
+    frame = renderer.render(plain)
+    assert frame.channels is None
+    assert np.array_equal(renderer.render(same).channels["c"].rgba, frame.rgba)
+
+
+def test_frames_in_flight_carry_every_channel(renderer):
+    scene = apply_patch(Scene(), {"atmosphere": {"model": "gradient"},
+                                  "channels": [dict(id="a", heading=-30.0, width=64, height=48),
+                                               dict(id="b", heading=30.0, width=32, height=24)]})
+    want = renderer.render(scene)
+    assert want.rgba.shape == (48, 96, 4)
+    assert np.array_equal(want.rgba[:24, 64:], want.channels["b"].rgba) and not want.rgba[24:, 64:].any()
+    assert renderer.submit(scene) is None
+    got = renderer.submit(apply_patch(scene, {"host_frame": 8}))
+    assert got.host_frame == 0 and list(got.channels) == ["a", "b"]
+    for cid in ("a", "b"):
+        assert np.array_equal(got.channels[cid].rgba, want.channels[cid].rgba)
+    last = renderer.collect()
+    assert last.host_frame == 8 and all(part.host_frame == 8 for part in last.channels.values())
+
+
+def test_world_work_once_and_each_views_work_kept(renderer):
+    """A stream of three channels over the demo's sea: after the first frame no channel refills its
+    aerial-perspective table or cirrus table or re-selects its sea mesh (each view keeps its own);
+    the sea's detail maps and the volumes' modelling are done once a frame, not once a channel."""
+    scene = apply_patch(load_scene("demo"), {"channels": [channel(c, h, 96, 54, 30.0, 18.0) for c, h in
+                                                          (("p", -60.0), ("a", 0.0), ("s", 60.0))]})
+    water, sky = renderer.graph.passes["water"], renderer.graph.passes["sky"]
+    renderer.render(scene)
+
+    def aerial_fills():
+        held = [state.get(AerialTable) for state in renderer.view_states.values()]
+        return sum(t.fills for t in held if t is not None)
+
+    before = (aerial_fills(), sky.cirrus_draws, dict(water.memo.computed))
+    version = {cid: state["water"]["_selection_version"] for cid, state in renderer.view_states.items()}
+    for i in range(1, 4):
+        renderer.render(apply_patch(scene, {"time": {"sim_time": i / 30.0}}))
+    assert (aerial_fills(), sky.cirrus_draws, dict(water.memo.computed)) == before
+    assert {cid: state["water"]["_selection_version"] for cid, state in renderer.view_states.items()} == version
+    assert len(set(version.values())) == 3  # each view's selections numbered apart from the others'
+
+
+def test_world_work_is_not_repeated_per_channel(renderer, monkeypatch):
+    """The fire's volume modelling and the sea's detail maps are world work: a stream of three channels
+    models as many slices as a stream of the middle channel alone over the same clock steps (the side
+    channels see the same fire or none), and writes each detail map at most once a frame."""
+    from igserver.render.volumes.volumes import VolumesPass
+    from igserver.render.water import water
+
+    slices, maps = [], []
+    model_slices = VolumesPass._model_slices
+
+    def counted_slices(self, model, upto):
+        slices.append(max(upto - model.done_z, 0))
+        return model_slices(self, model, upto)
+
+    levels = water.detail_map_levels
+    monkeypatch.setattr(VolumesPass, "_model_slices", counted_slices)
+    monkeypatch.setattr(water, "detail_map_levels", lambda *a, **k: maps.append(1) or levels(*a, **k))
+    base = load_scene("demo")
+    three = [channel(c, h, 96, 54, 30.0, 18.0) for c, h in (("p3", -60.0), ("a3", 0.0), ("s3", 60.0))]
+    counts = {}
+    for name, channels, t0 in (("one", [channel("a1", 0.0, 96, 54, 30.0, 18.0)], 50.0), ("three", three, 80.0)):
+        slices.clear()
+        maps.clear()
+        for i in range(5):
+            renderer.render(apply_patch(base, {"channels": channels, "time": {"sim_time": t0 + i / 30.0}}))
+        counts[name] = (sum(slices), len(maps))
+    assert counts["one"][0] > 0 and counts["three"][0] == counts["one"][0]
+    assert counts["three"][1] <= 3 * 5  # DETAIL_MAPS maps a frame at most
