@@ -148,3 +148,20 @@ def test_caustics_on_a_shallow_bed(renderer):
         water.caustics = True
     assert lit.std() / lit.mean() > 0.25 and even.std() / even.mean() < 0.1, (lit.std(), even.std())
     assert abs(lit.mean() / even.mean() - 1.0) < 0.25, (lit.mean(), even.mean())
+
+
+def test_rain_and_fire_stay_above_the_surface(renderer):
+    """rain_harbour (rain, a burning boat) from 2 m under the water: the rain's streaks and the fire's
+    and smoke's volumes are in the air, hidden by the water (before, the rain fell through the frame
+    under water); from 2 m above, both are drawn."""
+    from igserver.scene import load_scene, resolve_scene_path
+
+    base = load_scene(resolve_scene_path("rain_harbour"))
+    for z, drawn in ((2.0, True), (-2.0, False)):
+        s = apply_patch(base, {"camera": {"position": [-20.0, -40.0, z], "heading": 300.0, "pitch": 5.0,
+                                          "width": 64, "height": 36}})
+        renderer.render(s)
+        passes = renderer.graph.passes
+        assert passes["water"].stats["underwater"] is not drawn
+        assert (passes["precip"].stats["streaks"] > 0) is drawn
+        assert (passes["volumes"].stats["drawn"] > 0) is drawn
