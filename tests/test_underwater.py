@@ -151,9 +151,9 @@ def test_caustics_on_a_shallow_bed(renderer):
 
 
 def test_rain_and_fire_stay_above_the_surface(renderer):
-    """rain_harbour (rain, a burning boat) from 2 m under the water: the rain's streaks and the fire's
-    and smoke's volumes are in the air, hidden by the water (before, the rain fell through the frame
-    under water); from 2 m above, both are drawn."""
+    """rain_harbour (rain, a burning boat, lamps) from 2 m under the water: the rain's streaks, the fire's
+    and smoke's volumes and the lights' halos in the rainy air are hidden by the water (before, the rain
+    fell through the frame under water and the halos lit it orange); from 2 m above, all are drawn."""
     from igserver.scene import load_scene, resolve_scene_path
 
     base = load_scene(resolve_scene_path("rain_harbour"))
@@ -165,3 +165,4 @@ def test_rain_and_fire_stay_above_the_surface(renderer):
         assert passes["water"].stats["underwater"] is not drawn
         assert (passes["precip"].stats["streaks"] > 0) is drawn
         assert (passes["volumes"].stats["drawn"] > 0) is drawn
+        assert (passes["post"].stats["halos"] > 0) is drawn  # the lamps' and the fire's glow in the rainy air

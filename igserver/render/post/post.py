@@ -57,6 +57,8 @@ def halo_uniforms(frame, exposure_correction: float = 1.0) -> dict:
     ``exposure_correction``: the metered exposure over the frame's provisional one (the post pass
     applies both)."""
     haze = frame.resources.get("haze")
+    if frame.resources.get("eye_under_water"):  # the lights' fog halos are in the air, not in the water
+        return {"u_halo_count": 0}
     if haze is None or not frame.lights:
         return {"u_halo_count": 0}
     h = frame.camera_altitude - frame.scene.location.altitude
