@@ -14,6 +14,7 @@ The configuration, the channel assignment and the GPU mapping are tested without
 
 from __future__ import annotations
 
+import io
 import os
 import signal
 import subprocess
@@ -23,7 +24,9 @@ import time
 
 import httpx
 import msgpack
+import numpy as np
 import pytest
+from PIL import Image
 from websockets.sync.client import connect
 
 from igserver.cluster.config import ClusterConfig, ConfigError, assign, load_config
@@ -31,6 +34,7 @@ from igserver.render.context import egl_device_for_visible_gpu
 from igserver.scene import Scene
 
 BARRIER_MS = 1500.0
+ROLL = 60.0  # deg: the rolled rig of the exposure test
 CHANNELS = [
     {"id": "left", "heading": -30.0, "fov_left": 30.0, "fov_right": 30.0, "fov_up": 18.0, "fov_down": 18.0,
      "width": 64, "height": 36},
@@ -199,6 +203,36 @@ def test_frames_are_frame_locked_and_the_spread_is_reported(cluster):
         assert 0 <= metric(http, "igserver_cluster_frame_spread_last_seconds") < BARRIER_MS / 1e3
         assert metric(http, "igserver_channel_frames_rendered_total") >= 6
         assert "igserver_cluster_barrier_misses_total" in http.get("/metrics").text
+
+
+def png(response: httpx.Response) -> np.ndarray:
+    response.raise_for_status()
+    return np.asarray(Image.open(io.BytesIO(response.content)).convert("RGBA")).astype(float)
+
+
+def test_one_exposure_across_workers_the_shared_edge_continues(cluster, renderer):
+    """Each worker meters only its own channel; the front meters the union and sends every worker one
+    exposure (docs/cluster.md#one-exposure), so the channels equal one renderer's channels of the same
+    state (one meter over both, render/multiview.py) and the shared edge (heading 0: left's right edge,
+    right's left edge) continues. With the rig rolled 60 deg the left channel sees more ground than the
+    right: each worker on its own meter is 6 levels off one renderer's picture (this test fails so)."""
+    server, service = cluster
+    with httpx.Client(base_url=server.url, timeout=60) as http:
+        # adaptation off: both show the adapted exposure of this state (not eased from an earlier one)
+        rolled = {"roll": ROLL, "adaptation": False}
+        http.patch("/v1/state", json={"host_frame": 400, "camera": rolled}).raise_for_status()
+        left = png(http.get("/v1/frame", params={"channel": "left", "format": "png"}))
+        right = png(http.get("/v1/frame", params={"channel": "right", "format": "png"}))
+        state = {**SCENE, "host_frame": 400, "camera": {**SCENE["camera"], **rolled}}
+        reference = renderer.render(Scene.model_validate(state)).channels
+        http.patch("/v1/state", json={"camera": {"roll": 0.0, "adaptation": True}}).raise_for_status()
+    for cid, image in (("left", left), ("right", right)):
+        assert np.abs(image - reference[cid].rgba).max() <= 2, cid
+    # the columns either side of the shared edge (pixel centres half a pixel from it) against one column's
+    # change inside a channel
+    step = np.abs(left[:, -1, :3].mean(0) - right[:, 0, :3].mean(0))
+    inside = np.abs(left[:, -1, :3].mean(0) - left[:, -2, :3].mean(0))
+    assert step.max() <= 2 * inside.max() + 1, (step, inside)
 
 
 def test_a_killed_worker_is_restarted_and_re_sent_the_state(cluster):

@@ -32,9 +32,12 @@ class ClusterMetrics:
                               "frame, or failed", ["worker"], registry=None)
         self.restarts = Counter("igserver_cluster_worker_restarts",
                                 "Workers Ray restarted (seen as a new process answering)", ["worker"], registry=None)
+        self.redraws = Counter("igserver_cluster_exposure_redraws",
+                               "Frames drawn again with the shared exposure (the first, a paused clock's jump)",
+                               registry=None)
         self.workers = Gauge("igserver_cluster_workers", "Channel workers configured", registry=None)
         self.collectors = (self.spread, self.last_spread, self.frames, self.incomplete, self.misses, self.restarts,
-                           self.workers)
+                           self.redraws, self.workers)
 
     def register(self, registry) -> None:
         for collector in self.collectors:

@@ -31,6 +31,7 @@ from ..render.worker import Frame, RenderError
 from ..scene.channels import mosaic_layout
 from ..scene.model import Scene
 from .config import ClusterConfig, assign
+from .exposure import SharedExposure
 from .metrics import ClusterMetrics
 
 log = logging.getLogger("igserver.cluster")
@@ -57,6 +58,7 @@ class ClusterService:
         self._state = scene if scene is not None else config.start_scene()
         self.render_timeout_s = render_timeout_s  # the server sets it; frames are bounded by the barrier
         self.metrics = ClusterMetrics()
+        self.exposure = SharedExposure()  # one exposure for every worker's channels
         self.metrics.workers.set(config.workers or 0)
         self._lock = threading.RLock()
         self._workers: list[_Worker] = []
@@ -205,10 +207,10 @@ class ClusterService:
             self._parts[key] = scene.model_copy(update={"channels": chosen}) if scene.channels else scene
         return self._parts[key]
 
-    def _send(self, w: _Worker, frame: int, revision: int, scene: Scene, ids: list[str], timed: bool):
+    def _send(self, w: _Worker, frame: int, revision: int, scene: Scene, ids: list[str], timed: bool, exposure):
         part = self._part(scene, revision, w.index, ids) if w.revision != revision else None
         w.revision = revision  # optimistic: a restarted worker answers need_state
-        return w.actor.render.remote(frame, revision, part, timed)
+        return w.actor.render.remote(frame, revision, part, timed, exposure)
 
     def _answer(self, w: _Worker, ref) -> dict | None:
         """The worker's answer to ``ref`` (None: it failed); a new pid is a worker Ray restarted."""
@@ -241,8 +243,6 @@ class ClusterService:
                 w.pending = None
 
     def render(self, scene: Scene | None = None, timed: bool = False) -> Frame:
-        import ray
-
         with self._lock:
             if not self.ready:
                 raise RenderError("cluster workers are not running")
@@ -253,32 +253,41 @@ class ClusterService:
             parts = assign(ids, self.config)
             self._drain()
             self.rendering_since = time.monotonic()
-            deadline = self.rendering_since + self.config.barrier_timeout_ms / 1e3
-            calls: dict = {}
-            for w, wanted in zip(self._workers, parts):
-                if not wanted:
-                    continue
-                if w.pending is not None:  # still drawing an older frame: not queued behind it
-                    continue
-                calls[self._send(w, frame_no, revision, scene, wanted, timed)] = (w, wanted)
-            answers: dict[int, dict] = {}
-            while calls:
-                remaining = deadline - time.monotonic()
-                if remaining <= 0:
-                    break
-                done, _ = ray.wait(list(calls), num_returns=1, timeout=remaining)
-                for ref in done:
-                    w, wanted = calls.pop(ref)
-                    out = self._answer(w, ref)
-                    if out is not None and out.get("need_state"):  # restarted: the state again, same barrier
-                        calls[self._send(w, frame_no, revision, scene, wanted, timed)] = (w, wanted)
-                    elif out is not None:
-                        answers[w.index] = out
-            for ref, (w, _) in calls.items():  # missed the barrier: its answer is dropped when it comes
-                w.pending = ref
+            shared = self.exposure.applies(scene, parts)
+            answers = self._round(scene, revision, frame_no, parts, timed, self.exposure.current if shared else None)
+            if shared and answers and self.exposure.update(scene, [a.get("cells") for a in answers.values()]):
+                self.metrics.redraws.inc()  # the first frame, or a jump: drawn again with the new exposure
+                answers = self._round(scene, revision, frame_no, parts, timed, self.exposure.current)
             self.rendering_since = None
             self._report(frame_no, parts, answers)
             return self._gather(scene, frame_no, parts, answers)
+
+    def _round(self, scene: Scene, revision: int, frame_no: int, parts: list[list[str]], timed: bool,
+               exposure) -> dict[int, dict]:
+        """Send the frame to every free worker with channels in it and wait at the barrier: {worker: answer}."""
+        import ray
+
+        deadline = time.monotonic() + self.config.barrier_timeout_ms / 1e3
+        calls: dict = {}
+        for w, wanted in zip(self._workers, parts):
+            if wanted and w.pending is None:  # a worker still drawing an older frame is not queued behind it
+                calls[self._send(w, frame_no, revision, scene, wanted, timed, exposure)] = (w, wanted)
+        answers: dict[int, dict] = {}
+        while calls:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                break
+            done, _ = ray.wait(list(calls), num_returns=1, timeout=remaining)
+            for ref in done:
+                w, wanted = calls.pop(ref)
+                out = self._answer(w, ref)
+                if out is not None and out.get("need_state"):  # restarted: the state again, same barrier
+                    calls[self._send(w, frame_no, revision, scene, wanted, timed, exposure)] = (w, wanted)
+                elif out is not None:
+                    answers[w.index] = out
+        for ref, (w, _) in calls.items():  # missed the barrier: its answer is dropped when it comes
+            w.pending = ref
+        return answers
 
     def _report(self, frame_no: int, parts: list[list[str]], answers: dict[int, dict]) -> None:
         """Count every worker that had channels in this frame and delivered none; log streaks, not frames."""

@@ -12,6 +12,8 @@ import os
 import socket
 import time
 
+import numpy as np
+
 from ..scene.model import Scene
 
 
@@ -35,23 +37,28 @@ class ChannelWorker:
         return {"index": self.index, "pid": os.getpid(), "node": socket.gethostname(), "device": self.device,
                 "started": self.started, "caps": self.renderer.caps.as_dict()}
 
-    def render(self, frame: int, revision: int, scene: Scene | None, timed: bool = False) -> dict:
+    def render(self, frame: int, revision: int, scene: Scene | None, timed: bool = False,
+               exposure: tuple[float, float] | None = None) -> dict:
         """Draw revision ``revision`` (``scene``: that state, channels = this worker's; None: the one held) as
-        frame ``frame``. Returns the channels' pixels and the completion time (s since the epoch, this node's
-        clock), or ``{"need_state": True}`` when the revision is not held (the worker was restarted)."""
+        frame ``frame``, with ``exposure`` (EV100, metered luminance cd/m^2: the front's one exposure for
+        every worker; None: this worker's own meter). Returns the channels' pixels, the meter cells and the
+        completion time (s since the epoch, this node's clock), or ``{"need_state": True}`` when the
+        revision is not held (the worker was restarted)."""
         if scene is not None:
             self.scene, self.revision = scene, revision
         elif self.revision != revision or self.scene is None:
             return {"frame": frame, "pid": os.getpid(), "need_state": True}
+        self.renderer.exposure_override, self.renderer.meter_cells = exposure, None
         result = self.renderer.render(self.scene, timed=timed)
         done = time.time()
+        cells = self.renderer.meter_cells
         parts = result.channels if result.channels is not None else {"": result}
         return {
             "frame": frame, "pid": os.getpid(), "done": done, "render_ms": result.total_ms,
             "channels": {cid: part.rgba for cid, part in parts.items()},
             "pass_ms": result.pass_ms, "passes": result.passes, "ev100": result.ev100,
             "illuminance_lux": result.illuminance_lux, "host_frame": result.host_frame, "sim_time": result.sim_time,
-            "overload": result.overload,
+            "overload": result.overload, "cells": None if cells is None else cells.astype(np.float32),
         }
 
     def pid(self) -> int:

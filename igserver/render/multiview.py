@@ -122,6 +122,9 @@ def draw_channels(renderer, scene, timed: bool):
     samples = np.concatenate([v.frame.resources["meter_samples"] for v in views])
     target, meter = display_metered_ev100(samples)
     ev100 = provisional_ev100(scene, renderer.frame_state, target)
+    shared = renderer.exposure_override if scene.camera.exposure_ev is None else None
+    if shared is not None:  # the front's exposure for every renderer of the frame: the passes pre-expose with it
+        ev100, meter = shared
     for v in views:
         set_exposure(v.frame, ev100, meter)
 
@@ -178,11 +181,13 @@ def draw_channels(renderer, scene, timed: bool):
     t0 = time.perf_counter()
     correction = 1.0
     if auto:
-        cells = np.concatenate([post.meter_cells(v.frame, meters[v.id]) for v in views])
+        cells = renderer.meter_cells = np.concatenate([post.meter_cells(v.frame, meters[v.id]) for v in views])
         if len(cells):
-            target, meter = display_metered_ev100(cells)
-            state = renderer.frame_state
-            ev = state.eye.update(target, scene.time.sim_time, scene.camera.adaptation)
+            if shared is not None:  # the front meters the union of every renderer's cells
+                ev, meter = shared
+            else:
+                target, meter = display_metered_ev100(cells)
+                ev = renderer.frame_state.eye.update(target, scene.time.sim_time, scene.camera.adaptation)
             correction = exposure_of_ev100(ev) / views[0].frame.exposure
             for v in views:
                 v.frame.ev100, v.frame.meter_luminance = ev, meter

@@ -87,6 +87,12 @@ class Renderer:
         self.render_scale = 1.0
         self._upscaler: Upscaler | None = None
         self.frame_state = FrameState()  # eased fog, eye adaptation: carried between frames
+        # Channels rendered by several renderers (igserver/cluster): the one (EV100, metered luminance cd/m^2)
+        # every renderer applies, decided by their front from the union of their meters (None: this
+        # renderer's own meter and eye), and the meter cells of the last frame with channels (linear RGB,
+        # cd/m^2), which the front unites
+        self.exposure_override: tuple[float, float] | None = None
+        self.meter_cells: np.ndarray | None = None
         # submit(): frames drawn whose pixels are still being copied out (pixel buffers of the ring)
         self.frames_in_flight = frames_in_flight
         self._in_flight: deque = deque()
