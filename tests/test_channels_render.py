@@ -105,7 +105,8 @@ def test_world_work_once_and_each_views_work_kept(renderer):
     """A stream of three channels over the demo's sea: after the first frame no channel refills its
     aerial-perspective table or cirrus table or re-selects its sea mesh (each view keeps its own);
     the sea's detail maps and the volumes' modelling are done once a frame, not once a channel."""
-    scene = apply_patch(load_scene("demo"), {"channels": [channel(c, h, 96, 54, 30.0, 18.0) for c, h in
+    # 640x360: the size from which the aerial table and the cirrus table serve a view
+    scene = apply_patch(load_scene("demo"), {"channels": [channel(c, h, 640, 360, 30.0, 18.0) for c, h in
                                                           (("p", -60.0), ("a", 0.0), ("s", 60.0))]})
     water, sky = renderer.graph.passes["water"], renderer.graph.passes["sky"]
     renderer.render(scene)
@@ -115,6 +116,8 @@ def test_world_work_once_and_each_views_work_kept(renderer):
         return sum(t.fills for t in held if t is not None)
 
     before = (aerial_fills(), sky.cirrus_draws, dict(water.memo.computed))
+    assert all(state.get(AerialTable) is not None for state in renderer.view_states.values() if state)
+    assert before[1] >= 3  # a cirrus table each
     version = {cid: state["water"]["_selection_version"] for cid, state in renderer.view_states.items()}
     for i in range(1, 4):
         renderer.render(apply_patch(scene, {"time": {"sim_time": i / 30.0}}))
@@ -151,3 +154,20 @@ def test_world_work_is_not_repeated_per_channel(renderer, monkeypatch):
         counts[name] = (sum(slices), len(maps))
     assert counts["one"][0] > 0 and counts["three"][0] == counts["one"][0]
     assert counts["three"][1] <= 3 * 5  # DETAIL_MAPS maps a frame at most
+
+
+def test_channels_removed_release_their_targets_and_tables(renderer):
+    """A state that drops its channels frees each channel's render targets and per-view tables (the
+    aerial-perspective table, the cirrus table's textures); the shared world tables stay."""
+    scene = apply_patch(load_scene("demo"), {"channels": [channel("gone", 0.0, 640, 360, 30.0, 18.0)]})
+    renderer.render(scene)
+    targets = renderer._channel_targets["gone"]
+    state = renderer.view_states["gone"]
+    aerial = state[AerialTable]
+    cirrus = state["sky"]["_held_targets"]["cirrus"][0]
+    assert aerial is not None and aerial is not AerialTable._resident.get(renderer._ctx)
+    frame = renderer.render(apply_patch(scene, {"channels": []}))
+    assert "gone" not in renderer.view_states and not renderer._channel_targets
+    for tex in (targets.hdr, targets.ldr, cirrus, *aerial.textures.values()):
+        assert tex.mglo is None or type(tex.mglo).__name__ == "InvalidObject"
+    assert renderer.render(apply_patch(scene, {"channels": []})).rgba.shape == frame.rgba.shape

@@ -24,6 +24,7 @@ import itertools
 import time
 from dataclasses import dataclass
 
+import moderngl
 import numpy as np
 
 from . import bindings, depth, gl_calls, presets
@@ -96,6 +97,30 @@ def swap_view_state(ctx, passes: dict, held: dict) -> dict:
         if held.get(cls) is not None:
             cls._resident[ctx] = held[cls]
     return out
+
+
+def release_view_state(state: dict) -> None:
+    """Release the GL objects a view's state holds (swap_view_state's form): its resident tables and
+    the textures, framebuffers and buffers its passes' attributes hold directly or in dicts and
+    tuples (lists are not walked: ``_bound_shadow_maps`` lists the shared shadow maps)."""
+    for key, value in state.items():
+        if key in VIEW_RESIDENTS:
+            if value is not None:
+                value.release()
+        else:
+            for held in value.values():
+                _release_gl(held)
+
+
+def _release_gl(value) -> None:
+    if isinstance(value, (moderngl.Texture, moderngl.Framebuffer, moderngl.Buffer)):
+        value.release()
+    elif isinstance(value, dict):
+        for v in value.values():
+            _release_gl(v)
+    elif isinstance(value, tuple):
+        for v in value:
+            _release_gl(v)
 
 
 def draw_channels(renderer, scene, timed: bool):

@@ -20,7 +20,7 @@ from .context import capabilities, create_context, make_current, release_context
 from .frame import FrameState, build_frame
 from .graph import FrameGraph
 from .memo import Memo
-from .multiview import ChannelGroup, draw_channels
+from .multiview import ChannelGroup, draw_channels, release_view_state
 from .overload import FrameQuality
 from .readback import ReadbackRing
 from .scaling import Upscaler, scaled_scene
@@ -134,7 +134,7 @@ class Renderer:
             meter = self.channel_meters.pop(cid, None)
             if meter is not None:
                 meter.release()
-            self.view_states.pop(cid, None)
+            release_view_state(self.view_states.pop(cid, {}))
 
     def render_channels(self, scene: Scene, timed: bool = False) -> dict[str, RenderResult]:
         """Every channel of ``scene`` (one state, one exposure) by channel id; a scene without channels
@@ -225,6 +225,8 @@ class Renderer:
             result, views, start = draw_channels(self, scene, timed)
             return _Drawn(result, ChannelGroup(views), start, time.perf_counter(), timed, views=views)
         Memo.slots = 1
+        if self._channel_targets:  # the channels are gone: their targets and tables with them
+            self.release_channel_targets(keep=set())
         start = time.perf_counter()
         make_current(self._ctx)
         quality, scale, decision = self.quality_for(scene)
