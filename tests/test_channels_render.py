@@ -171,3 +171,15 @@ def test_channels_removed_release_their_targets_and_tables(renderer):
     for tex in (targets.hdr, targets.ldr, cirrus, *aerial.textures.values()):
         assert tex.mglo is None or type(tex.mglo).__name__ == "InvalidObject"
     assert renderer.render(apply_patch(scene, {"channels": []})).rgba.shape == frame.rgba.shape
+
+
+def test_bench_reports_the_ratio(renderer):
+    """`igserver bench --channels N`'s row: both medians, the ratio and the CPU-time ratio."""
+    from igserver.bench_channels import bench_channels, channel_list
+
+    assert [c["heading"] for c in channel_list(3, 64, 36)] == [-60.0, 0.0, 60.0]
+    scene = apply_patch(Scene(), {"atmosphere": {"model": "gradient"}})
+    row = bench_channels({"one": renderer, "many": renderer}, scene, 2, 64, 36, frames=2, warmup=1)
+    assert row["channels"] == 2 and row["resolution"] == "64x36"
+    assert row["ratio"] == pytest.approx(row["many"]["median"] / row["one"]["median"])
+    assert row["ratio"] > 0 and row["cpu_ratio"] > 0
