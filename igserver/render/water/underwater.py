@@ -2,19 +2,26 @@
 (the host's height query at its xy, the same sum of waves the mesh draws), the water program is
 compiled with WATER_UNDERWATER (water/underwater.glsl: Snell's window, total internal reflection,
 Jerlov type II attenuation and scattering, the bed) and a full-screen pass (water/underwater.frag.glsl)
-fills what the mesh leaves: the column, the bed, the surface missed by the near plane. Above the
-surface nothing here runs, so every frame with the eye in the air is what it was."""
+fills what the mesh leaves: the column, the bed with the sun's caustics, the surface missed by the near
+plane; before the sea, two blended passes show the objects the surfaces pass drew through the water
+(water/underwater_objects.frag.glsl). Above the surface nothing here runs, so every frame with the eye
+in the air is what it was."""
 
 from __future__ import annotations
 
+import moderngl
 import numpy as np
 
 from ...scene.model import Scene
 from ...water.bathymetry import depth_at
 from ...water.surface import SeaSurface
+from ..bindings import PASS_UNITS, use_texture
+from ..shaders import set_uniforms
+from .lod import LodSelection
 
 BED_SLOPE_STEP = 10.0  # m: the bed's plane is fitted to the depths this far either side of the eye
 DEEP_BED = 1e4  # m below the eye: no bed seen (the water is opaque past ~110 m)
+FIELD_UNIT = PASS_UNITS["SEA_FIELD"]  # the objects' pass borrows it for the frame's distance (then the field again)
 
 
 def eye_depth(scene: Scene, sea: SeaSurface, eye) -> float:
@@ -45,3 +52,52 @@ def underwater_uniforms(scene: Scene, eye, reach: float) -> dict:
     """The values of water/underwater.glsl's uniforms (and the fill's highest-crest reach, m)."""
     return {"u_uw_bed": bed_plane(scene, eye), "u_uw_level_z": float(scene.ocean.level - float(eye[2])),
             "u_uw_reach": float(reach)}
+
+
+class UnderwaterDraws:
+    """The water pass's draws with the eye below the surface (a mixin of water.WaterPass: its programs,
+    context, atmosphere define, field textures and this frame's ``_underwater`` uniforms)."""
+
+    @staticmethod
+    def _submerged(frame, sea: SeaSurface, selection: LodSelection) -> bool:
+        """Whether the eye is below the sea's surface at its xy (underwater.eye_depth); an eye higher
+        above the mean level than every crest is not (no query)."""
+        height = float(frame.view.position[2]) - frame.scene.ocean.level
+        if height > 1.05 * selection.error_sphere:
+            return False
+        return eye_depth(frame.scene, sea, frame.view.position) > 0.0
+
+    def _fill_underwater(self, table_uniforms: dict) -> None:
+        """Under water: what the mesh does not cover (water/underwater.frag.glsl), after the mesh."""
+        program = self.programs.program("common/fullscreen.vert.glsl", "water/underwater.frag.glsl",
+                                        self._atmosphere_define())
+        if not self.caustics:  # the bed evenly lit (the tests' reference)
+            program = self.programs.program("common/fullscreen.vert.glsl", "water/underwater.frag.glsl",
+                                            {**self._atmosphere_define(), "UW_EVEN_BED": 1})
+        set_uniforms(program, self._underwater)
+        set_uniforms(program, table_uniforms)
+        set_uniforms(program, {"u_detail_map": self._detail_map_values,
+                               "u_uw_caustic_maps": min(self._maps_written, 2)})
+        self.fullscreen(program)
+
+    def _objects_under_water(self, targets, table_uniforms: dict, sea: SeaSurface) -> None:
+        """Under water, before the sea is drawn: what the surfaces pass drew seen through the water
+        (water/underwater_objects.frag.glsl), the colour times the transmittance, then plus the light
+        scattered in (two blended full-screen passes over the colour alone, reading the distance)."""
+        program = self.programs.program("common/fullscreen.vert.glsl", "water/underwater_objects.frag.glsl",
+                                        self._atmosphere_define())
+        set_uniforms(program, self._underwater)
+        set_uniforms(program, table_uniforms)
+        use_texture(targets.distance, FIELD_UNIT)
+        set_uniforms(program, {"u_uw_distance": FIELD_UNIT})
+        targets.color_fbo.use()
+        self.ctx.disable(moderngl.DEPTH_TEST)
+        self.ctx.enable(moderngl.BLEND)
+        for step, func in ((0, (moderngl.ZERO, moderngl.SRC_COLOR)), (1, (moderngl.ONE, moderngl.ONE))):
+            self.ctx.blend_func = func
+            set_uniforms(program, {"u_uw_pass": step})
+            self.fullscreen(program)
+        self.ctx.blend_func = moderngl.DEFAULT_BLENDING
+        self.ctx.disable(moderngl.BLEND)
+        if sea.field is not None:  # the distance borrowed the field's unit
+            use_texture(self._field_tex[0], FIELD_UNIT)

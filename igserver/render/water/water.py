@@ -35,14 +35,13 @@ from .foam import FOAM_EDGE, FOAM_NOISE_SIZE, FOAM_NOISE_UNIT, FOAM_PERIOD, draw
 from .hulls import MAX_HULLS, blocks_near_hulls, hull_boxes
 from .shore import shore_uniforms
 from .sea_tables import SeaTables
-from .underwater import eye_depth, underwater_uniforms
+from .underwater import UnderwaterDraws, underwater_uniforms
 
 MAX_WAVES = 64
 # Texture units bound for the water draw (the frame keeps 8..15: haze table, sky-view table, 4D tables).
 DETAIL_UNIT0 = PASS_UNITS["SEA_DETAIL0"]  # and the next two
 FIELD_UNIT = PASS_UNITS["SEA_FIELD"]
 FIELD_SCALAR_UNIT = PASS_UNITS["SEA_FIELD_SCALAR"]
-UNDERWATER_DISTANCE_UNIT = FIELD_UNIT  # the frame's distance, read before the sea is drawn (then the field again)
 
 
 @dataclass(frozen=True)
@@ -80,7 +79,7 @@ def glint_light(uniforms: dict) -> dict:
             "u_glint_illuminance": tuple(float(x) for x in (sun if use_sun else moon))}
 
 
-class WaterPass(RenderPass):
+class WaterPass(UnderwaterDraws, RenderPass):
     name = "water"
     preset_pipeline = "water"
     view_state = ("_selection",)  # the LOD selection (select)
@@ -425,50 +424,6 @@ class WaterPass(RenderPass):
             float(np.max(sea.field.factor)) if sea.field is not None else 1.0)
         surface = float(sea.query(np.asarray(frame.view.position[:2])[None], frame.scene.time.sim_time)["height"][0])
         return height - surface <= frame.view.near + mesh_error + 0.05
-
-    @staticmethod
-    def _submerged(frame, sea: SeaSurface, selection: lod.LodSelection) -> bool:
-        """Whether the eye is below the sea's surface at its xy (underwater.eye_depth); an eye higher
-        above the mean level than every crest is not (no query)."""
-        height = float(frame.view.position[2]) - frame.scene.ocean.level
-        if height > 1.05 * selection.error_sphere:
-            return False
-        return eye_depth(frame.scene, sea, frame.view.position) > 0.0
-
-    def _fill_underwater(self, table_uniforms: dict) -> None:
-        """Under water: what the mesh does not cover (water/underwater.frag.glsl), after the mesh."""
-        program = self.programs.program("common/fullscreen.vert.glsl", "water/underwater.frag.glsl",
-                                        self._atmosphere_define())
-        if not self.caustics:  # the bed evenly lit (the tests' reference)
-            program = self.programs.program("common/fullscreen.vert.glsl", "water/underwater.frag.glsl",
-                                            {**self._atmosphere_define(), "UW_EVEN_BED": 1})
-        set_uniforms(program, self._underwater)
-        set_uniforms(program, table_uniforms)
-        set_uniforms(program, {"u_detail_map": self._detail_map_values,
-                               "u_uw_caustic_maps": min(self._maps_written, 2)})
-        self.fullscreen(program)
-
-    def _objects_under_water(self, targets, table_uniforms: dict, sea: SeaSurface) -> None:
-        """Under water, before the sea is drawn: what the surfaces pass drew seen through the water
-        (water/underwater_objects.frag.glsl), the colour times the transmittance, then plus the light
-        scattered in (two blended full-screen passes over the colour alone, reading the distance)."""
-        program = self.programs.program("common/fullscreen.vert.glsl", "water/underwater_objects.frag.glsl",
-                                        self._atmosphere_define())
-        set_uniforms(program, self._underwater)
-        set_uniforms(program, table_uniforms)
-        use_texture(targets.distance, UNDERWATER_DISTANCE_UNIT)
-        set_uniforms(program, {"u_uw_distance": UNDERWATER_DISTANCE_UNIT})
-        targets.color_fbo.use()
-        self.ctx.disable(moderngl.DEPTH_TEST)
-        self.ctx.enable(moderngl.BLEND)
-        for step, func in ((0, (moderngl.ZERO, moderngl.SRC_COLOR)), (1, (moderngl.ONE, moderngl.ONE))):
-            self.ctx.blend_func = func
-            set_uniforms(program, {"u_uw_pass": step})
-            self.fullscreen(program)
-        self.ctx.blend_func = moderngl.DEFAULT_BLENDING
-        self.ctx.disable(moderngl.BLEND)
-        if sea.field is not None:  # the distance borrowed the field's unit
-            use_texture(self._field_tex[0], FIELD_UNIT)
 
     def _fill_under_crests(self, frame, selection: lod.LodSelection, table_uniforms: dict) -> None:
         """Rays that pass under the mesh (``_sees_under_mesh``) meet the water body: draw the sphere
