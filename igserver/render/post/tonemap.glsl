@@ -54,7 +54,9 @@ float interleaved_gradient_noise(vec2 p) {
 }
 
 void main() {
-    vec3 hdr = texture(u_hdr, v_uv).rgb;
+    vec4 hdr_a = texture(u_hdr, v_uv);
+    vec3 hdr = hdr_a.rgb;
+    float hue_weight = clamp(hdr_a.a - 1.0, 0.0, 1.0);  // a low sun's disk (sky/sky.glsl disk_hue_weight)
 #ifdef HALOS
     hdr += upsampled_halo(v_uv);
 #endif
@@ -63,7 +65,14 @@ void main() {
 #ifdef MESOPIC
     hdr = mesopic(hdr);
 #endif
-    vec3 srgb = linear_to_srgb(aces_fit(hdr));
+    vec3 mapped = aces_fit(hdr);
+    if (hue_weight > 0.0) {
+        // Its hue kept: the curve on its largest channel, the others in proportion (a red disk that
+        // the per-channel curve saturates to yellow stays red-orange, as the eye sees it).
+        float m = max(hdr.r, max(hdr.g, hdr.b));
+        mapped = mix(mapped, aces_fit(vec3(m)) * hdr / max(m, 1e-12), hue_weight);
+    }
+    vec3 srgb = linear_to_srgb(mapped);
     srgb += (interleaved_gradient_noise(gl_FragCoord.xy) - 0.5) / 255.0;
     out_color = vec4(clamp(srgb, 0.0, 1.0), 1.0);
 }

@@ -79,10 +79,23 @@ vec3 disks(vec3 dir) {
     return radiance;
 }
 
+// A reddened sun that overexposes: the tone curve (post/tonemap.glsl), per channel, saturates red and
+// then green, and showed the setting sun lemon-yellow (255, 245, 98) where the eye sees it orange-red.
+// The disk pass marks its pixels for the post pass in the target's alpha (the sky's 1 plus this
+// weight; the passes that blend over the sky scale it down by their own coverage): 1 for a disk
+// whose green is under 0.3 of its red (the sun within ~2 deg of the horizon in 30 km visibility),
+// falling to 0 at 0.5 (~4 deg; the moon and a higher sun are not marked and saturate white as
+// before). The HDR radiance itself is untouched.
+float disk_hue_weight(vec3 radiance) {
+    float m = max(radiance.r, max(radiance.g, radiance.b));
+    return m > 0.0 ? 1.0 - smoothstep(0.3, 0.5, radiance.g / m) : 0.0;
+}
+
 void main() {
     vec3 dir = above_surface_horizon(view_ray(v_uv));
 #ifdef SKY_DISKS
-    out_color = vec4(pre_expose(disks(dir)), 0.0);
+    vec3 disk = disks(dir);
+    out_color = vec4(pre_expose(disk), disk_hue_weight(disk));
     out_distance = 0.0;  // added to the sky's 1e30 by the blend
 #else
 #ifdef SKY_HAZY_TABLE
