@@ -5,8 +5,9 @@ info, the watchdog's questions), so the same FastAPI app, WebSocket and CIGI lis
 host talks to one address. One frame:
 
 1. its number n and the state's revision; the state's channels split over the workers (config.assign);
-2. every worker that is free gets (n, revision, its part of the state: the scene with its channels) —
-   the state only when it does not hold that revision;
+2. every worker that is free gets (n, revision, its part of the state: the scene with its channels,
+   the one exposure of every worker: cluster/exposure.py) — the state only when it does not hold that
+   revision;
 3. the barrier: the frame waits for every worker until ``barrier_timeout_ms``; a worker still drawing
    then is reported (``igserver_cluster_barrier_misses_total``) and the frame goes without its channels
    (``Frame.missing``; the WebSocket lists them in ``missing``). The late frame is dropped when it comes;
