@@ -119,10 +119,10 @@ def egl_devices_cuda() -> list[int | None]:
     software device). Empty when EGL cannot enumerate devices."""
     import ctypes
 
-    name = ctypes.util.find_library("EGL")
-    if name is None:
+    try:  # find_library needs the unversioned name (a -dev package) or ldconfig's cache; the runtime has .so.1
+        egl = ctypes.CDLL(ctypes.util.find_library("EGL") or "libEGL.so.1")
+    except OSError:
         return []
-    egl = ctypes.CDLL(name)
     egl.eglGetProcAddress.restype = ctypes.c_void_p
     egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
 
