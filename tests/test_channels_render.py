@@ -183,3 +183,19 @@ def test_bench_reports_the_ratio(renderer):
     assert row["channels"] == 2 and row["resolution"] == "64x36"
     assert row["ratio"] == pytest.approx(row["many"]["median"] / row["one"]["median"])
     assert row["ratio"] > 0 and row["cpu_ratio"] > 0
+
+
+def test_a_fog_transition_is_one_for_all_channels(renderer):
+    """A visibility change eases in over sim_time (atmosphere.visibility_transition): every channel of
+    a frame shows the same point of it. Two channels looking the same way are the same picture while
+    the fog thickens, and the transition is under way (not done at once) in both."""
+    scene = apply_patch(load_scene("demo"), {
+        "weather": {"precipitation": {"type": "none"}}, "effects": [],
+        "channels": [channel("a", 0.0, 96, 54, 30.0, 18.0), channel("b", 0.0, 96, 54, 30.0, 18.0)]})
+    renderer.render(apply_patch(scene, {"time": {"sim_time": 200.0}}))
+    foggy = {"atmosphere": {"visibility": 800.0, "visibility_transition": 2.0}}
+    mid = renderer.render(apply_patch(scene, {**foggy, "time": {"sim_time": 200.5}}))
+    a, b = mid.channels["a"].rgba, mid.channels["b"].rgba
+    assert np.array_equal(a, b)
+    done = renderer.render(apply_patch(scene, {**foggy, "time": {"sim_time": 200.5}}))  # same instant: at once
+    assert np.abs(luminance(done.channels["a"].rgba) - luminance(a)).mean() > 1.0

@@ -99,6 +99,29 @@ def swap_view_state(ctx, passes: dict, held: dict) -> dict:
     return out
 
 
+class _HazeOnce:
+    """A fog transition (sky/haze.HazeTransition) stepped once a frame: the frame's first channel
+    eases it to the frame's sim_time, and every channel gets that value (a second step at the same
+    sim_time would end the transition at once, and the channels would differ)."""
+
+    def __init__(self, haze):
+        self.haze, self.beta = haze, None
+
+    def apply(self, target_beta, duration: float, sim_time: float):
+        if self.beta is None:
+            self.beta = self.haze.apply(target_beta, duration, sim_time)
+        return self.beta
+
+
+class _OncePerFrame:
+    """The renderer's FrameState as every channel of one frame sees it: the eye (adapted once, after
+    the union is metered) and the fog transition stepped once."""
+
+    def __init__(self, state):
+        self.eye = state.eye
+        self.haze = _HazeOnce(state.haze)
+
+
 def release_view_state(state: dict) -> None:
     """Release the GL objects a view's state holds (swap_view_state's form): its resident tables and
     the textures, framebuffers and buffers its passes' attributes hold directly or in dicts and
@@ -126,6 +149,16 @@ def _release_gl(value) -> None:
 def draw_channels(renderer, scene, timed: bool):
     """Queue every pass of every channel of ``scene`` (renderer: a ``Renderer``); returns
     (the frame's result without pixels, [ChannelView], start time)."""
+    own = renderer.frame_state
+    renderer.frame_state = _OncePerFrame(own)  # the fog eased once for the frame, not once per channel
+    try:
+        return _draw_views(renderer, scene, timed)
+    finally:
+        renderer.frame_state = own
+
+
+def _draw_views(renderer, scene, timed: bool):
+    """draw_channels with the renderer's FrameState seen once per frame."""
     from .renderer import RenderResult
 
     start = time.perf_counter()
