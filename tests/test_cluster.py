@@ -281,3 +281,29 @@ def test_a_stalled_worker_is_reported_not_waited_on(cluster):
             assert time.monotonic() < deadline
             host_frame += 1
 
+
+
+def test_no_worker_in_time_answers_503_and_keeps_the_state(cluster):
+    """Every worker stopped: a frame is 503 (retry), not a failed state: the state stays accepted (the
+    render process's failure falls back to the last state that rendered), and its frames come once the
+    workers answer again."""
+    server, service = cluster
+    pids = [w.pid for w in service.workers]
+    with httpx.Client(base_url=server.url, timeout=60) as http:
+        for pid in pids:
+            os.kill(pid, signal.SIGSTOP)
+        try:
+            http.patch("/v1/state", json={"host_frame": 600}).raise_for_status()
+            response = http.get("/v1/frame", params={"format": "png"})
+            assert response.status_code == 503 and response.headers["retry-after"] == "1"
+            assert http.get("/v1/state").json()["host_frame"] == 600  # kept
+        finally:
+            for pid in pids:
+                os.kill(pid, signal.SIGCONT)
+        deadline = time.monotonic() + 30
+        while True:
+            response = http.get("/v1/frame", params={"format": "png", "channel": "right"})
+            if response.status_code == 200 and response.headers["x-ig-host-frame"] == "600":
+                break
+            assert time.monotonic() < deadline, response.status_code
+            time.sleep(0.2)

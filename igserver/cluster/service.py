@@ -38,6 +38,10 @@ from .metrics import ClusterMetrics
 log = logging.getLogger("igserver.cluster")
 
 
+class ClusterUnavailable(RuntimeError):
+    """No worker delivered a frame in time (late, restarting): the state stays; the server answers 503."""
+
+
 @dataclass
 class _Worker:
     """One actor as the front sees it."""
@@ -66,7 +70,8 @@ class ClusterService:
         self._owns_ray = False
         self._revision = 0
         self._revision_scene: Scene | None = None
-        self._parts: dict[tuple[int, int], Scene] = {}  # (revision, worker) -> the worker's part of the state
+        self._parts: dict[tuple[int, int], Scene] = {}
+        self._render_failed = False  # a worker's render raised during this frame  # (revision, worker) -> the worker's part of the state
         self.use_gpu = False
         self.ig_frame = 0
         self.restarts = 0
@@ -222,6 +227,9 @@ class ClusterService:
         except Exception as exc:  # noqa: BLE001 - RayActorError (died), RayTaskError (render failed)
             log.warning("cluster worker %d: frame failed: %s", w.index, str(exc).splitlines()[0])
             w.revision = None
+            # the render raised (the state's fault, as in one render process), not a worker that went away
+            self._render_failed |= isinstance(exc, ray.exceptions.RayTaskError) and not isinstance(
+                exc, (ray.exceptions.RayActorError, ray.exceptions.ActorUnavailableError))
             return None
         if out["pid"] != w.pid:
             if w.pid is not None:
@@ -253,6 +261,7 @@ class ClusterService:
             ids = [c.id for c in scene.channels] or [""]
             parts = assign(ids, self.config)
             self._drain()
+            self._render_failed = False
             self.rendering_since = time.monotonic()
             shared = self.exposure.applies(scene, parts)
             answers = self._round(scene, revision, frame_no, parts, timed, self.exposure.current if shared else None)
@@ -305,9 +314,11 @@ class ClusterService:
 
     def _gather(self, scene: Scene, frame_no: int, parts: list[list[str]], answers: dict[int, dict]) -> Frame:
         """One frame of the delivered channels, in the scene's order, with one frame number."""
-        if not answers:
-            raise RenderError(f"no cluster worker delivered frame {frame_no} within the barrier "
-                              f"({self.config.barrier_timeout_ms:g} ms)")
+        if not answers and self._render_failed:  # the server falls back to the last state that rendered
+            raise RenderError(f"render of frame {frame_no} failed on the cluster workers")
+        if not answers:  # late or restarting workers: not the state's fault, so not a RenderError (that falls back)
+            raise ClusterUnavailable(f"no cluster worker delivered frame {frame_no} within the barrier "
+                                     f"({self.config.barrier_timeout_ms:g} ms)")
         owner = {cid: i for i, wanted in enumerate(parts) for cid in wanted}
         images = {cid: answers[owner[cid]]["channels"][cid] for cid in owner if owner[cid] in answers}
         done = [answers[owner[cid]]["done"] for cid in images]
