@@ -90,6 +90,11 @@ def test_config_file_every_key(tmp_path):
 def test_assign_spreads_channels_evenly():
     config = ClusterConfig(workers=2)
     assert assign(["a", "b", "c", "d", "e"], config) == [["a", "c", "e"], ["b", "d"]]
+    # a worker dead for good: its channels, listed or not, go to the live ones
+    listed = ClusterConfig(workers=3, worker=[{"channels": ["a"]}, {"channels": ["b"]}])
+    assert assign(["a", "b", "c"], listed, frozenset({1})) == [["a", "c"], [], ["b"]]
+    assert assign([""], listed, frozenset({0})) == [[], [""], []]
+    assert assign(["a"], listed, frozenset({0, 1, 2})) == [[], [], []]
     assert config.workers == 2 and ClusterConfig().workers == 2
     assert ClusterConfig(worker=[{"channels": ["a"]}] * 1).workers == 1
 
@@ -307,3 +312,28 @@ def test_no_worker_in_time_answers_503_and_keeps_the_state(cluster):
                 break
             assert time.monotonic() < deadline, response.status_code
             time.sleep(0.2)
+
+
+def test_a_worker_dead_for_good_leaves_its_channels_to_the_others(cluster):
+    """Ray will not restart a worker killed for good (or past max_restarts): its channels move to the
+    live workers and the frames carry every channel again. Runs last: the module's cluster keeps one
+    worker after it."""
+    import ray
+
+    server, service = cluster
+    victim = service.workers[1]
+    with httpx.Client(base_url=server.url, timeout=60) as http:
+        http.patch("/v1/state", json={"host_frame": 700}).raise_for_status()
+        ray.kill(victim.actor, no_restart=True)
+        deadline = time.monotonic() + 30
+        while True:  # the same state: worker 0 is sent its new part (both channels) of the same revision
+            response = http.get("/v1/frame", params={"channel": "right", "format": "png"})
+            if response.status_code == 200:
+                break
+            assert time.monotonic() < deadline, response.text
+            time.sleep(0.2)
+        assert victim.dead and not service.workers[0].dead
+        assert response.headers["x-ig-host-frame"] == "700"
+        message = frames(server, 1, 701)[0]
+        assert set(message["channels"]) == {"left", "right"} and "missing" not in message
+        assert metric(http, "igserver_cluster_workers_alive") == 1

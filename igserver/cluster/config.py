@@ -94,18 +94,22 @@ def load_config(path: str | Path) -> ClusterConfig:
         raise ConfigError(f"{path}: {where}: {first['msg']}") from exc
 
 
-def assign(ids: list[str], config: ClusterConfig) -> list[list[str]]:
+def assign(ids: list[str], config: ClusterConfig, dead: frozenset[int] = frozenset()) -> list[list[str]]:
     """Channel ids per worker: the ids a [[worker]] lists go to it (in the state's order), the others one by
-    one to the worker with the fewest channels (the lowest index on a tie). A state without channels is the
-    implicit channel ``""``: worker 0 renders it. Ids a [[worker]] lists that the state has not are skipped."""
+    one to the live worker with the fewest channels (the lowest index on a tie). A state without channels is
+    the implicit channel ``""``: the first live worker renders it. ``dead``: workers Ray will not restart;
+    their channels are spread over the others. Ids a [[worker]] lists that the state has not are skipped."""
     workers = config.workers or 1
     out: list[list[str]] = [[] for _ in range(workers)]
-    owner = {cid: i for i, w in enumerate(config.worker) for cid in w.channels}
+    live = [out[i] for i in range(workers) if i not in dead]
+    if not live:
+        return out
+    owner = {cid: i for i, w in enumerate(config.worker) for cid in w.channels if i not in dead}
     for cid in ids:
         if cid in owner:
             out[owner[cid]].append(cid)
     for cid in ids:
         if cid not in owner:
-            min(out, key=len).append(cid)
+            min(live, key=len).append(cid)
     order = {cid: i for i, cid in enumerate(ids)}
     return [sorted(part, key=order.__getitem__) for part in out]

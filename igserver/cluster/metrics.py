@@ -36,8 +36,10 @@ class ClusterMetrics:
                                "Frames drawn again with the shared exposure (the first, a paused clock's jump)",
                                registry=None)
         self.workers = Gauge("igserver_cluster_workers", "Channel workers configured", registry=None)
+        self.workers_alive = Gauge("igserver_cluster_workers_alive",
+                                   "Channel workers not dead for good (Ray restarts the others)", registry=None)
         self.collectors = (self.spread, self.last_spread, self.frames, self.incomplete, self.misses, self.restarts,
-                           self.redraws, self.workers)
+                           self.redraws, self.workers, self.workers_alive)
 
     def register(self, registry) -> None:
         for collector in self.collectors:

@@ -50,10 +50,11 @@ class _Worker:
     actor: object
     pid: int | None = None
     node: str = ""
-    revision: int | None = None  # the state revision it holds (None: unknown, send the state)
+    revision: tuple | None = None  # (revision, channel ids) of the part it holds (None: unknown, send it)
     pending: object = None  # the ObjectRef of a frame it has not answered yet
     restarts: int = 0
     missed: int = 0  # frames missed in a row (logged when the streak starts and when it ends)
+    dead: bool = False  # Ray will not restart it: its channels are spread over the others
     hello: dict = field(default_factory=dict)
 
 
@@ -70,7 +71,7 @@ class ClusterService:
         self._owns_ray = False
         self._revision = 0
         self._revision_scene: Scene | None = None
-        self._parts: dict[tuple[int, int], Scene] = {}
+        self._parts: dict[tuple, Scene] = {}  # (revision, channel ids) -> a worker's part of the state
         self._render_failed = False  # a worker's render raised during this frame  # (revision, worker) -> the worker's part of the state
         self.use_gpu = False
         self.ig_frame = 0
@@ -114,6 +115,7 @@ class ClusterService:
                 self.metrics.misses.labels(worker=str(w.index))
                 self.metrics.restarts.labels(worker=str(w.index))
                 log.info("cluster worker %d: pid %d on %s, %s", w.index, w.pid, w.node, hello["caps"].get("renderer"))
+            self.metrics.workers_alive.set(len(self._workers))
             self.ready = True
             return self
 
@@ -204,18 +206,19 @@ class ClusterService:
             self._parts.clear()
         return self._revision
 
-    def _part(self, scene: Scene, revision: int, index: int, ids: list[str]) -> Scene:
-        """Worker ``index``'s part of the state: the scene with the channels ``ids`` (the state itself when it
-        has no channels: the implicit camera channel)."""
-        key = (revision, index)
+    def _part(self, scene: Scene, revision: int, ids: list[str]) -> Scene:
+        """A worker's part of the state: the scene with the channels ``ids`` (the state itself when it has no
+        channels: the implicit camera channel)."""
+        key = (revision, tuple(ids))
         if key not in self._parts:
             chosen = [c for c in scene.channels if c.id in ids]
             self._parts[key] = scene.model_copy(update={"channels": chosen}) if scene.channels else scene
         return self._parts[key]
 
     def _send(self, w: _Worker, frame: int, revision: int, scene: Scene, ids: list[str], timed: bool, exposure):
-        part = self._part(scene, revision, w.index, ids) if w.revision != revision else None
-        w.revision = revision  # optimistic: a restarted worker answers need_state
+        held = (revision, tuple(ids))  # channels move when a worker dies for good: the same revision, new part
+        part = self._part(scene, revision, ids) if w.revision != held else None
+        w.revision = held  # optimistic: a restarted worker answers need_state
         return w.actor.render.remote(frame, revision, part, timed, exposure)
 
     def _answer(self, w: _Worker, ref) -> dict | None:
@@ -230,6 +233,10 @@ class ClusterService:
             # the render raised (the state's fault, as in one render process), not a worker that went away
             self._render_failed |= isinstance(exc, ray.exceptions.RayTaskError) and not isinstance(
                 exc, (ray.exceptions.RayActorError, ray.exceptions.ActorUnavailableError))
+            if isinstance(exc, ray.exceptions.ActorDiedError):  # a worker Ray restarts is ActorUnavailableError
+                w.dead = True  # Ray will not restart it (max_restarts spent, killed for good)
+                self.metrics.workers_alive.set(sum(not x.dead for x in self._workers))
+                log.error("cluster worker %d is dead for good: its channels go to the other workers", w.index)
             return None
         if out["pid"] != w.pid:
             if w.pid is not None:
@@ -259,7 +266,7 @@ class ClusterService:
             revision = self._revision_of(scene)
             frame_no = self.ig_frame + 1
             ids = [c.id for c in scene.channels] or [""]
-            parts = assign(ids, self.config)
+            parts = assign(ids, self.config, frozenset(w.index for w in self._workers if w.dead))
             self._drain()
             self._render_failed = False
             self.rendering_since = time.monotonic()

@@ -363,7 +363,9 @@ class FramePump:
     async def frame_of_current_state(self) -> EncodedFrame:
         """A frame of the latest accepted state: the pump's if it shows that revision, else render one."""
         latest = self.latest
-        if latest is not None and latest.revision == self.store.revision and (
+        # a frame that went without a cluster worker's channels (Frame.missing, igserver/cluster) is drawn again
+        if latest is not None and latest.revision == self.store.revision and not getattr(
+                latest.frame, "missing", None) and (
                 not self.store.clock.running
                 or time.perf_counter() - latest.rendered_at < self._animation_interval(self.store.scene)):
             return latest
