@@ -430,7 +430,7 @@ def test_drawn_foam_is_calibrated_to_monahans_coverage(wind):
     # W = 3.84e-6 U^3.41 (1.8 % at 12 m/s, 16 % at 22.6) over the sea's area. Checked on fresh points
     # and instants, not the calibration's: within 25 % (the field is correlated over a wavelength: a
     # few hundred independent samples below the threshold at 12 m/s).
-    from igserver.render.water.foam import FOAM_LAG, drawn_foam_threshold, foam_coverage, foam_mean, streak_opacity
+    from igserver.render.water.foam import FOAM_LAG, FOAM_SOFT, drawn_foam_threshold, foam_coverage, foam_mean, streak_opacity
     from igserver.water.surface import whitecap_coverage
 
     scene = sea_scene(weather={"wind_speed": wind})
@@ -448,7 +448,7 @@ def test_drawn_foam_is_calibrated_to_monahans_coverage(wind):
     # the dither's mean in closed form against the dither itself over a uniform u
     u = (np.arange(4000) + 0.5) / 4000
     for f in (0.0, 0.1, 0.3, 0.5, 0.8, 0.95, 1.0):
-        dither = np.clip((f - 0.75 * u) / 0.25, 0.0, 1.0).mean()
+        dither = np.clip((f - (1.0 - FOAM_SOFT) * u) / FOAM_SOFT, 0.0, 1.0).mean()
         assert foam_mean(np.array(f)) == pytest.approx(dither, abs=1e-4)
     assert drawn_foam_threshold(sea_surface(scene.ocean, Weather(wind_speed=0.0)), 0.0) == -1.0
 

@@ -14,7 +14,7 @@ from ...water.surface import SeaSurface
 from ..camera import CameraView
 from . import lod
 from .detail_mips import band_limited_levels
-from .foam import FOAM_STREAK_FADE, FOAM_STREAK_SIZE
+from .foam import FOAM_FADE_CELL, FOAM_STREAK_FADE
 
 DETAIL_MAPS = 3
 # The detail band is split by wavelength into DETAIL_MAPS maps, each covering a ratio DETAIL_RATIO of
@@ -223,8 +223,8 @@ def foam_streaks_needed(selection: lod.LodSelection, sea: SeaSurface, view: Came
                         cam_height: float) -> np.ndarray:
     """Per block, whether the foam's streak noise can show there (water.frag.glsl foam_cover): the
     shader fades the streaks to their mean where a pixel spans FOAM_STREAK_FADE of a noise cell,
-    contrast = clamp(1.5 - 2 |fwidth(q)|, 0, 1) with q the rest point in cells (24 m along the wind,
-    3 m across). |fwidth(q)| >= its across-wind part (|a.dx| + |a.dy|) / 3 >= sigma_min / 3, sigma_min
+    contrast = clamp(1.5 - 2 |fwidth(q)|, 0, 1) with q the rest point in cells (each lookup's: foam.py
+    FOAM_FADE_CELL, the largest least side c). |fwidth(q)| >= its part along that side, >= sigma_min / c, sigma_min
     the least stretch of the pixel -> rest-point map in any direction, which ``rest_spacing`` bounds
     with the least angle a one-pixel step in any direction turns a ray (``_min_pixel_angle_any``).
     Where that bound reaches 0.75 cells the contrast is exactly 0: the block is drawn without the
@@ -232,4 +232,4 @@ def foam_streaks_needed(selection: lod.LodSelection, sea: SeaSurface, view: Came
     if sea.field is not None or len(selection.nodes) == 0:
         return np.ones(len(selection.nodes), dtype=bool)
     angle = _min_pixel_angle_any(tuple(float(t) for t in view.tangents), int(view.width), int(view.height))
-    return rest_spacing(selection, sea, cam_height, angle) < FOAM_STREAK_FADE * FOAM_STREAK_SIZE[1]
+    return rest_spacing(selection, sea, cam_height, angle) < FOAM_STREAK_FADE * FOAM_FADE_CELL

@@ -13,9 +13,10 @@ uniform float u_foam_jacobian;  // J below which the sea turns white (foam.py dr
 uniform vec2 u_foam_edge;       // J above / below it where the foam starts / is solid (foam.py FOAM_EDGE)
 uniform vec4 u_foam_decay;      // opacity of the foam FOAM_LAG[0], FOAM_LAG[1] seconds old; surf J threshold;
                                 // opacity of the wind-row streaks everywhere (foam.py streak_opacity)
+uniform vec2 u_foam_unresolved; // J centre of the unresolved foam's tail; its fresh share (foam.py foam_calibration)
 uniform vec2 u_spray;           // x: spray strength (0..1, from the wind), y: 1 / Hs (1/m)
 
-const float FOAM_SOFT = 0.25;   // the dither ramp's width in opacity (foam.py FOAM_SOFT)
+const float FOAM_SOFT = 0.5;    // the dither ramp's width in opacity (foam.py FOAM_SOFT)
 const vec3 FOAM_FRESH = vec3(0.75);  // albedo of fresh, dense foam
 const float FOAM_OLD = 0.5;          // opacity of old, thinned foam: the sea's grey-green shows through (foam.py)
 
@@ -37,40 +38,37 @@ float foam_mean_inverse(float m) {
     return 1.0 - sqrt(max(2.0 * w * (1.0 - w - c), 0.0));
 }
 
-// The mean cover of foam of opacity d where J is below the threshold t, given the mesh's J and the
-// J variance of the waves the LOD faded out: the probability p of J under the soft edge (a normal
-// CDF: smoothstep over +-2.2 sigma follows it within 0.03). Where the edge is resolved (no faded
-// waves) the opacity is d p itself, its dither mean foam_mean(d p); where the faded waves make the
-// width, p is the chance of foam of opacity d at this point, its mean p foam_mean(d) — foam_mean(d p)
-// there would thin a sparse sea's whitecaps out (0.8 % at Beaufort 5 drew as 0.003 %).
-// x: the resolved mean, y: the unresolved one (see above); z: the unresolved share of the width.
-vec3 foam_term(float j, float t, float lost_jvar, float d) {
-    float centre = t + 0.5 * (u_foam_edge.x - u_foam_edge.y);
-    float edge2 = 0.25 * (u_foam_edge.x + u_foam_edge.y) * (u_foam_edge.x + u_foam_edge.y);
-    float width2 = edge2 + 4.84 * lost_jvar;
-    float x = (centre - j) * inversesqrt(width2);  // in units of 2.2 sigma
-    float p = smoothstep(-1.0, 1.0, x);
-    // the normal CDF's tail (Polya 1949: 0.5 (1 + sqrt(1 - exp(-2 z^2 / pi))), z = 2.2 x; within x1.6
-    // of it to 3 sigma): a sparse sea's whitecaps are all in the tail
-    float tail = 0.5 + 0.5 * sign(x) * sqrt(1.0 - exp(-3.08 * x * x));
-    return vec3(foam_mean(d * p), tail * foam_mean(d), 1.0 - edge2 / width2);
+// The foam at a vertex where the LOD faded some waves out of the mesh: J is then about normal about
+// the mesh's J with the faded waves' variance (lost_jvar), widening the J edge to width2. The share r
+// of the width the faded waves make blends two means. Resolved (r = 0): the foam of opacity d p, p
+// the soft edge's fraction, its dither mean foam_mean(d p) — now, FOAM_LAG seconds ago (older, fainter)
+// and the wind rows, the strongest (foam.py foam_cover_and_freshness). Unresolved (r = 1): the chance
+// that J is under the centre foam.py calibrated for it (u_foam_unresolved: the same brightness-weighted
+// mean over the sea, the resolved foam's share of fresh foam), the normal tail (Polya 1949: 0.5 (1 +
+// sqrt(1 - exp(-2 z^2 / pi))), z = 2.2 x; within x1.6 of it to 3 sigma: a sparse sea's whitecaps are
+// all in the tail). foam_mean(p) of a chance p would thin a sparse sea's foam out (0.8 % at Beaufort 5
+// drew as 0.003 %), and interpolating J then thresholding it lost the low tail the same way.
+float foam_resolved(float j, float centre, float width2, float d) {
+    return foam_mean(d * smoothstep(-1.0, 1.0, (centre - j) * inversesqrt(width2)));
 }
 
 // x: mean cover (the dither's mean), y: freshness (the share of it from foam now), z: how much of a
 // crest the point is (height 0.25 .. 0.75 Hs above the mean level: where spindrift leaves the sea).
 // breaking (0..1, surf zone): the broken water is white where the crest is compressed at all
-// (threshold raised toward u_foam_decay.z). Resolved, the foam at a point is the strongest of the
-// fresh, the older and the wind rows' (foam.py foam_coverage); unresolved, the chances of each at
-// the point are about independent (the lags are a good part of a wave period apart): their union.
+// (threshold raised toward u_foam_decay.z).
 vec3 foam_vertex(float j, vec2 j_past, float lost_jvar, float breaking, float height) {
-    float t = mix(u_foam_jacobian, u_foam_decay.z, smoothstep(0.1, 0.7, breaking));
-    vec3 now = foam_term(j, t, lost_jvar, 1.0);
-    vec3 old1 = foam_term(j_past.x, t, lost_jvar, u_foam_decay.x);
-    vec3 old2 = foam_term(j_past.y, t, lost_jvar, u_foam_decay.y);
-    float rows = foam_mean(u_foam_decay.w);
-    float resolved = max(max(now.x, old1.x), max(old2.x, rows));
-    float unresolved = 1.0 - (1.0 - now.y) * (1.0 - old1.y) * (1.0 - old2.y) * (1.0 - rows);
-    float m = mix(resolved, unresolved, now.z);
-    float fresh = mix(now.x, now.y, now.z);
+    float surf = smoothstep(0.1, 0.7, breaking);
+    float shift = 0.5 * (u_foam_edge.x - u_foam_edge.y);  // edge centre - threshold
+    float centre = mix(u_foam_jacobian, u_foam_decay.z, surf) + shift;
+    float edge2 = 0.25 * (u_foam_edge.x + u_foam_edge.y) * (u_foam_edge.x + u_foam_edge.y);
+    float width2 = edge2 + 4.84 * lost_jvar;
+    float now = foam_resolved(j, centre, width2, 1.0);
+    float resolved = max(max(now, foam_resolved(j_past.x, centre, width2, u_foam_decay.x)),
+                         max(foam_resolved(j_past.y, centre, width2, u_foam_decay.y), foam_mean(u_foam_decay.w)));
+    float x = (mix(u_foam_unresolved.x, u_foam_decay.z + shift, surf) - j) * inversesqrt(width2);
+    float unresolved = 0.5 + 0.5 * sign(x) * sqrt(1.0 - exp(-3.08 * x * x));
+    float r = 1.0 - edge2 / width2;
+    float m = mix(resolved, unresolved, r);
+    float fresh = mix(now, u_foam_unresolved.y * unresolved, r);
     return vec3(m, m > 1e-6 ? fresh / m : 1.0, smoothstep(0.25, 0.75, height * u_spray.y));
 }

@@ -4,6 +4,7 @@ the drawn whitecap fraction follows the measured one, dithered into wind streaks
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -18,7 +19,7 @@ from ..camera import CameraView
 # opacity, dithered into streaks by noise through a ramp of width FOAM_SOFT (its mean over the noise:
 # foam_mean).
 FOAM_EDGE = (0.02, 0.06)
-FOAM_SOFT = 0.25
+FOAM_SOFT = 0.5
 FOAM_LAG = (1.5, 4.0)  # s
 FOAM_DECAY_S = 3.5  # s: e-folding time of a whitecap's brightness (Monahan 1971: 3.53 s)
 FOAM_OLD_BRIGHTNESS = 0.5  # old foam's opacity (foam.glsl FOAM_OLD): its contrast over the sea relative to fresh foam's
@@ -43,6 +44,14 @@ def foam_coverage(threshold: float, j_now: np.ndarray, j_past: tuple[np.ndarray,
                   streaks: float = 0.0) -> np.ndarray:
     """The foam's mean cover per point, weighted by its brightness (foam.glsl foam_vertex, then the
     dither's mean and the fresh/old colour): what a photograph of the sea counts as whitecap."""
+    m, fresh = foam_cover_and_freshness(threshold, j_now, j_past, streaks)
+    return m * (FOAM_OLD_BRIGHTNESS + (1.0 - FOAM_OLD_BRIGHTNESS) * fresh)
+
+
+def foam_cover_and_freshness(threshold: float, j_now: np.ndarray, j_past: tuple[np.ndarray, np.ndarray],
+                             streaks: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Per point the resolved foam's mean cover and the share of it that is fresh (foam.glsl
+    foam_vertex where no wave is faded)."""
     edge = FOAM_EDGE[0] + FOAM_EDGE[1]
 
     def probability(j):
@@ -53,16 +62,14 @@ def foam_coverage(threshold: float, j_now: np.ndarray, j_past: tuple[np.ndarray,
     d1, d2 = foam_decay()
     m = np.maximum(now, foam_mean(np.maximum(d1 * probability(j_past[0]),
                                              np.maximum(d2 * probability(j_past[1]), streaks))))
-    fresh = np.where(m > 1e-6, now / np.maximum(m, 1e-6), 1.0)
-    return m * (FOAM_OLD_BRIGHTNESS + (1.0 - FOAM_OLD_BRIGHTNESS) * fresh)
+    return m, np.where(m > 1e-6, now / np.maximum(m, 1e-6), 1.0)
 
 
 def streak_size(wind: float) -> tuple[float, float]:
     """m along and across the wind: a noise cell of the streaks. Wind-row foam streaks lengthen with
     the wind (Beaufort 7-9: "foam blown in streaks along the wind", denser and longer as it rises):
-    2.5 m per m/s along (57 m at Beaufort 9), 10 to 75 m; 3 m across (detail.foam_streaks_needed's
-    bound is set on the across size)."""
-    return min(max(2.5 * wind, 10.0), 75.0), FOAM_STREAK_SIZE[1]
+    2.5 m per m/s along (57 m at Beaufort 9), 10 to 75 m; FOAM_STREAK_WIDTH across."""
+    return min(max(2.5 * wind, 10.0), 75.0), FOAM_STREAK_WIDTH
 
 
 def streak_opacity(wind: float) -> float:
@@ -81,7 +88,11 @@ def spray_strength(wind: float) -> float:
     return x * x * (3.0 - 2.0 * x)
 
 
-FOAM_STREAK_SIZE = (24.0, 3.0)  # m: the across size bounds the streaks' fade (detail.py); along: streak_size
+FOAM_STREAK_WIDTH = 1.5  # m across the wind: a cell of the old foam's streak noise (its length: streak_size)
+FOAM_PATCH_SIZE = (10.0, 3.0)  # m along and across the wind: a cell of the fresh foam's noise (whitecaps drawn out downwind)
+# The noise cells' size the foam's pattern fades by (detail.foam_streaks_needed): each lookup fades by
+# its own least side, the last to fade is the patch noise's.
+FOAM_FADE_CELL = max(FOAM_STREAK_WIDTH, min(FOAM_PATCH_SIZE))
 FOAM_STREAK_FADE = 0.75  # cells a pixel spans where the streaks have faded to their mean (water.frag.glsl)
 FOAM_DRIFT = 0.03  # × wind speed: the surface drift that carries the streaks downwind
 FOAM_PERIOD = 64.0  # noise cells per side of the tabulated noise: 1.5 km along the wind, 192 m across
@@ -113,25 +124,54 @@ def foam_frame(scene: Scene, view: CameraView, sea: SeaSurface, wind: float, max
     size = streak_size(wind)
     t = scene.time.sim_time
     along, side = float(cam @ axis), float(cam @ across)
-    offset = np.mod([(along - FOAM_DRIFT * wind * t) / size[0], side / size[1]], FOAM_PERIOD)
+    drifted = along - FOAM_DRIFT * wind * t
+    offset = np.mod([drifted / size[0], side / size[1]], FOAM_PERIOD)
+    patch = np.mod([drifted / FOAM_PATCH_SIZE[0], side / FOAM_PATCH_SIZE[1]], FOAM_PERIOD)
     hs = 4.0 * math.sqrt(float(np.sum(sea.waves.amplitude ** 2)) / 2.0)
     return {"u_foam_frame": (*axis, 1.0 / size[0], 1.0 / size[1]),
             "u_foam_offset": tuple(float(x) for x in offset), "u_foam_period": FOAM_PERIOD,
+            "u_foam_patch": (1.0 / FOAM_PATCH_SIZE[0], 1.0 / FOAM_PATCH_SIZE[1], *(float(x) for x in patch)),
             "u_foam_noise": FOAM_NOISE_UNIT, "u_foam_decay": (*foam_decay(), SURF_FOAM_JACOBIAN, streak_opacity(wind)),
             "u_spray": (spray_strength(wind), 1.0 / max(hs, 1e-3)),
             "u_wave_lag": wave_lags(sea, max_waves)}
 
 
-_FOAM_CACHE: dict[tuple, tuple[SeaSurface, float]] = {}
+@dataclass(frozen=True)
+class FoamCalibration:
+    threshold: float  # J threshold of the resolved foam (foam.glsl u_foam_jacobian)
+    unresolved_centre: float  # J centre of the unresolved foam's normal tail (u_foam_unresolved.x)
+    freshness: float  # share of the drawn foam that is fresh (u_foam_unresolved.y)
+
+
+_FOAM_CACHE: dict[tuple, tuple[SeaSurface, FoamCalibration]] = {}
 
 
 def drawn_foam_threshold(sea: SeaSurface, wind: float) -> float:
     """The J threshold at which the foam the shader draws covers Monahan's whitecap fraction W of the
-    sea on average. Its soft edge and its dither thin the foam out, so the threshold is set on the
-    drawn foam's mean (``foam_mean``) over the sea's J samples — weighted by J, the displaced area each
-    rest point stands for — not on the J quantile at W (which, softened and then halved by the old
-    streak texture, drew foam over 3 % of the sea at Beaufort 9 instead of W = 16 %, and 0.02 % at
-    Beaufort 5 instead of 0.8 %)."""
+    sea on average (``foam_calibration``)."""
+    return foam_calibration(sea, wind).threshold
+
+
+def polya_inverse(p: float) -> float:
+    """x with 0.5 + 0.5 sign(x) sqrt(1 − exp(−3.08 x²)) = p (foam.glsl's normal tail, x in units of
+    2.2 σ: Pólya's approximation of the normal CDF)."""
+    p = min(max(p, 1e-9), 1.0 - 1e-9)
+    x = math.sqrt(-math.log(max(1.0 - (2.0 * p - 1.0) ** 2, 1e-300)) / 3.08)
+    return x if p >= 0.5 else -x
+
+
+def foam_calibration(sea: SeaSurface, wind: float) -> FoamCalibration:
+    """The foam's thresholds for Monahan's whitecap fraction W of the sea.
+
+    Resolved (the mesh carries every wave): the J threshold at which the drawn foam — its soft
+    edge, now and FOAM_LAG earlier, the wind rows, the dither's mean (``foam_coverage``), weighted
+    by J, the displaced area each rest point stands for — averages W over the sea's J samples (not
+    the J quantile at W, which drew foam over 3 % of the sea at Beaufort 9 instead of 16 %).
+    Unresolved (the LOD faded the waves: the foam is the chance that J, normal about the mesh's J
+    with the faded waves' variance, is under a centre): the centre where that chance over the sea's
+    J (its mean and variance) gives the same brightness-weighted W with the resolved foam's share of
+    fresh foam — the chances of the lagged and the fresh foam are not independent (J 1.5 s and 4 s
+    apart correlate by +0.4 and −0.7 at Beaufort 9), so they are not combined."""
     key = id(sea), float(wind)
     held = _FOAM_CACHE.get(key)
     if held is not None and held[0] is sea:  # the sea is held with it: its id cannot be reused meanwhile
@@ -139,7 +179,7 @@ def drawn_foam_threshold(sea: SeaSurface, wind: float) -> float:
     if len(_FOAM_CACHE) > 16:
         _FOAM_CACHE.clear()
     coverage = whitecap_coverage(wind)
-    threshold = -1.0
+    calibration = FoamCalibration(-1.0, -1.0, 1.0)
     if coverage > 0.0 and sea.n > 0:
         j, past = jacobian_history(sea)
         streaks = streak_opacity(wind)
@@ -153,8 +193,16 @@ def drawn_foam_threshold(sea: SeaSurface, wind: float) -> float:
             mid = 0.5 * (lo + hi)
             lo, hi = (mid, hi) if drawn(mid) < coverage else (lo, mid)
         threshold = 0.5 * (lo + hi)
-    _FOAM_CACHE[key] = (sea, threshold)
-    return threshold
+        m, fresh = foam_cover_and_freshness(threshold, j, past, streaks)
+        freshness = float(np.average(m * fresh, weights=area) / max(np.average(m, weights=area), 1e-12))
+        mean = float(np.average(j, weights=area))
+        var = float(np.average((j - mean) ** 2, weights=area))
+        edge2 = 0.25 * (FOAM_EDGE[0] + FOAM_EDGE[1]) ** 2
+        want = coverage / (FOAM_OLD_BRIGHTNESS + (1.0 - FOAM_OLD_BRIGHTNESS) * freshness)
+        centre = mean + polya_inverse(want) * math.sqrt(edge2 + 4.84 * var)
+        calibration = FoamCalibration(threshold, centre, freshness)
+    _FOAM_CACHE[key] = (sea, calibration)
+    return calibration
 
 
 def jacobian_history(sea: SeaSurface, points: int = 4000, times=(0.0, 7.3, 19.1),

@@ -15,23 +15,28 @@ float shore_elevation(vec2 p, float depth) {
     return u_shore_plane.w > 0.0 ? u_shore_plane.w * (dot(p, u_shore_plane.xy) - u_shore_plane.z) : -depth;
 }
 
-// x: swash water cover (0..1), y: its front's foam (0..1), z: wet sand (0..1, up to the run-up's reach).
+// Per vertex (smooth over the mesh: the swash varies over tens of metres), at rest point p: x the
+// swash front's height above the still water level (m), y the run-up's reach on this stretch of shore
+// (the wet sand's top, m), z the front's foam (brighter in the uprush), w the front foam's depth (m).
 // Each wave's uprush takes 30 % of the period and its backwash the rest (swash on a gentle beach:
 // Holthuijsen 2007, ch. 10; the uprush is the bore's fast run, the backwash drains slowly); each
 // swash reaches 0.6-1.0 R2, varying from wave to wave and along the shore.
-vec3 swash(vec2 p, float z) {
+vec4 swash_vertex(vec2 p) {
     float along = dot(p, u_swash_along.xy);
     float cycles = (u_swash.y - u_swash.z * along) / (2.0 * PI);
     float n = floor(cycles);
     float f = cycles - n;
-    float vary = sin(u_swash_along.z * along + u_swash_along.w + 2.4 * n);
-    float reach = u_swash.x * (0.8 + 0.2 * vary);
+    float reach = u_swash.x * (0.8 + 0.2 * sin(u_swash_along.z * along + u_swash_along.w + 2.4 * n));
     float up = f < 0.3 ? smoothstep(0.0, 1.0, f / 0.3) : 1.0 - smoothstep(0.0, 1.0, (f - 0.3) / 0.7);
-    float eta = reach * up;  // the swash front's height above the still water level
-    float e = max(fwidth(z), 0.002);
-    float cover = smoothstep(eta + e, eta - e, z);
-    float front = cover * (1.0 - smoothstep(0.0, 0.25 * reach + e, eta - z)) * (f < 0.3 ? 0.9 : 0.35);
     float top = u_swash.x * (0.9 + 0.1 * sin(u_swash_along.z * along + u_swash_along.w));
-    float wet = 1.0 - smoothstep(0.75 * top, top, z);
-    return vec3(cover, front, wet);
+    return vec4(reach * up, top, f < 0.3 ? 0.9 : 0.35, 0.25 * reach);
+}
+
+// Per fragment, at height z above the still water level (z_step: fwidth(z)): x the swash's water
+// cover (0..1), y its front's foam (0..1), z wet sand (0..1, up to the run-up's reach).
+vec3 swash(vec4 s, float z, float z_step) {
+    float e = max(z_step, 0.002);
+    float cover = smoothstep(s.x + e, s.x - e, z);
+    float front = cover * (1.0 - smoothstep(0.0, s.w + e, s.x - z)) * s.z;
+    return vec3(cover, front, 1.0 - smoothstep(0.75 * s.y, s.y, z));
 }

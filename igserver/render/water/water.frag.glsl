@@ -43,6 +43,9 @@ in float v_lost_jvar;
 in float v_depth;
 in float v_breaking;
 in vec3 v_foam;
+#ifdef WATER_FIELD
+in vec4 v_swash;                  // shore.glsl swash_vertex
+#endif
 in vec3 v_air_t;
 in vec3 v_air_s;
 
@@ -54,35 +57,59 @@ const vec3 ABSORPTION = vec3(0.35, 0.07, 0.045);    // 1/m, coastal water (red f
 const vec3 BOTTOM_ALBEDO = vec3(0.35, 0.30, 0.22);  // sand
 uniform vec4 u_foam_frame;      // xy: unit downwind direction; zw: 1 / streak length, 1 / width (1/m)
 uniform vec2 u_foam_offset;     // noise coordinates of the camera, drifted downwind, mod FOAM_PERIOD (CPU)
+uniform vec4 u_foam_patch;      // the fresh foam's noise: 1 / cell length, 1 / width (1/m), camera's coordinates
 uniform float u_foam_period;    // noise cells per side of the tabulated noise
 layout(binding = UNIT_FOAM_NOISE) uniform sampler2D u_foam_noise; // the streak noise, about uniform on [0, 1] (water/foam_noise.frag.glsl)
 
-// Foam: the vertex's mean cover m (foam.glsl foam_vertex) is dithered into streaks by the noise
-// (tabulated, about uniform u on [0, 1]): the opacity f = foam_mean_inverse(m), white where f exceeds
-// (1 - FOAM_SOFT) u, through a ramp of width FOAM_SOFT — the mean over u is m again. The noise frame
-// is stretched along the wind (cells longer the stronger the wind: foam.py streak_size), anchored to
-// the world and drifts downwind with the surface. Where a pixel spans 3/4 of a noise cell the streaks
-// would alias: the mean m itself. Spindrift: where the same noise is low (between the streaks) a
-// white veil over the crests.
-float streak_noise(vec2 rest, vec2 cells, vec2 offset, out float contrast) {
-    vec2 q = vec2(dot(rest, u_foam_frame.xy) * cells.x,
-                  dot(rest, vec2(-u_foam_frame.y, u_foam_frame.x)) * cells.y) + offset;
-    contrast = clamp(1.5 - 2.0 * length(fwidth(q)), 0.0, 1.0);  // none past 3 texels a pixel
+// Foam: the vertex's mean cover m (foam.glsl foam_vertex) is dithered by a noise u about uniform on
+// [0, 1]: the opacity f = foam_mean_inverse(m), white where f exceeds (1 - FOAM_SOFT) u, through a
+// ramp of width FOAM_SOFT — the mean over u is m again. Two lookups of the tabulated noise, anchored to
+// the world and drifting downwind with the surface: streaks stretched along the wind (cells longer
+// the stronger the wind: foam.py streak_size) for the old foam, and patches (foam.py FOAM_PATCH_SIZE)
+// for fresh whitecaps, blended by the foam's freshness w and mapped back to uniform through the CDF of
+// (1 - w) a + w b. Where a pixel spans 3/4 of a noise cell the pattern would alias: the mean m itself.
+// Spindrift: where the streak noise is low (between the streaks) a white veil over the crests.
+// A lookup's noise coordinates and its contrast, from the rest point's screen derivatives (taken
+// once, outside any branch on the pixel: q is linear in the rest point).
+vec2 foam_noise_coords(vec2 rest, vec2 dx, vec2 dy, vec4 frame, out float contrast) {
+    mat2 to_cells = mat2(u_foam_frame.x * frame.x, -u_foam_frame.y * frame.y,
+                         u_foam_frame.y * frame.x, u_foam_frame.x * frame.y);  // columns: x, y of the rest point
+    vec2 width = abs(to_cells * dx) + abs(to_cells * dy);  // fwidth(q)
+    contrast = clamp(1.5 - 2.0 * length(width), 0.0, 1.0);  // none past 3 texels a pixel
+    return to_cells * rest + frame.zw;
+}
+float foam_noise(vec2 q) {
     return textureLod(u_foam_noise, q / u_foam_period, 0.0).r;  // no mipmaps: no implicit LOD
+}
+// The CDF of s = (1 - w) a + w b, a and b independent and uniform on [0, 1] (a trapezoid density).
+float blend_cdf(float s, float w) {
+    float lo = min(w, 1.0 - w), hi = max(w, 1.0 - w);
+    if (lo < 1e-3) return s;
+    if (s < lo) return s * s / (2.0 * lo * hi);
+    if (s <= hi) return (s - 0.5 * lo) / hi;
+    return 1.0 - (1.0 - s) * (1.0 - s) / (2.0 * lo * hi);
 }
 const float SPRAY_MEAN = 0.375;  // mean of smoothstep(0.35, 0.9, u), u uniform on [0, 1]
 #if WATER_FOAM_STREAKS
-// Also the spindrift's pattern from the same noise sample (one texture read: a second, blown lookup
-// doubled the water pass's cost on llvmpipe).
-float foam_cover(float m, vec2 rest, out float spray) {
-    float contrast;
-    float u = streak_noise(rest, u_foam_frame.zw, u_foam_offset, contrast);
-    spray = mix(SPRAY_MEAN, smoothstep(0.35, 0.9, 1.0 - u), contrast);
+// The lookups only where there is foam (and spray), the patches' only where some of it is fresh: a
+// branch per pixel, which llvmpipe skips where a whole block of pixels agrees.
+float foam_cover(float m, float fresh, vec2 rest, out float spray) {
+    vec2 dx = dFdx(rest), dy = dFdy(rest);
+    bool foamy = m > 1e-4;  // the normal tail is never quite 0: below this a pixel's foam is its mean
+    spray = SPRAY_MEAN;
+    if (!foamy && u_spray.x <= 0.0) return m;
+    float c_streak;
+    float a = foam_noise(foam_noise_coords(rest, dx, dy, vec4(u_foam_frame.zw, u_foam_offset), c_streak));
+    spray = mix(SPRAY_MEAN, smoothstep(0.35, 0.9, 1.0 - a), c_streak);
+    if (!foamy) return m;
+    float c_patch = 0.0, b = 0.5;
+    if (fresh > 0.0) b = foam_noise(foam_noise_coords(rest, dx, dy, u_foam_patch, c_patch));
+    float u = blend_cdf(mix(a, b, fresh), fresh);
     float dithered = clamp((foam_mean_inverse(m) - (1.0 - FOAM_SOFT) * u) / FOAM_SOFT, 0.0, 1.0);
-    return mix(m, dithered, contrast);
+    return mix(m, dithered, mix(c_streak, c_patch, fresh));
 }
-#else  // a block where every pixel spans 3/4 of a noise cell (water.py foam_streaks_needed): the mean
-float foam_cover(float m, vec2 rest, out float spray) { spray = SPRAY_MEAN; return m; }
+#else  // a block where every pixel spans 3/4 of every noise cell (water.py foam_streaks_needed): the mean
+float foam_cover(float m, float fresh, vec2 rest, out float spray) { spray = SPRAY_MEAN; return m; }
 #endif
 
 vec4 detail(sampler2D tex, vec3 map) {
@@ -181,8 +208,8 @@ void main() {
     // Whitecaps where the Gerstner surface pinches (J small) now or a few seconds ago (fresh white,
     // older grey-green and thinner), torn into streaks by the wind (foam.glsl); spindrift off crests.
     float spray;
-    float foam = foam_cover(v_foam.x, v_rest, spray);
-    foam *= mix(FOAM_OLD, 1.0, clamp(v_foam.y, 0.0, 1.0));
+    float fresh = clamp(v_foam.y, 0.0, 1.0);
+    float foam = foam_cover(v_foam.x, fresh, v_rest, spray) * mix(FOAM_OLD, 1.0, fresh);
     spray *= u_spray.x * v_foam.z;
     // Foam is a rough white surface on the facet n: the sun and the moon by n.l, the sky by the part
     // of the dome the facet sees ((1 + n_z) / 2), local lights as on a level surface — so the foam on a
@@ -196,7 +223,9 @@ void main() {
     // white, the sand it wets darker (wet sand reflects about 60 % of dry sand's light).
 #ifdef WATER_FIELD
     float land = shore_elevation(v_rest, v_depth);
-    vec3 sw = swash(v_rest, land);
+    float land_step = fwidth(land);
+    vec3 sw = vec3(0.0);  // the sea: no swash to draw
+    if (land > -0.05) sw = swash(v_swash, land, land_step);
     float water = max(smoothstep(0.0, 0.05, -land), sw.x);
     vec3 sand = BOTTOM_ALBEDO * mix(1.0, 0.6, sw.z) * e_down / PI;  // Lambert
     lit = mix(mix(sand, lit, water), FOAM_FRESH * e_foam / PI, sw.y);

@@ -31,7 +31,7 @@ from ..shaders import assemble, set_uniforms
 from . import lod
 from .detail import (DETAIL_MAPS, detail_map_levels, detail_means, detail_tiles, detail_unresolved_var,
                      foam_streaks_needed, minified_maps_from)
-from .foam import FOAM_EDGE, FOAM_NOISE_SIZE, FOAM_NOISE_UNIT, FOAM_PERIOD, drawn_foam_threshold, foam_frame
+from .foam import FOAM_EDGE, FOAM_NOISE_SIZE, FOAM_NOISE_UNIT, FOAM_PERIOD, foam_calibration, foam_frame
 from .hulls import MAX_HULLS, blocks_near_hulls, hull_boxes
 from .shore import shore_uniforms
 from .sea_tables import SeaTables
@@ -382,11 +382,16 @@ class WaterPass(UnderwaterDraws, RenderPass):
             use_texture(self._detail[c], DETAIL_UNIT0 + c)
             units[f"u_detail{c}"] = DETAIL_UNIT0 + c
         wind = scene.weather.wind_speed if scene.ocean.sea_state is None else sea.spectrum.wind
-        threshold = drawn_foam_threshold(sea, wind) if self.foam_threshold is None else self.foam_threshold
+        if self.foam_threshold is None:
+            calibration = foam_calibration(sea, wind)
+            threshold, unresolved = calibration.threshold, (calibration.unresolved_centre, calibration.freshness)
+        else:  # the same centre for both: none (-1), all (10)
+            threshold = self.foam_threshold
+            unresolved = (threshold + 0.5 * (FOAM_EDGE[0] - FOAM_EDGE[1]), 1.0)
         use_texture(self._foam_noise(), FOAM_NOISE_UNIT)
         values = {**frame.uniforms, **table_uniforms, **glint_light(frame.uniforms), **self._wave_values(sea, waves),
                   "u_morph": morph.tobytes(), **units,
-                  "u_min_slope_var": 2e-4 + detail_unresolved_var(sea), "u_foam_jacobian": threshold,
+                  "u_min_slope_var": 2e-4 + detail_unresolved_var(sea), "u_foam_jacobian": threshold, "u_foam_unresolved": unresolved,
                   "u_foam_edge": FOAM_EDGE, **foam_frame(scene, view, sea, wind, MAX_WAVES), **shore_uniforms(scene, view, sea), "u_hull_count": len(hulls)}
         if hulls:
             mats = np.zeros((MAX_HULLS, 4, 4), dtype=np.float32)

@@ -3,6 +3,10 @@
 #include "water/sea_tables.glsl"
 #include "water/gerstner.glsl"
 #include "water/foam.glsl"
+#ifdef WATER_FIELD
+#include "water/shore.glsl"
+out vec4 v_swash;              // the swash on the beach (shore.glsl swash_vertex)
+#endif
 
 uniform vec2 u_morph[24];      // per level: morph start, end distance (m)
 uniform float u_patch_quads;   // G
@@ -49,6 +53,9 @@ void main() {
     v_lost_jvar = s.lost_jvar;
     v_depth = s.depth;
     v_breaking = s.breaking;
+#ifdef WATER_FIELD
+    v_swash = swash_vertex(p);
+#endif
     v_foam = foam_vertex(s.jacobian, s.jacobian_past, s.lost_jvar, s.breaking, s.pos.z);
     // Aerial perspective is affine in the radiance and smooth in distance: the per-frame table of the
     // shared function over the sea (sea_tables.glsl) per vertex, interpolated per pixel.
