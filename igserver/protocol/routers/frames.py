@@ -266,6 +266,7 @@ async def mjpeg_stream(
     async def parts():
         runtime.stream_clients["mjpeg"] += 1
         sent, last, last_revision = 0, None, -1
+        after = None  # the newest frame seen: the last sent, or a later one without this channel
         t_sent = time.perf_counter()
         try:
             with runtime.pump.subscription():
@@ -276,7 +277,7 @@ async def mjpeg_stream(
                         break
                     # keepalive: resend the last frame when nothing new came, so players see the stream is live;
                     # the wait is short so that a server shutdown ends the stream at once
-                    encoded = await runtime.pump.next_frame(last, timeout=min(runtime.settings.keepalive_s, 0.25))
+                    encoded = await runtime.pump.next_frame(after, timeout=min(runtime.settings.keepalive_s, 0.25))
                     if encoded is None and (last is None or time.perf_counter() - t_sent < runtime.settings.keepalive_s):
                         continue
                     encoded = encoded or last
@@ -284,6 +285,9 @@ async def mjpeg_stream(
                         runtime.metrics.frames_dropped.inc(encoded.ig_frame - last.ig_frame - 1, stream="mjpeg")
                     ids = encoded.channel_ids
                     if channel is not None and channel not in ids:
+                        if channel in (getattr(encoded.frame, "missing", None) or ()):
+                            after = encoded  # a cluster worker missed this frame: the channel comes with a later one
+                            continue
                         break  # the channel left the state
                     shown = ids[0] if channel is None else channel
                     named = f"X-IG-Channel: {shown}\r\n" if getattr(encoded.frame, "channels", None) else ""
@@ -302,7 +306,7 @@ async def mjpeg_stream(
                             runtime.metrics.latency_ms.observe(
                                 (time.perf_counter() - encoded.accepted_at) * 1e3, stream="mjpeg")
                         last_revision = encoded.revision
-                    last = encoded
+                    last = after = encoded
                     sent += 1
                     if interval:
                         await asyncio.sleep(max(0.0, interval - (time.perf_counter() - t_sent)))
