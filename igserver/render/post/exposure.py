@@ -68,20 +68,67 @@ def linear_to_srgb(c):
     return np.where(c <= 0.0031308, c * 12.92, 1.055 * np.power(np.maximum(c, 0.0031308), 1 / 2.4) - 0.055)
 
 
+WHITE_THRESHOLD = 1.0  # display-linear input of the brightest channel where the path to white starts
+WHITE_STOPS = 10.0  # stops above WHITE_THRESHOLD where a colour is white
+
+
+def display_transform(rgb, hue_weight=0.0):
+    """Display-linear colour (..., 3) of exposed linear sRGB (..., 3): the ACES fit per channel with
+    the highlights' path to white, numpy mirror of post/tonemap.glsl display_transform (its comment
+    gives the reasoning). With m the brightest channel's input and t the curve per channel:
+        s = clamp(log2(m / WHITE_THRESHOLD) / WHITE_STOPS, 0, 1),  w = s^2 (3 - 2 s),
+        out = t + w (max(t) - t).
+    Below the threshold w = 0 and the colour is the plain curve's. ``hue_weight`` (..., 1) or scalar:
+    a low sun's disk as the sky pass marks it, tone-mapped on its largest channel with its hue kept
+    and by that weight no path to white (the meter cannot see the mark: it passes 0)."""
+    x = np.asarray(rgb, dtype=np.float64)
+    t = aces_fit(x)
+    m = np.max(x, axis=-1, keepdims=True)
+    hue_weight = np.asarray(hue_weight, dtype=np.float64)
+    if np.any(hue_weight > 0.0):
+        t = t + hue_weight * (aces_fit(m) * x / np.maximum(m, 1e-12) - t)
+    return _to_white(t, _stops_over(m), hue_weight)
+
+
+def _stops_over(m):
+    """log2(m / WHITE_THRESHOLD): the brightest channel's input m above the threshold, in stops."""
+    return np.log2(np.maximum(m, 1e-30) / WHITE_THRESHOLD)
+
+
+def _to_white(t, stops, hue_weight=0.0):
+    """The fit's colours t (..., 3) moved toward white by their brightest channel's ``stops`` over
+    the threshold (..., 1), less the ``hue_weight`` of a low sun's disk."""
+    s = np.minimum(np.maximum(stops / WHITE_STOPS, 0.0), 1.0)
+    w = s * s * (3.0 - 2.0 * s) * (1.0 - hue_weight)
+    return t + w * (np.max(t, axis=-1, keepdims=True) - t)
+
+
 def displayed(x):
-    """Displayed value (0..1) of a display-linear value, as the post pass shows it."""
+    """Displayed value (0..1) of a display-linear GREY value (any shape), as the post pass shows it:
+    the path to white leaves grey unchanged. Colours (..., 3): displayed_rgb."""
     return linear_to_srgb(aces_fit(x))
+
+
+def displayed_rgb(rgb, hue_weight=0.0):
+    """Displayed colour (0..1, (..., 3)) of exposed linear sRGB, as the post pass shows it (before
+    its dither)."""
+    return linear_to_srgb(display_transform(rgb, hue_weight))
 
 
 def display_metered_ev100(samples: np.ndarray) -> tuple[float, float]:
     """EV100 that makes the mean DISPLAYED value of the view's samples (cd/m^2: luminances (N,), or
-    linear RGB (N, 3), shown per channel as the post pass does) equal the display of a uniform
-    field at the samples' mean luminance M under the steady key k(M): the meter works in display
-    space, so a sunset sky that grows relatively brighter than the rest pulls the exposure down
-    instead of brightening the picture, and the displayed mean follows D(k(M)), monotone in M.
+    linear RGB (N, 3), shown as the post pass does: displayed_rgb, the curve per channel with the
+    path to white) equal the display of a uniform field at the samples' mean luminance M under the
+    steady key k(M): the meter works in display space, so a sunset sky that grows relatively
+    brighter than the rest pulls the exposure down instead of brightening the picture, and the
+    displayed mean follows D(k(M)), monotone in M.
     Returns (EV100, M). False position on log2(exposure) (the mean is monotone in it)."""
     samples = np.maximum(np.asarray(samples, dtype=np.float64), 0.0)
     lum = samples @ LUMA if samples.ndim == 2 else samples
+    # Colours (N, 3) are shown with the path to white; their stops over its threshold at e = 0 once
+    # (at exposure 2^e they are e more), and only the cells past it are moved.
+    stops = _stops_over(np.max(samples, axis=1, keepdims=True)) if samples.ndim == 2 else None
+    hottest = float(np.max(stops)) if stops is not None and stops.size else -math.inf
     m = max(float(np.mean(lum)), 1e-9)
     key = key_of(m)
     target = float(displayed(key))
@@ -89,11 +136,17 @@ def display_metered_ev100(samples: np.ndarray) -> tuple[float, float]:
     n = samples.size
 
     def excess(e: float) -> float:
-        return float(np.add.reduce(displayed(samples * 2.0 ** e), axis=None) / n) - target
+        shown = aces_fit(samples * 2.0 ** e)
+        if hottest + e > 0.0:
+            hot = stops[:, 0] + e > 0.0
+            if hot.any():
+                shown[hot] = _to_white(shown[hot], stops[hot] + e)
+        return float(np.add.reduce(linear_to_srgb(shown), axis=None) / n) - target
 
-    # The mean displayed value is monotone in e = log2(exposure): a root bracketed over +-12 EV
-    # around the average meter, found by false position (Illinois) to SOLVE_TOLERANCE_EV; ~8
-    # evaluations instead of a 26-step bisection (the meter runs on the CPU every frame).
+    # The mean displayed value is monotone in e = log2(exposure) (each channel is along k x): a root
+    # bracketed over +-12 EV around the average meter, found by false position (Illinois) to
+    # SOLVE_TOLERANCE_EV; ~8 evaluations instead of a 26-step bisection (the meter runs on the CPU
+    # every frame).
     lo, hi = math.log2(key / m) - 12.0, math.log2(key / m) + 12.0
     f_lo, f_hi = excess(lo), excess(hi)
     if f_lo >= 0.0:
