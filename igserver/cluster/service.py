@@ -270,12 +270,17 @@ class ClusterService:
             self._drain()
             self._render_failed = False
             self.rendering_since = time.monotonic()
-            shared = self.exposure.applies(scene, parts)
-            answers = self._round(scene, revision, frame_no, parts, timed, self.exposure.current if shared else None)
-            if shared and answers and self.exposure.update(scene, [a.get("cells") for a in answers.values()]):
-                self.metrics.redraws.inc()  # the first frame, or a jump: drawn again with the new exposure
-                answers = self._round(scene, revision, frame_no, parts, timed, self.exposure.current)
-            self.rendering_since = None
+            try:
+                shared = self.exposure.applies(scene, parts)
+                answers = self._round(scene, revision, frame_no, parts, timed,
+                                      self.exposure.current if shared else None)
+                if shared and answers and self.exposure.update(scene, [a.get("cells") for a in answers.values()]):
+                    self.metrics.redraws.inc()  # the first frame, or a jump: drawn again with the new exposure
+                    redrawn = self._round(scene, revision, frame_no, parts, timed, self.exposure.current)
+                    if len(redrawn) >= len(answers):  # else the first draw: fewer channels, not two exposures
+                        answers = redrawn
+            finally:
+                self.rendering_since = None
             self._report(frame_no, parts, answers)
             return self._gather(scene, frame_no, parts, answers)
 
