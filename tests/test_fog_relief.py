@@ -64,3 +64,49 @@ def test_no_relief_from_inside_the_fog_or_without_a_top(renderer, z, pitch, fog_
     # 3-10 optical depths of fog).
     c = relief_contrast(fog_luminance(renderer, fog_scene(z=z, fog_top=fog_top, pitch=pitch)))
     assert c < 0.01, c
+
+
+
+GRAD_PROBE = """
+#include "common/noise.glsl"
+layout(local_size_x = 64) in;
+layout(std430, binding = 0) readonly buffer Points { vec4 points[]; };
+layout(std430, binding = 1) writeonly buffer Values { vec4 values[]; };
+layout(std430, binding = 2) writeonly buffer Plain { float plain[]; };
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    vec3 period = vec3(64.0, 64.0, 0.0);
+    values[i] = turbulence3_grad(points[i].xyz, period, 2, 23u);
+    plain[i] = turbulence3(points[i].xyz, period, 2, 23u);
+}
+"""
+
+
+def test_the_reliefs_noise_gradient_is_the_noises_slope(renderer):
+    # The relief shades by the gradient of the project's noise, computed with its value over the same
+    # corners (common/noise.glsl turbulence3_grad): its value is turbulence3's, and its gradient the
+    # central difference of turbulence3 at h = 1e-2 lattice units (the curvature's error ~h^2 x the
+    # third derivative, and float32 differences ~1e-5 / h, against slopes of a few: bound 0.05).
+    from igserver.render import shaders
+
+    src = shaders._INCLUDE.sub(lambda m: shaders.expand(m.group(1)), GRAD_PROBE)
+    probe = renderer.ctx.compute_shader(shaders.GLSL_VERSION + "\n" + src)
+    n, h = 256, 1e-2
+    base = np.random.default_rng(1).uniform(0.0, 64.0, (n, 3))
+    points = [base] + [base + s * h * np.eye(3)[a] for a in range(3) for s in (1.0, -1.0)]
+    data = np.zeros((len(points) * n, 4), np.float32)
+    data[:, :3] = np.concatenate(points)
+    buffers = [renderer.ctx.buffer(data.tobytes()), renderer.ctx.buffer(reserve=data.nbytes),
+               renderer.ctx.buffer(reserve=len(data) * 4)]
+    for binding, buf in enumerate(buffers):
+        buf.bind_to_storage_buffer(binding)
+    probe.run(len(data) // 64)
+    grad = np.frombuffer(buffers[1].read(), np.float32).reshape(len(points), n, 4)[0]
+    plain = np.frombuffer(buffers[2].read(), np.float32).reshape(len(points), n)
+    for buf in buffers:
+        buf.release()
+    probe.release()
+    assert np.abs(grad[:, 0] - plain[0]).max() < 1e-5
+    central = np.stack([(plain[1 + 2 * a] - plain[2 + 2 * a]) / (2.0 * h) for a in range(3)], axis=1)
+    assert np.abs(grad[:, 1:] - central).max() < 0.05, np.abs(grad[:, 1:] - central).max()
+    assert np.abs(central).max() > 1.0  # the slopes are not all flat

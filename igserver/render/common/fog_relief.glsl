@@ -25,11 +25,9 @@ float fog_top_relief(vec3 dir) {
     vec3 period = vec3(FOG_RELIEF_PERIOD, FOG_RELIEF_PERIOD, 0.0);
     float s_h = length(u_sun_dir.xy);
     vec2 toward = u_sun_dir.xy / max(s_h, 1e-6);
-    const float STEP = 0.1;  // noise units (30 m): the slope's finite difference
-    float n0 = turbulence3(vec3(q, 0.0), period, 2, 23u);
-    float n1 = turbulence3(vec3(q + STEP * toward, 0.0), period, 2, 23u);
-    float slope = u_fog_relief.w * (n1 - n0) / (STEP * FOG_RELIEF_CELL_M);
-    float f = clamp(1.0 - 0.6 * slope * s_h / max(u_sun_dir.z, 0.035), 0.6, 1.4) * (1.0 + 0.04 * n0);
+    vec4 n = turbulence3_grad(vec3(q, 0.0), period, 2, 23u);  // the height and its gradient at once
+    float slope = u_fog_relief.w * dot(n.yz, toward) / FOG_RELIEF_CELL_M;
+    float f = clamp(1.0 - 0.6 * slope * s_h / max(u_sun_dir.z, 0.035), 0.6, 1.4) * (1.0 + 0.04 * n.x);
     return mix(1.0, f, fade);
 }
 #endif  // FOG_RELIEF_GLSL
