@@ -147,6 +147,75 @@ def test_cli_check_prints_the_plan_and_refuses_a_bad_file(tmp_path, capsys):
     assert "port" in capsys.readouterr().err
 
 
+def free_port() -> int:
+    import socket
+
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def test_igserver_cluster_serves_the_channels(tmp_path):
+    """``igserver cluster --config FILE`` as an operator runs it: its own Ray instance (address "local"),
+    two workers, the front server on the configured port; SIGTERM stops it all with status 0. Runs
+    before the module's Ray instance starts."""
+    pytest.importorskip("ray", reason="Ray is not installed (pip install 'igserver[cluster]')")
+    scene = tmp_path / "scene.toml"
+    scene.write_text('[camera]\nwidth = 64\nheight = 36\n[atmosphere]\nmodel = "gradient"\n')
+    port = free_port()
+    config = write(tmp_path, f"""
+        scene = "{scene}"
+        workers = 2
+        barrier_timeout_ms = {BARRIER_MS}
+        [server]
+        port = {port}
+        [[channels]]
+        id = "a"
+        heading = -30.0
+        width = 64
+        height = 36
+        [[worker]]
+        channels = ["a"]
+        [[worker]]
+        channels = ["b"]
+        [[channels]]
+        id = "b"
+        heading = 30.0
+        width = 64
+        height = 36
+    """)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    proc = subprocess.Popen([sys.executable, "-m", "igserver.cli", "cluster", "--config", str(config)], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    url = f"http://127.0.0.1:{port}"
+    try:
+        deadline = time.monotonic() + 120
+        while True:
+            assert proc.poll() is None, proc.stdout.read()
+            try:
+                if httpx.get(url + "/v1/ready", timeout=5).status_code == 200:
+                    break
+            except httpx.TransportError:
+                pass
+            assert time.monotonic() < deadline, "igserver cluster not ready"
+            time.sleep(0.5)
+        with httpx.Client(base_url=url, timeout=60) as http:
+            assert [c["id"] for c in http.get("/v1/channels").json()["channels"]] == ["a", "b"]
+            for cid in ("a", "b"):
+                response = http.get("/v1/frame", params={"channel": cid, "format": "png"})
+                assert response.status_code == 200 and response.headers["x-ig-channel"] == cid
+            assert metric(http, "igserver_cluster_workers") == 2
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            output, _ = proc.communicate(timeout=60)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            output, _ = proc.communicate()
+    assert proc.returncode == 0, output[-2000:]
+    assert "worker 0: a 64x36" in output and "worker 1: b 64x36" in output
+
+
 # --------------------------------------------------------------------------- a local Ray instance
 
 @pytest.fixture(scope="module")
