@@ -20,17 +20,18 @@ const float FOAM_SOFT = 0.5;    // the dither ramp's width in opacity (foam.py F
 const vec3 FOAM_FRESH = vec3(0.75);  // albedo of fresh, dense foam
 const float FOAM_OLD = 0.5;          // opacity of old, thinned foam: the sea's grey-green shows through (foam.py)
 
-float foam_mean(float f) {
-    float w = FOAM_SOFT;
+// The dither's mean at opacity f through a ramp of width w (foam.py foam_mean): E over u uniform on
+// [0, 1] of clamp((f - (1 - w) u) / w, 0, 1), w <= 0.5.
+float foam_mean_ramp(float f, float w) {
     float covered = f < w ? f * f / (2.0 * w)
                   : f <= 1.0 - w ? f - 0.5 * w
                   : (f - w) + (w * w - (f - 1.0 + w) * (f - 1.0 + w)) / (2.0 * w);
     return covered / (1.0 - w);
 }
+float foam_mean(float f) { return foam_mean_ramp(f, FOAM_SOFT); }
 
-// The opacity f whose dither mean is m (foam_mean is increasing: piecewise quadratic, linear, quadratic).
-float foam_mean_inverse(float m) {
-    float w = FOAM_SOFT;
+// The opacity f whose dither mean through a ramp of width w is m (piecewise quadratic, linear, quadratic).
+float foam_mean_inverse(float m, float w) {
     float c = clamp(m, 0.0, 1.0) * (1.0 - w);  // the covered part
     float lo = 0.5 * w;                           // covered at f = w
     if (c < lo) return sqrt(2.0 * w * c);
