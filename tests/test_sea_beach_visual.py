@@ -1,6 +1,7 @@
 """The beach on rendered pictures (sea_beach: a 2 % slope, the shore 400 m east; 1 m swell of 11 s
-from 240° and an 8 m/s wind sea of 1.5 m and 6 s, which peaks higher: the swash's cadence): swash running up the sand and back, a shoreline that follows the
-run-up, wet sand darker than dry, white breaking crests that move.
+from 240° and an 8 m/s wind sea of 1.5 m and 6 s, which peaks higher: the swash's cadence): swash
+running up the sand and back, a shoreline that follows the run-up, wet sand darker than dry, white
+breaking crests that move.
 
 Each pixel's world position comes from the distance target and its view ray; on the slope beach its
 height above the still water level is 0.02 · (x - 400) (x toward the shore), its water depth the

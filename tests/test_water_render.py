@@ -430,7 +430,8 @@ def test_drawn_foam_is_calibrated_to_monahans_coverage(wind):
     # W = 3.84e-6 U^3.41 (1.8 % at 12 m/s, 16 % at 22.6) over the sea's area. Checked on fresh points
     # and instants, not the calibration's: within 25 % (the field is correlated over a wavelength: a
     # few hundred independent samples below the threshold at 12 m/s).
-    from igserver.render.water.foam import FOAM_LAG, FOAM_SOFT, drawn_foam_threshold, foam_coverage, foam_mean, streak_opacity
+    from igserver.render.water.foam import (FOAM_LAG, FOAM_SOFT, drawn_foam_threshold, foam_coverage, foam_mean,
+                                            streak_opacity)
     from igserver.water.surface import whitecap_coverage
 
     scene = sea_scene(weather={"wind_speed": wind})

@@ -89,7 +89,8 @@ def spray_strength(wind: float) -> float:
 
 
 FOAM_STREAK_WIDTH = 1.5  # m across the wind: a cell of the old foam's streak noise (its length: streak_size)
-FOAM_PATCH_SIZE = (10.0, 3.0)  # m along and across the wind: a cell of the fresh foam's noise (whitecaps drawn out downwind)
+# m along and across the wind: a cell of the fresh foam's noise (whitecaps drawn out downwind)
+FOAM_PATCH_SIZE = (10.0, 3.0)
 # The noise cells' size the foam's pattern fades by (detail.foam_streaks_needed): each lookup fades by
 # its own least side, the last to fade is the patch noise's.
 FOAM_FADE_CELL = max(FOAM_STREAK_WIDTH, min(FOAM_PATCH_SIZE))

@@ -392,7 +392,8 @@ class WaterPass(UnderwaterDraws, RenderPass):
         values = {**frame.uniforms, **table_uniforms, **glint_light(frame.uniforms), **self._wave_values(sea, waves),
                   "u_morph": morph.tobytes(), **units,
                   "u_min_slope_var": 2e-4 + detail_unresolved_var(sea), "u_foam_jacobian": threshold, "u_foam_unresolved": unresolved,
-                  "u_foam_edge": FOAM_EDGE, **foam_frame(scene, view, sea, wind, MAX_WAVES), **shore_uniforms(scene, view, sea), "u_hull_count": len(hulls)}
+                  "u_foam_edge": FOAM_EDGE, **foam_frame(scene, view, sea, wind, MAX_WAVES),
+                  **shore_uniforms(scene, view, sea), "u_hull_count": len(hulls)}
         if hulls:
             mats = np.zeros((MAX_HULLS, 4, 4), dtype=np.float32)
             mats[: len(hulls)] = np.transpose(np.asarray(hulls), (0, 2, 1))

@@ -54,7 +54,8 @@ void main() {
     v_depth = s.depth;
     v_breaking = s.breaking;
 #ifdef WATER_FIELD
-    v_swash = s.depth < 2.0 ? swash_vertex(p) : vec4(0.0);  // the shore draws it (water.frag.glsl), 2 m: a vertex spacing of 100 m
+    // only the shore draws it (water.frag.glsl); 2 m: triangles of 100 m on the 2 % beach
+    v_swash = s.depth < 2.0 ? swash_vertex(p) : vec4(0.0);
 #endif
     v_foam = foam_vertex(s.jacobian, s.jacobian_past, s.lost_jvar, s.breaking, s.pos.z);
     // Aerial perspective is affine in the radiance and smooth in distance: the per-frame table of the
