@@ -42,6 +42,12 @@ from the cheapest (largest error) to the best. Per frame the controller (``Overl
   stays what it was (the overrun is the probed point's cost, now learned), and every further probe
   waits UP_FRAMES x 2^(failed probes in a row, at most MAX_PROBE_BACKOFF) steady frames, until a
   probe holds or the load falls clearly below the one the last probe failed under;
+- steps **down one tail** when the frames held at a point keep a long tail: once P95_WINDOW frames
+  have been drawn at it, a p95 over TAIL_LIMIT x the budget (the rate holds on the mean, but one
+  frame in twenty stutters) moves to the best point predicted to fit with that tail: its predicted
+  cost times the window's p95 over its prediction inside TAIL_LIMIT x the budget (the cheapest when
+  none does).
+  A lone spike never moves it; a machine whose frames spread does;
 - after stepping down from a point, does not return to it for BLOCK_FRAMES x 2^(times it failed):
   a point that does not fit is not retried at a rate the eye would see as pumping. The block
   lifts early only when the load has fallen clearly below the one the point failed under.
@@ -92,6 +98,7 @@ LEARN_FRAMES = 4  # frames after a move that measure the new point's cost ratio 
 LEARN_ALPHA = 0.5
 WARMUP_FRAMES = 3  # a controller's first frames compile programs and build targets: no measure of load
 P95_WINDOW = 60  # frames whose time spread gates a probe (~2 s at 30 fps: three a probe may add are 5 %)
+TAIL_LIMIT = 1.1  # a held point's p95 frame time may exceed the budget by this factor (40 ms at 25 fps: 44 ms)
 PROBE_FRAMES = 8  # an overrun this soon after a step up is the probed point's cost, not the scene's
 MAX_BACKOFF = 5  # doublings at most of a point's block: 32 x BLOCK_FRAMES (~2.5 min at 25 fps)
 MAX_PROBE_BACKOFF = 3  # doublings at most of the wait between probes: 8 x UP_FRAMES (~10 s at 25 fps)
@@ -310,6 +317,8 @@ class Overload:
             self._failed_probes, self._failed_load = 0, math.inf  # the scene got cheaper: probe again
         if self._over >= DOWN_FRAMES and self.index > 0:
             self._step_down()
+        elif self._tail_too_long() and self.index > 0:
+            self._tail_down()
         elif self._spare >= UP_FRAMES * 2 ** min(self._failed_probes, MAX_PROBE_BACKOFF) and self._probe_fits(up):
             self.probes += 1
             self._move(self._same_scale(up))
@@ -337,6 +346,31 @@ class Overload:
         self._block_load[key] = self.load
         self._strikes[key] = strikes + 1
         self._move(target)
+
+    def _tail(self) -> float:
+        """The p95 of the recent frames' time over their point's prediction (ms; 0 when they fit it)."""
+        return max(sorted(self._residuals)[int(0.95 * (len(self._residuals) - 1))], 0.0)
+
+    def _tail_too_long(self) -> bool:
+        """P95_WINDOW frames drawn at this point since the last move (the residuals window holds only them) and their
+        p95 over TAIL_LIMIT x the budget."""
+        if len(self._residuals) < P95_WINDOW or self._since_move <= P95_WINDOW:
+            return False
+        return self.predicted_ms(self.index) + self._tail() > TAIL_LIMIT * self.budget_ms
+
+    def _tail_down(self) -> None:
+        """Down to the best point predicted to fit with the tail the frames show (see the module)."""
+        # the tail as a ratio to the point's cost: the slow frames are the same work made slower
+        here = max(self.predicted_ms(self.index), 1e-9)
+        spread, limit = (here + self._tail()) / here, TAIL_LIMIT * self.budget_ms
+        fitting = [i for i in range(self.index) if self.predicted_ms(i) * spread <= limit]
+        key = self.point.key
+        strikes = self._strikes.get(key, 0)
+        self._blocked[key] = self.frame + BLOCK_FRAMES * 2 ** min(strikes, MAX_BACKOFF)
+        self._block_load[key] = self.load
+        self._strikes[key] = strikes + 1
+        self._came_from = None
+        self._move(fitting[-1] if fitting else 0)
 
     def _is_blocked(self, j: int) -> bool:
         key = self.points[j].key
