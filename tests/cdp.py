@@ -30,7 +30,9 @@ def chromium_path() -> str | None:
 
 class Browser:
     def __init__(self):
-        self.profile = tempfile.TemporaryDirectory(prefix="igserver-chromium-")  # a fresh --user-data-dir
+        # a fresh --user-data-dir; Chromium's helper processes may still write into it for a moment after the
+        # browser exits, so its removal tolerates a file that appears meanwhile
+        self.profile = tempfile.TemporaryDirectory(prefix="igserver-chromium-", ignore_cleanup_errors=True)
         self.process = subprocess.Popen(
             [chromium_path(), *FLAGS, f"--user-data-dir={self.profile.name}", "--remote-debugging-port=0",
              "about:blank"],
