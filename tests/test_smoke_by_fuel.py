@@ -47,3 +47,17 @@ def test_sunlit_smoke_against_the_sky_by_fuel(renderer, fuel, lo, hi):
     # sky (measured 0.32: black smoke, its light mostly absorbed).
     ratio = plume_over_sky(renderer, fuel)
     assert lo < ratio < hi, (fuel, ratio)
+
+
+
+def test_a_host_setting_another_time_of_day_relights_the_smoke_at_once(renderer):
+    # The smoke's sun shadow is modelled with its keyframes: a state that moves the sun by hours at the
+    # same sim_time (a paused clock, a host jumping to noon) models them again, instead of lighting the
+    # noon plume with the night's sun until sim_time reaches the next keyframe. (The suite's earlier
+    # night renders of this fire made the wood plume 0.40 of the sky here.)
+    night = load_scene("night_fire")
+    effects = night.model_dump(mode="json")["effects"]
+    effects[0].update(fuel="wood", emits_smoke=True)
+    renderer.render(apply_patch(night, {"camera": {"position": [0.0, -45.0, 1.7], "pitch": 14.0, "width": 160,
+                                                   "height": 90}, "effects": effects}))
+    assert plume_over_sky(renderer, "wood") > 0.65

@@ -129,6 +129,26 @@ def texture_size(vol: Volume, view: CameraView, settings: VolumeSettings) -> tup
     return res_xy, res_xy, res_z
 
 
+# A soft part that moved this much since a keyframe was modelled is a jump (a host setting another time of
+# day, a fire resized), not the drift of a running clock (the sun moves 0.0004 deg per 0.1 s keyframe, a
+# fade a few per cent): the keyframe is modelled again now instead of showing the old state until sim_time
+# reaches the next one, which a paused clock never does.
+SOFT_JUMP_SUN_COS = math.cos(math.radians(1.0))
+SOFT_JUMP_RELATIVE = 0.2
+
+
+def _soft_jump(old: tuple, new: tuple) -> bool:
+    """Whether the soft state ``new`` (radius, height, opacity, level, sun direction or None) jumped from
+    ``old``, the one a keyframe was modelled with."""
+    *old_sizes, old_sun = old
+    *new_sizes, new_sun = new
+    if (old_sun is None) != (new_sun is None):
+        return True
+    if old_sun is not None and sum(a * b for a, b in zip(old_sun, new_sun)) < SOFT_JUMP_SUN_COS:
+        return True
+    return any(abs(a - b) > SOFT_JUMP_RELATIVE * max(abs(a), abs(b), 1e-6) for a, b in zip(old_sizes, new_sizes))
+
+
 def model_octaves(vol: Volume, size: tuple[int, int, int], settings: VolumeSettings) -> int:
     """Turbulence octaves of a texture of ``size``: the knob's at its resolution, one fewer for
     smoke per halving below it (texture_size's LOD). Octave i's lattice is lambda / 2^i and the
@@ -321,8 +341,10 @@ class VolumesPass(RenderPass):
         part changes continuously while time runs (fade, the sun) and is picked up at the next
         keyframe of a capped rate, blending in."""
         sun = tuple(float(x) for x in frame.celestial.sun_dir) if _scattering(vol) else None
+        # the fuel and the heat release set the plume's soot and size: a host changing them changes the
+        # fire now, not at the next keyframe
         hard = (size, settings.octaves, vol.seed, vol.kind, vol.profile, vol.effect.diameter,
-                vol.effect.intensity, vol.effect.active)
+                vol.effect.intensity, vol.effect.active, vol.effect.fuel, vol.effect.heat_release_kw)
         return hard, (vol.radius, vol.height, vol.opacity, vol.level, sun)
 
     def _models_for(self, vol: Volume, frame, settings: VolumeSettings) -> tuple[moderngl.Texture, moderngl.Texture, float]:
@@ -348,7 +370,8 @@ class VolumesPass(RenderPass):
             k += 1
         blend = min(max(x - k, 0.0), 1.0)
         last_time, slot.last_time = slot.last_time, sim_time
-        keep = [m for m in slot.models if m.key in (k, k + 1, k + 2) and m.state[0] == static[0]]
+        keep = [m for m in slot.models if m.key in (k, k + 1, k + 2) and m.state[0] == static[0]
+                and not _soft_jump(m.state[1], static[1])]
         for m in slot.models:
             if m not in keep:
                 m.release()
