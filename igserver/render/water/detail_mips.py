@@ -46,6 +46,9 @@ def band_limited_levels(waves: np.ndarray, n_side: int) -> list[np.ndarray]:
     size = n_side // 2
     while size >= 1:
         gain = _gain(mn, size)
+        if not np.any(gain > 0.0):  # no wave fits (the coarse levels: every wave spans >= 5 cycles a tile)
+            levels.extend(_flat_levels(g, w, size))
+            break
         half = 0.5 * gain * (g[:, 0] + 1j * g[:, 1])
         psi = waves[:, 3] + math.pi * (m + n) / size  # the phase at this level's texel centres
         spectrum = np.zeros((size, size), dtype=complex)
@@ -59,5 +62,16 @@ def band_limited_levels(waves: np.ndarray, n_side: int) -> list[np.ndarray]:
         level[..., 2] = s.real * s.real + g[:, 0] @ removed @ g[:, 0]
         level[..., 3] = s.imag * s.imag + g[:, 1] @ removed @ g[:, 1]
         levels.append(level)
+        size //= 2
+    return levels
+
+
+def _flat_levels(g: np.ndarray, w: np.ndarray, size: int) -> list[np.ndarray]:
+    """Levels ``size``, size / 2, .. 1 when none carries a wave: zero slope, and all of the tile's slope
+    variance in the second moments (what the inverse DFT of an empty spectrum gives, without it)."""
+    moments = np.array([0.0, 0.0, g[:, 0] @ w @ g[:, 0], g[:, 1] @ w @ g[:, 1]], dtype=np.float32)
+    levels = []
+    while size >= 1:
+        levels.append(np.broadcast_to(moments, (size, size, 4)).copy())
         size //= 2
     return levels
