@@ -85,7 +85,7 @@ def test_demo_stream_holds_its_target():
     with LoopbackServer(scene, ServerSettings()) as srv, httpx.Client(base_url=srv.url, timeout=60) as http:
         http.get("/v1/frame").raise_for_status()
         arrivals, headers = [], []
-        with http.stream("GET", "/v1/stream.mjpg", params={"frames": 150}) as response:
+        with http.stream("GET", "/v1/stream.mjpg", params={"frames": 300}) as response:
             buf = b""
             for chunk in response.iter_bytes():
                 buf += chunk
@@ -93,8 +93,13 @@ def test_demo_stream_holds_its_target():
                     arrivals.append(time.perf_counter())
                     headers.append(m.group(1).decode())
                     buf = buf[m.end():]
-    intervals = np.diff(arrivals[30:])  # after the controller's first moves
-    assert len(arrivals) == 150 and 1.0 / np.mean(intervals) >= 20.0, 1.0 / np.mean(intervals)
+    intervals = np.diff(arrivals[60:])  # after the controller's first moves
+    assert len(arrivals) == 300 and 1.0 / np.mean(intervals) >= 20.0, 1.0 / np.mean(intervals)
+    # Evenly spaced: no two parts at once followed by a double gap (frames in flight collected right after
+    # the frame before went out: 18 % of intervals under 10 ms, a p95 of twice the median). Tolerance: a
+    # loaded machine delays a part now and then, and the next one follows it closely.
+    pairs = float(np.mean(intervals < 0.3 * np.median(intervals)))
+    assert pairs < 0.05, (pairs, np.round(intervals * 1e3).astype(int).tolist())
     assert all("target=25" in h for h in headers)
 
 

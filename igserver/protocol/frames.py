@@ -311,6 +311,7 @@ class FramePump:
         self.subscribers = 0
         self.last_error: str | None = None
         self._published = asyncio.Event()
+        self._published_at = 0.0  # perf_counter s of the latest frame's publication
         self._wake = asyncio.Event()
         self._task: asyncio.Task | None = None
         self._submitted_revision: int | None = None  # the state of the newest frame submitted
@@ -344,6 +345,7 @@ class FramePump:
         if self.latest is not None and encoded.ig_frame <= self.latest.ig_frame:
             return
         self.latest = encoded
+        self._published_at = time.perf_counter()
         event, self._published = self._published, asyncio.Event()
         event.set()
 
@@ -393,7 +395,17 @@ class FramePump:
             # at the frame rate the scene asks the IG to hold when that is higher (quality.target_fps)
             wait = self._animation_interval(self.store.scene) if self.store.clock.running else self.keepalive_s
             if not stale and since < wait:
-                if gateway.in_flight:  # nothing new to draw: show the frame in flight now, not a frame later
+                if gateway.in_flight:  # nothing new to draw: show the frame in flight now, not a frame later,
+                    # unless the clock animates a state the host has left alone for a frame interval and the
+                    # frame before went out under half an interval ago: two frames at once and then none for
+                    # two intervals read as a dropped frame, so the frame in flight goes out half an interval
+                    # after its predecessor (or with the next draw, if that comes first). A host's new state
+                    # is never held back.
+                    now = time.perf_counter()
+                    hold = 0.5 * wait - (now - self._published_at)
+                    if hold > 0.0 and now - self.store.accepted_at > wait:
+                        await asyncio.sleep(min(hold, wait - since))
+                        continue
                     await self._take(gateway.collect())
                     continue
                 # nothing new to show: sleep until the state changes or the next frame is due
