@@ -202,7 +202,9 @@ def _sea_hit(scene: Scene, start: np.ndarray, end: np.ndarray) -> float | None:
 def line_of_sight(scene: Scene, session: Session, types: TypeMap, start: np.ndarray, end: np.ndarray):
     """(t of the first obstruction or None, entity number hit or None) along start->end."""
     hits: list[tuple[float, int | None]] = []
-    if _ground_shows(scene) and (start[2] - scene.ground.level) * (end[2] - scene.ground.level) <= 0.0 \
+    # the segment's ends on both sides of the ground (or on it), by their signs: a product of two heights
+    # near the float64 limit would overflow
+    if _ground_shows(scene) and np.sign(start[2] - scene.ground.level) * np.sign(end[2] - scene.ground.level) <= 0.0 \
             and start[2] != end[2]:
         hits.append(((start[2] - scene.ground.level) / (start[2] - end[2]), None))
     elif _ground_shows(scene) and start[2] == end[2] == scene.ground.level:
