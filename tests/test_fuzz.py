@@ -56,6 +56,9 @@ def test_schemathesis_finds_no_server_error(server, tmp_path):
         "--phases", "fuzzing", "--max-examples", str(CASES_PER_OPERATION), "--max-time", str(FUZZ_SECONDS),
         "-w", "1",
         "--request-timeout", "30", "--generation-database", "none", "--no-color",
+        # a fixed seed: the same cases on every machine, so a failure reproduces (a random seed once hit an
+        # IndexError inside hypothesis's own target optimiser: a runtime error of the tool, not of the IG)
+        "--seed", os.environ.get("IGSERVER_FUZZ_SEED", "20261127"),
     ]
     result = subprocess.run(command, capture_output=True, text=True, timeout=FUZZ_SECONDS + 120, cwd=tmp_path)
     output = result.stdout + result.stderr
