@@ -29,7 +29,11 @@ the atmosphere (tables or exact).
 
 Usage: igserver quality water [--out out/quality_water.md] [--size 640x360] [--frames 3]
        [--waves 8,16,24,32,48] [--lod 0.5,1,2,4] [--detail 64,128,256] [--spacing 16,8,4,2] [--wind 9.4]
-       [--camera 0,0,12] [--pitch -6]   (an empty list skips that knob)
+       [--camera 0,0,12] [--pitch -6] [--whitecap-winds 9.4,22.6] [--no-swash]   (an empty list skips that knob)
+
+Foam and surf (water_surf.py): whitecap coverage from a bridge and from 300 m against Monahan &
+O'Muircheartaigh (1980), and on ``sea_beach`` the swash's run-up against Stockdon et al. (2006)'s R2 and
+wet against dry sand, each with the water pass's ms.
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import water_surf
 from .volumes import box_blur  # the same 9x9 lowpass as the volumes study
 
 REFERENCE = {"wave_count": 64, "lod_error": 0.25, "detail_resolution": 512}
@@ -112,6 +117,9 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     ap.add_argument("--wind", type=float, default=9.4)
     ap.add_argument("--camera", default="0,0,12", help="camera position x,y,z (m)")
     ap.add_argument("--pitch", type=float, default=-6.0)
+    ap.add_argument("--whitecap-winds", default="9.4,22.6",
+                    help="winds (m/s) of the whitecap rows (water_surf.py); empty: none")
+    ap.add_argument("--no-swash", action="store_true", help="leave out the swash rows (sea_beach)")
     return ap.parse_args(argv)
 
 
@@ -129,7 +137,7 @@ def study(quick: bool = False):
     not a cheaper picture of the same one (``igserver quality water`` shows them with the statistics)."""
     from .report import Point, Study
 
-    argv = ["--waves", "", "--frames", "5"]  # timed frames a point (a median of fewer swings with the machine)
+    argv = ["--waves", "", "--frames", "5", "--whitecap-winds", "", "--no-swash"]  # error against ms only  # timed frames a point (a median of fewer swings with the machine)
     if quick:
         argv += ["--lod", "1,4", "--detail", "64,128", "--spacing", "8,4"]
     result = measure(parse_args(argv))
@@ -231,7 +239,10 @@ def measure(args: argparse.Namespace) -> dict:
               f"near {surf['near'][0]:.3f}/{surf['near'][1]:.3f} cm  far {surf['far'][0]:.1f}/{surf['far'][1]:.1f} cm"
               f"  Hs {hs:.2f} m  mss {mss:.4f}", flush=True)
     rows.append(underwater_row(renderer, args, (width, height), position))
-    result = {"rows": rows, "reference_ms": ref_ms, "renderer": renderer.caps.renderer, "size": (width, height),
+    surf = water_surf.whitecap_rows(renderer, values(args.whitecap_winds, float), (width, height), args.frames)
+    if not args.no_swash:
+        surf += water_surf.swash_row(renderer, (width, height), args.frames)
+    result = {"rows": rows, "surf": surf, "reference_ms": ref_ms, "renderer": renderer.caps.renderer, "size": (width, height),
               "position": position, "default_spacing": DEFAULT_SPACING,
               "preset_knobs": {level: _knobs_text(k) for level, k in preset_knobs.items()}}
     renderer.release()
@@ -315,6 +326,9 @@ def write_markdown(args: argparse.Namespace, result: dict) -> None:
     else:
         lines += ["", f"No setting meets lowpass <= {LOWPASS_LIMIT} and near max <= {SURFACE_LIMIT_CM} cm; "
                   f"lowest lowpass: {choice['knob']} = {choice['value']}."]
+    if result.get("surf"):
+        lines += water_surf.markdown(result["surf"])
     out.write_text("\n".join(lines) + "\n")
-    out.with_suffix(".json").write_text(json.dumps({"reference": REFERENCE, "rows": rows, "choice": choice}, indent=2))
+    out.with_suffix(".json").write_text(json.dumps({"reference": REFERENCE, "rows": rows, "choice": choice,
+                                                    "surf": result.get("surf", [])}, indent=2))
     print(f"wrote {out}")
