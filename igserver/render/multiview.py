@@ -34,6 +34,7 @@ from .frame import build_frame, provisional_ev100, set_exposure
 from .frame_block import FrameBlock
 from .memo import Memo
 from .post.exposure import display_metered_ev100, exposure_of_ev100
+from .scaling import scaled_scene
 
 
 @dataclass
@@ -41,8 +42,13 @@ class ChannelView:
     id: str
     scene: object
     frame: object
-    targets: object
+    targets: object  # what the passes draw into: the internal render scale's size
     names: list
+    output: object = None  # what the readback reads: ``targets``, or the upscale to the channel's size
+
+    def __post_init__(self):
+        if self.output is None:
+            self.output = self.targets
 
 
 class ChannelGroup:
@@ -52,11 +58,11 @@ class ChannelGroup:
     [(id, x0, width, height)] (scene/channels.py mosaic_layout)."""
 
     def __init__(self, views: list):
-        self.parts = [(v.targets.ldr_fbo, v.targets.size) for v in views]
+        self.parts = [(v.output.ldr_fbo, v.output.size) for v in views]
         self.layout, x = [], 0
         for v in views:
-            self.layout.append((v.id, x, *v.targets.size))
-            x += v.targets.size[0]
+            self.layout.append((v.id, x, *v.output.size))
+            x += v.output.size[0]
         self.size = (x, max(h for _, (_, h) in self.parts))
         self.ldr_fbo = self
 
@@ -163,17 +169,20 @@ def _draw_views(renderer, scene, timed: bool):
 
     start = time.perf_counter()
     ctx = renderer.ctx
-    quality, _, decision = renderer.quality_for(scene)  # the render scale is not applied to channels
+    # The operating point's render scale applies to every channel alike: each draws at scale x its
+    # size (the same frustum) and is upscaled to its size after the post pass, as a single view is.
+    quality, scale, decision = renderer.quality_for(scene)
     Memo.slots = len(scene.channels)
     bindings.forget_bindings(ctx)
     views = []
     for channel in scene.channels:
         sub = channel_scene(scene, channel)
-        frame = build_frame(ctx, sub, renderer.frame_state)
+        drawn = scaled_scene(sub, scale) if scale < 1.0 else sub
+        frame = build_frame(ctx, drawn, renderer.frame_state)
         frame.quality = quality
         frame.resources["view_slot"] = channel.id  # a channel's frame (passes.DepthCopyPass)
-        targets = renderer.channel_targets(channel.id, channel.width, channel.height)
-        views.append(ChannelView(channel.id, sub, frame, targets, renderer.graph.plan(sub, frame.view)))
+        targets = renderer.channel_targets(channel.id, drawn.camera.width, drawn.camera.height)
+        views.append(ChannelView(channel.id, drawn, frame, targets, renderer.graph.plan(drawn, frame.view)))
     renderer.release_channel_targets(keep={v.id for v in views})
 
     # One provisional exposure: the union of the views' samples, as one view's are metered.
@@ -257,6 +266,16 @@ def _draw_views(renderer, scene, timed: bool):
         if timed:
             ctx.finish()
             _add(pass_ms, channel_ms[v.id], "post", (time.perf_counter() - t1) * 1e3)
+    for v, channel in zip(views, scene.channels):
+        if v.targets.size != (channel.width, channel.height):
+            t1 = time.perf_counter()
+            v.output = renderer.channel_upscaler(v.id).execute(v.targets.ldr, (channel.width, channel.height))
+            gl_calls.flush()
+            if timed:
+                ctx.finish()
+                _add(pass_ms, channel_ms[v.id], "upscale", (time.perf_counter() - t1) * 1e3)
+        else:  # back at scale 1: the channel's upscale output is not needed
+            renderer.release_channel_upscaler(v.id)
     if timed:
         pass_ms["meter"] = (time.perf_counter() - t0) * 1e3 - pass_ms.get("post", 0.0)
 

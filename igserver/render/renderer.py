@@ -80,6 +80,7 @@ class Renderer:
         self._channel_targets: dict[str, Targets] = {}
         self.channel_meters: dict = {}  # the post pass's meter texture of each channel (render/multiview.py)
         self.view_states: dict = {}  # each channel's per-view pass state (multiview.swap_view_state)
+        self._channel_upscalers: dict[str, Upscaler] = {}  # below scale 1: each channel's upscale and output
         self.frames_rendered = 0
         self.frame_quality = FrameQuality()  # the overload controller, when a scene holds a frame rate
         # internal render scale (render/scaling.py): below 1 the passes draw at scale x the requested
@@ -128,7 +129,20 @@ class Renderer:
             held = self._channel_targets[cid] = Targets(self.ctx, width, height)
         return held
 
+    def channel_upscaler(self, cid: str) -> Upscaler:
+        """Channel ``cid``'s upscale pass and its output target (kept until the frame is read)."""
+        if cid not in self._channel_upscalers:
+            self._channel_upscalers[cid] = Upscaler(self.ctx, self.programs)
+        return self._channel_upscalers[cid]
+
+    def release_channel_upscaler(self, cid: str) -> None:
+        held = self._channel_upscalers.pop(cid, None)
+        if held is not None:
+            held.dispose()
+
     def release_channel_targets(self, keep: set[str]) -> None:
+        for cid in [c for c in self._channel_upscalers if c not in keep]:
+            self.release_channel_upscaler(cid)
         for cid in [c for c in self._channel_targets if c not in keep]:
             self._channel_targets.pop(cid).release()
             meter = self.channel_meters.pop(cid, None)

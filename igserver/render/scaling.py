@@ -112,6 +112,13 @@ class Upscaler:
         self._vao.render(moderngl.TRIANGLES, vertices=3)
         return out
 
+    def dispose(self) -> None:
+        """Release the output target and the pass's vertex array (the upscale is no longer used)."""
+        self.release()
+        if self._vao is not None:
+            self._vao.release()
+            self._vao = None
+
     def release(self) -> None:
         if self._out is not None:
             self._out.ldr_fbo.release()
