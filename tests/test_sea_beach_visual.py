@@ -34,17 +34,7 @@ def frame(renderer, scene) -> tuple[np.ndarray, np.ndarray]:
     """(linear luminance, world xy per pixel, NaN past 150 m) of the frame."""
     renderer.render(scene)
     lum = renderer.read_hdr()[..., :3].astype(np.float64) @ np.asarray(LUMA, dtype=np.float64)
-    dist = renderer.read_distance().astype(np.float64)
-    view = make_view(scene.camera)
-    h, w = dist.shape
-    left, right, bottom, top = view.tangents
-    x = left + (np.arange(w) + 0.5) / w * (right - left)
-    y = top - (np.arange(h) + 0.5) / h * (top - bottom)
-    r, f, u = view.rotation[:, 0], view.rotation[:, 1], view.rotation[:, 2]
-    rays = x[None, :, None] * r + f + y[:, None, None] * u
-    rays /= np.linalg.norm(rays, axis=-1, keepdims=True)
-    world = view.position + rays * dist[..., None]
-    world[dist > 150.0] = np.nan  # the sky, and the sand and sea past 150 m (few pixels a metre)
+    world = make_view(scene.camera).pixel_world(renderer.read_distance(), 150.0)  # the sky, and past 150 m
     return lum, world[..., :2]
 
 

@@ -1,10 +1,12 @@
 """HAT/HOT and line-of-sight answers from the scene: the sea (the very maths of
-``POST /v1/query/water-height``), the ground plane and entity bounding boxes.
+``POST /v1/query/water-height``), the land behind a slope beach (water/land.py, as the sea pass draws
+it), the ground plane and entity bounding boxes.
 
-Surfaces at a point (x, y): the sea surface when the ocean is on, the ground plane when it is drawn, and
-the top of every entity box whose footprint holds the point. HOT is the highest of those at or below the
+Surfaces at a point (x, y): the sea surface when the ocean is on, the beach's land where it rises above
+the sea, the ground plane when it is drawn, and the top of every entity box whose footprint holds the
+point. HOT is the highest of those at or below the
 query's altitude (the highest overall when all are above it); HAT = altitude - HOT. Material codes in
-the extended response: 1 sea, 2 ground, 3 entity.
+the extended response: 1 sea, 2 ground (the ground plane, a beach's land), 3 entity.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import numpy as np
 
 from ..scene.model import Scene
 from ..render.camera import body_to_world
+from ..water.land import land_elevation
 from .geo import LocalFrame, cigi_body
 from .packets_host import HatHotRequest, LosSegmentRequest, LosVectorRequest
 from .packets_ig import HatHotExtendedResponse, HatHotResponse, LosResponse
@@ -26,6 +29,7 @@ SEA, GROUND, ENTITY = 1, 2, 3
 UP = np.array([0.0, 0.0, 1.0])
 LOS_STEP_M = 2.0  # m between sea samples along a line of sight (the bisection then refines to < 1 mm)
 LOS_MAX_SAMPLES = 4096
+LAND_NORMAL_STEP_M = 0.5  # central differences of the land's height for its normal
 _sea_cache: dict[tuple[int, int], tuple] = {}
 
 
@@ -47,6 +51,26 @@ def sea_height(scene: Scene, points: np.ndarray) -> tuple[np.ndarray, np.ndarray
     """(heights ENU z, normals) of the sea at ``points`` (n, 2) at the scene's sim_time."""
     result = sea_of(scene).query(np.asarray(points, dtype=np.float64).reshape(-1, 2), scene.time.sim_time)
     return np.asarray(result["height"]) + scene.ocean.level, np.asarray(result["normal"])
+
+
+def land_height(scene: Scene, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(heights ENU z, normals) of the land behind a slope beach at ``points`` (n, 2) (water/land.py,
+    what the sea pass draws there); NaN where the bathymetry models no land."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    bathy = scene.ocean.bathymetry
+    z = land_elevation(bathy, points) + scene.ocean.level
+    h = LAND_NORMAL_STEP_M
+    dx = land_elevation(bathy, points + [h, 0.0]) - land_elevation(bathy, points - [h, 0.0])
+    dy = land_elevation(bathy, points + [0.0, h]) - land_elevation(bathy, points - [0.0, h])
+    normal = np.stack([-dx, -dy, np.full_like(dx, 2.0 * h)], axis=-1)
+    return z, normal / np.linalg.norm(normal, axis=-1, keepdims=True)
+
+
+def surface_height(scene: Scene, points: np.ndarray) -> np.ndarray:
+    """ENU z of what a line of sight meets at ``points`` (n, 2): the sea, or the land where it rises above it."""
+    sea = sea_height(scene, points)[0]
+    land = land_height(scene, points)[0]
+    return np.where(land > sea, land, sea)
 
 
 @dataclass
@@ -129,6 +153,9 @@ def surfaces(scene: Scene, all_boxes: list[Box], x: float, y: float) -> list[tup
     if scene.ocean.enabled:
         height, normal = sea_height(scene, np.array([[x, y]]))
         found.append((float(height[0]), normal[0], SEA))
+        land, land_normal = land_height(scene, np.array([[x, y]]))
+        if land[0] > height[0]:  # dry land behind a beach (NaN elsewhere: never above)
+            found.append((float(land[0]), land_normal[0], GROUND))
     if _ground_shows(scene):
         found.append((scene.ground.level, UP, GROUND))
     for box in all_boxes:
@@ -176,12 +203,13 @@ def hat_hot(scene: Scene, session: Session, types: TypeMap, p: HatHotRequest):
 
 
 def _sea_hit(scene: Scene, start: np.ndarray, end: np.ndarray) -> float | None:
-    """First t in [0, 1] where the segment goes below the sea surface: samples, then bisection."""
+    """First t in [0, 1] where the segment goes below the sea surface (or a beach's land): samples,
+    then bisection."""
     length = float(np.linalg.norm(end - start))
     n = int(min(max(length / LOS_STEP_M, 16), LOS_MAX_SAMPLES)) + 1
     t = np.linspace(0.0, 1.0, n)
     points = start[None, :] + t[:, None] * (end - start)[None, :]
-    above = points[:, 2] - sea_height(scene, points[:, :2])[0]
+    above = points[:, 2] - surface_height(scene, points[:, :2])
     under = np.nonzero(above <= 0.0)[0]
     if under.size == 0:
         return None
@@ -192,7 +220,7 @@ def _sea_hit(scene: Scene, start: np.ndarray, end: np.ndarray) -> float | None:
     for _ in range(40):  # 2^-40 of the segment: far below a millimetre
         mid = 0.5 * (lo + hi)
         p = start + mid * (end - start)
-        if p[2] - sea_height(scene, p[None, :2])[0][0] <= 0.0:
+        if p[2] - surface_height(scene, p[None, :2])[0] <= 0.0:
             hi = mid
         else:
             lo = mid

@@ -106,17 +106,7 @@ def beach_frame(renderer, scene) -> tuple[np.ndarray, np.ndarray]:
     from ..render.camera import make_view
 
     lum = hdr_luminance(renderer, scene)
-    dist = renderer.read_distance().astype(np.float64)
-    view = make_view(scene.camera)
-    h, w = dist.shape
-    left, right, bottom, top = view.tangents
-    x = left + (np.arange(w) + 0.5) / w * (right - left)
-    y = top - (np.arange(h) + 0.5) / h * (top - bottom)
-    r, f, u = view.rotation[:, 0], view.rotation[:, 1], view.rotation[:, 2]
-    rays = x[None, :, None] * r + f + y[:, None, None] * u
-    rays /= np.linalg.norm(rays, axis=-1, keepdims=True)
-    world = view.position + rays * dist[..., None]
-    world[dist > FAR_M] = np.nan
+    world = make_view(scene.camera).pixel_world(renderer.read_distance(), FAR_M)
     return lum, world[..., :2]
 
 

@@ -78,6 +78,23 @@ class CameraView:
         keep = length > 0.0
         return planes[keep, :3] / length[keep, None], planes[keep, 3] / length[keep]
 
+    def pixel_rays(self) -> np.ndarray:
+        """Unit world direction through each pixel's centre, (height, width, 3), top row first (as
+        frames are read back)."""
+        left, right, bottom, top = self.tangents
+        x = left + (np.arange(self.width) + 0.5) / self.width * (right - left)
+        y = top - (np.arange(self.height) + 0.5) / self.height * (top - bottom)
+        r, f, u = self.rotation[:, 0], self.rotation[:, 1], self.rotation[:, 2]
+        rays = x[None, :, None] * r + f + y[:, None, None] * u
+        return rays / np.linalg.norm(rays, axis=-1, keepdims=True)
+
+    def pixel_world(self, distance: np.ndarray, far: float = math.inf) -> np.ndarray:
+        """World point (ENU, m) of each pixel from the distance target (``Renderer.read_distance``:
+        m along the pixel's ray), NaN where it is farther than ``far`` (the sky: the far plane)."""
+        world = self.position + self.pixel_rays() * np.asarray(distance, dtype=np.float64)[..., None]
+        world[~(np.asarray(distance) <= far)] = np.nan
+        return world
+
     def sphere_visible(self, world_center, radius: float) -> bool:
         """Conservative frustum test of a bounding sphere: the four side planes and the near plane
         (camera-relative, from view_proj; the same in both clip ranges), and the draw distance."""

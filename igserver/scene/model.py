@@ -198,6 +198,11 @@ class Bathymetry(Strict):
     shore_distance: float = Field(500.0, ge=0.0, le=1e6, description="m, origin-to-shoreline distance (slope)")
     shore_heading: float = Field(0.0, ge=0.0, le=360.0, description="deg, direction from origin to shore")
     slope: float = Field(0.02, gt=0.0, le=1.0, description="bottom slope dz/dx (slope)")
+    berm_height: float = Field(2.0, ge=0.0, le=20.0,
+                               description="m above the still water level, the beach's crest: the foreshore rises at "
+                                           "the bottom's slope up to it (slope)")
+    dune_height: float = Field(8.0, ge=0.0, le=50.0,
+                               description="m, the foredune ridge behind the backshore (0: flat land) (slope)")
     map: str | None = Field(None, max_length=64, pattern=ASSET_NAME_PATTERN, validate_default=True,
                             description="bathymetry asset name: a grey PNG (map)")
     map_center: tuple[Coordinate, Coordinate] = Field((0.0, 0.0), description="m, ENU (x, y) of the image centre (map)")

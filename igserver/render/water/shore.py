@@ -8,6 +8,8 @@ import math
 import numpy as np
 
 from ...scene.model import Scene
+from ...water.bathymetry import _unit
+from ...water.land import LAND_PERIOD
 from ...water.surface import SeaSurface
 from ..camera import CameraView
 
@@ -15,11 +17,6 @@ G = 9.80665
 MAP_BEACH_SLOPE = 0.05  # foreshore slope assumed on a height map (its contours are not analysed)
 RUNUP_VARIATION_LENGTH = 120.0  # m: along-shore scale of the run-up's variation (beach cusps, wave groups)
 TWO_PI = 2.0 * math.pi
-
-
-def _unit(azimuth_deg: float) -> np.ndarray:
-    a = math.radians(azimuth_deg)
-    return np.array([math.sin(a), math.cos(a)])
 
 
 def runup_r2(h0: float, tp: float, beta: float) -> float:
@@ -49,7 +46,7 @@ def shore_uniforms(scene: Scene, view: CameraView, sea: SeaSurface) -> dict:
     bathy = scene.ocean.bathymetry
     if sea.field is None or bathy.type == "uniform":
         return {"u_shore_plane": (1.0, 0.0, 0.0, 0.0), "u_swash": (0.0, 0.0, 0.0, 0.0),
-                "u_swash_along": (0.0, 1.0, 0.0, 0.0)}
+                "u_swash_along": (0.0, 1.0, 0.0, 0.0), "u_land": (0.0, 0.0, 0.0, 0.0)}
     cam = np.asarray(view.position[:2], dtype=np.float64)
     if bathy.type == "slope":
         to_shore = _unit(bathy.shore_heading)
@@ -70,4 +67,7 @@ def shore_uniforms(scene: Scene, view: CameraView, sea: SeaSurface) -> dict:
     k_var = TWO_PI / RUNUP_VARIATION_LENGTH
     return {"u_shore_plane": tuple(float(x) for x in plane),
             "u_swash": (runup_r2(h0, tp, beta), phase, k_y, 0.0),
-            "u_swash_along": (*(float(x) for x in along), k_var, math.fmod(k_var * y_cam, TWO_PI))}
+            "u_swash_along": (*(float(x) for x in along), k_var, math.fmod(k_var * y_cam, TWO_PI)),
+            # the land behind a slope beach (water/land.py): its along-shore variation wraps on LAND_PERIOD
+            "u_land": ((bathy.berm_height, bathy.dune_height, y_cam % LAND_PERIOD, 1.0) if bathy.type == "slope"
+                       else (0.0, 0.0, 0.0, 0.0))}

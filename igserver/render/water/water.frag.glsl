@@ -141,6 +141,30 @@ vec3 glint(vec3 e, vec3 n, vec3 v, vec3 l, float alpha) {
     return e * f * ggx_distribution(n, h, max(dot(n, h), 0.0), alpha) * smith_visibility(n_dot_v, n_dot_l, alpha) * n_dot_l;
 }
 
+#ifdef WATER_FIELD
+// The land behind a slope beach (water/land.py): the sand's colour (``sand``: dry or wet, lit by the
+// level downwelling) turned to the profile's slope, mottled, and dune grass from the dune's rise on
+// in patches; world-fixed noise cells of LAND_CELL m, faded where a pixel spans a cell.
+const vec3 DUNE_GRASS_ALBEDO = vec3(0.09, 0.12, 0.055); // marram grass, grey-green (leaves: R 0.05-0.1, G 0.1-0.15)
+const float LAND_CELL = 8.0;                            // m; LAND_PERIOD / LAND_CELL is a whole number
+vec3 land_colour(vec3 sand, vec3 e_local) {
+    vec2 sy = land_coordinates(v_rest);
+    vec3 prof = land_profile(max(sy.x, 0.0), sy.y);
+    vec3 n = normalize(vec3(-(prof.y * u_shore_plane.xy + prof.z * u_swash_along.xy), 1.0));
+    // the slope's irradiance over a level surface's: the sun and the moon by n.l, the part of the sky
+    // dome the facet sees; local lights as on the level
+    vec3 e_level = u_sun_illuminance * max(u_sun_dir.z, 0.0) + u_moon_illuminance * max(u_moon_dir.z, 0.0)
+                 + PI * u_sky_ambient + e_local;
+    vec3 e_slope = u_sun_illuminance * max(dot(n, u_sun_dir), 0.0) + u_moon_illuminance * max(dot(n, u_moon_dir), 0.0)
+                 + PI * u_sky_ambient * (0.5 + 0.5 * n.z) + e_local;
+    float fade = 1.0 - smoothstep(0.25, 1.0, fwidth(sy.x) / LAND_CELL);
+    float mottle = fade * turbulence3(vec3(sy / LAND_CELL, 0.0), vec3(0.0, LAND_PERIOD / LAND_CELL, 0.0), 2, 41u);
+    float grass = smoothstep(0.2, 0.9, dune_rise(sy.x, sy.y)) * clamp(0.8 + 0.5 * mottle, 0.0, 1.0);
+    vec3 albedo = mix(vec3(1.0 + 0.08 * mottle), DUNE_GRASS_ALBEDO / BOTTOM_ALBEDO, grass);
+    return sand * albedo * e_slope / max(e_level, vec3(1e-9));
+}
+#endif
+
 void main() {
 #ifdef WATER_HULLS  // only when hulls float in the sea: discard would disable early depth tests
     for (int i = 0; i < u_hull_count; ++i) {
@@ -237,6 +261,7 @@ void main() {
     if (land > -0.05) sw = swash(v_swash, land, land_step);
     float water = max(smoothstep(0.0, 0.05, -land), sw.x);
     vec3 sand = BOTTOM_ALBEDO * mix(1.0, 0.6, sw.z) * e_down / PI;  // Lambert
+    if (u_land.w > 0.0 && land > -0.05) sand = land_colour(sand, e_local);
     lit = mix(mix(sand, lit, water), FOAM_FRESH * e_foam / PI, sw.y);
 #endif
     // apply_aerial_perspective, per vertex; a fog top's relief per pixel (its cells span few vertices)

@@ -46,6 +46,9 @@ void main() {
     float r2 = dot(s.pos.xy, s.pos.xy);
     float drop = r2 / (EARTH_RADIUS + sqrt(max(EARTH_RADIUS * EARTH_RADIUS - r2, 0.0)));
     v_rel = vec3(s.pos.xy, u_level_z + s.pos.z - drop);
+#ifdef WATER_FIELD
+    v_rel.z += land_height(p);  // the dry land behind a slope beach (water/land.py): 0 elsewhere
+#endif
     v_rest = p;
     v_normal = normalize(s.normal + vec3(s.pos.xy / EARTH_RADIUS, 0.0) * s.normal.z);
     v_jacobian = s.jacobian;
