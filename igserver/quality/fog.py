@@ -117,7 +117,7 @@ def analytic_slab(layer: HazeLayer, mu0: float) -> dict:
 
 def run(argv: list[str]) -> int:
     ap = argparse.ArgumentParser(prog="igserver quality fog", description=__doc__.split("\n")[0])
-    ap.add_argument("--out", default="quality-report", help="directory for fog.md / fog.json")
+    ap.add_argument("--out", default="out/quality", help="directory for fog.md / fog.json")
     ap.add_argument("--photons", type=int, default=200_000)
     ap.add_argument("--no-render", action="store_true", help="skip the frame-time part (no GL)")
     args = ap.parse_args(argv)

@@ -145,7 +145,7 @@ def max_step_ratio(values: list[float]) -> float:
 
 def run(argv: list[str]) -> int:
     ap = argparse.ArgumentParser(prog="igserver quality light", description=__doc__.split("\n")[0])
-    ap.add_argument("--out", default="quality-report", help="directory for light.md / light.json")
+    ap.add_argument("--out", default="out/quality", help="directory for light.md / light.json")
     ap.add_argument("--presets", default="low,medium,high")
     ap.add_argument("--step", type=float, default=0.1, help="deg, smoothness sweep step (0 .. -18)")
     ap.add_argument("--fresh", action="store_true", help="precompute every preset afresh (timed) in a private cache")
