@@ -10,9 +10,27 @@
 const float DETAIL_LONGEST_CYCLES = 5.0;        // detail.py DETAIL_MIN_CYCLES
 const vec2 DETAIL_FADE_PX = vec2(8.0, 16.0);     // longest wave's length (px): gone, whole
 
-float detail_fade(vec2 uv) {
-    vec2 dx = dFdx(uv), dy = dFdy(uv);
-    float footprint = sqrt(max(dot(dx, dx), dot(dy, dy)));  // tile widths a pixel spans, the longer axis
+// The fade for a footprint of ``footprint`` tile widths (the longer axis).
+float detail_fade_of(float footprint) {
     float period_px = 1.0 / (DETAIL_LONGEST_CYCLES * max(footprint, 1e-9));
     return smoothstep(DETAIL_FADE_PX.x, DETAIL_FADE_PX.y, period_px);
+}
+
+// Motion: a moving eye passes a ripple by more than half its length between frames at a few m/s
+// (0.17 m a frame at 5 m/s and 30 frames/s; the finer map's waves are 4-40 cm), and each frame then
+// shows it at an unrelated phase: shimmer. The maps are blurred over the eye's displacement across
+// the frame (water.py detail_motion; a full-interval shutter: a wave as long as the displacement
+// averages out, one twice as long keeps 64 % of its amplitude): the footprint grows to the
+// displacement wherever that is longer, and the fade and the roughness follow it as for a far pixel.
+uniform vec2 u_detail_motion;  // m (world x, y): the eye's displacement since the previous frame; 0: still
+
+// Footprint (tile widths, the longer axis) of a pixel at tile coordinates with derivatives dx, dy,
+// grown to the motion's length (``scale``: 1 / tile side, 1/m).
+float detail_footprint(vec2 dx, vec2 dy, float scale) {
+    return max(sqrt(max(dot(dx, dx), dot(dy, dy))), length(u_detail_motion) * scale);
+}
+
+float detail_fade(vec2 uv) {
+    vec2 dx = dFdx(uv), dy = dFdy(uv);
+    return detail_fade_of(sqrt(max(dot(dx, dx), dot(dy, dy))));  // tile widths a pixel spans, the longer axis
 }

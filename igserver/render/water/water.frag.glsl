@@ -124,8 +124,17 @@ float foam_cover(float m, float fresh, vec2 rest, out float spray) { spray = SPR
 vec4 detail(sampler2D tex, vec3 map) {
 #if WATER_DETAIL_FADE  // the mean slope faded by the pixel's footprint (water/detail_filter.glsl)
     vec2 uv = v_rest * map.x + map.yz;
-    vec4 d = texture(tex, uv);
-    return vec4(d.xy * detail_fade(uv), d.zw);
+    if (u_detail_motion == vec2(0.0)) {  // a still eye (uniform control flow: implicit derivatives)
+        vec4 d = texture(tex, uv);
+        return vec4(d.xy * detail_fade(uv), d.zw);
+    }
+    // blurred over the eye's motion: the sampler's footprint grown to it, the fade with it
+    vec2 dx = dFdx(uv), dy = dFdy(uv);
+    float pixel = sqrt(max(dot(dx, dx), dot(dy, dy)));
+    float footprint = detail_footprint(dx, dy, map.x);
+    float grow = footprint / max(pixel, 1e-12);
+    vec4 d = textureGrad(tex, uv, dx * grow, dy * grow);
+    return vec4(d.xy * detail_fade_of(footprint), d.zw);
 #else
     return texture(tex, v_rest * map.x + map.yz);
 #endif

@@ -27,6 +27,7 @@ from ..camera import CameraView
 from ..frame import local_light_defines
 from .. import presets
 from ..passes import RenderPass
+from ..post.exposure import MAX_STREAM_DT
 from ..shaders import assemble, set_uniforms
 from . import lod
 from .detail import (DETAIL_MAPS, detail_map_levels, detail_means, detail_tiles, detail_unresolved_var,
@@ -82,9 +83,10 @@ def glint_light(uniforms: dict) -> dict:
 class WaterPass(UnderwaterDraws, RenderPass):
     name = "water"
     preset_pipeline = "water"
-    view_state = ("_selection",)  # the LOD selection (select)
+    view_state = ("_selection", "_last_eye")  # the LOD selection (select); the eye's last frame (detail_motion)
     view_counters = ("_selection_version",)
     _selection = None
+    _last_eye = None
 
     def __init__(self, ctx, programs):
         super().__init__(ctx, programs)
@@ -398,7 +400,21 @@ class WaterPass(UnderwaterDraws, RenderPass):
             mats = np.zeros((MAX_HULLS, 4, 4), dtype=np.float32)
             mats[: len(hulls)] = np.transpose(np.asarray(hulls), (0, 2, 1))
             values["u_hull_inv"] = mats.tobytes()
+        values["u_detail_motion"] = self.detail_motion(scene, view)
         return {"values": values, "detail_map": detail_map}
+
+    def detail_motion(self, scene, view) -> tuple[float, float]:
+        """The detail ripples' apparent displacement across this frame (m, world x, y): the eye's
+        horizontal motion since the previous frame of this view when that frame was the last of one
+        stream (0 < dt <= MAX_STREAM_DT); (0, 0) for a still eye, a first frame or a jump. The detail
+        maps are blurred over it (water.frag.glsl detail: a full-interval shutter), so a ripple the eye
+        passes by more than half its length a frame does not alias into shimmer."""
+        t, eye = float(scene.time.sim_time), np.array(view.position[:2], dtype=np.float64)
+        last, self._last_eye = self._last_eye, (t, eye)
+        if last is None or not 0.0 < t - last[0] <= MAX_STREAM_DT:
+            return 0.0, 0.0
+        moved = eye - last[1]
+        return float(moved[0]), float(moved[1])
 
     def _configured_program(self, frame, sea, shared: dict, read_maps: int, means: np.ndarray, with_hulls: bool,
                             foam_streaks: bool) -> moderngl.Program:
