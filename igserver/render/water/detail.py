@@ -13,7 +13,7 @@ from ...water.spectrum import WaveSet
 from ...water.surface import SeaSurface
 from ..camera import CameraView
 from . import lod
-from .detail_mips import band_limited_levels
+from .detail_synth import detail_synth, lattice_key, tile_pairs
 from .foam import FOAM_FADE_CELL, FOAM_STREAK_FADE
 
 DETAIL_MAPS = 3
@@ -37,7 +37,11 @@ def _detail_bands(sea: SeaSurface) -> tuple[np.ndarray, np.ndarray]:
     roughness only). The finest bands holding fewer than DETAIL_MIN_WAVES waves go to the roughness:
     a tile of so few waves shows its period as a regular ripple, and costs a texture read per pixel
     for under 4/36 of the detail band's slope variance (its waves carry equal shares)."""
-    wavelengths = 2.0 * math.pi / sea.detail.k
+    return _bands(sea.detail.k)
+
+
+def _bands(k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    wavelengths = 2.0 * math.pi / k
     tops = float(np.max(wavelengths)) * 1.0001 / DETAIL_RATIO ** np.arange(DETAIL_MAPS)
     band = np.minimum(np.floor(np.log(tops[0] / wavelengths) / math.log(DETAIL_RATIO)), DETAIL_MAPS).astype(int)
     for c in range(DETAIL_MAPS - 1, 0, -1):
@@ -53,20 +57,46 @@ def detail_tiles(sea: SeaSurface, t: float) -> list[tuple[float, np.ndarray]]:
     d: WaveSet = sea.detail
     if d.n == 0:
         return [(1.0, np.zeros((0, 4)))] * DETAIL_MAPS
-    tops, band = _detail_bands(sea)
     tiles = []
-    for c, top in enumerate(tops):
-        size = DETAIL_MIN_CYCLES * top
-        pick = band == c
-        cycles = np.rint(d.k[pick, None] * d.direction[pick] * size / (2.0 * math.pi))
-        k_snap = np.linalg.norm(cycles, axis=1) * 2.0 * math.pi / size
-        omega = np.sqrt(9.80665 * k_snap)
-        phase = np.mod(d.phase[pick] - np.mod(omega * t, 2.0 * math.pi), 2.0 * math.pi)
-        tiles.append((size, np.column_stack([cycles, d.amplitude[pick] * k_snap, phase])))
+    for size, fixed, omega, phase in detail_lattice(*_wave_key(d)).tiles:
+        phase = np.mod(phase - np.mod(omega * t, 2.0 * math.pi), 2.0 * math.pi)
+        tiles.append((size, np.column_stack([fixed, phase])))
     return tiles
 
 
-def detail_map_levels(waves: np.ndarray, resolution: int) -> list[np.ndarray]:
+def _wave_key(d: WaveSet) -> tuple[bytes, ...]:
+    """The detail waves' (k, direction, amplitude, phase) as float64 bytes: ``detail_lattice``'s key."""
+    return tuple(np.ascontiguousarray(a, dtype=np.float64).tobytes() for a in (d.k, d.direction, d.amplitude, d.phase))
+
+
+class DetailLattice:
+    """What the detail maps take from the detail waves, whatever the time: per map, the tile side L,
+    the waves' (m, n, A k) on its lattice, their ω and phases at t = 0; and the mean-square slope of
+    the waves shorter than every map's band."""
+
+    def __init__(self, k: np.ndarray, direction: np.ndarray, amplitude: np.ndarray, phase: np.ndarray):
+        tops, band = _bands(k)
+        self.tiles = []
+        for c, top in enumerate(tops):
+            size = DETAIL_MIN_CYCLES * top
+            pick = band == c
+            cycles = np.rint(k[pick, None] * direction[pick] * size / (2.0 * math.pi))
+            k_snap = np.linalg.norm(cycles, axis=1) * 2.0 * math.pi / size
+            omega = np.sqrt(9.80665 * k_snap)
+            self.tiles.append((size, np.column_stack([cycles, amplitude[pick] * k_snap]), omega, phase[pick]))
+        lost = band >= DETAIL_MAPS
+        self.unresolved_var = float(np.sum((amplitude[lost] * k[lost]) ** 2) / 2.0)
+
+
+@functools.lru_cache(maxsize=4)
+def detail_lattice(k: bytes, direction: bytes, amplitude: bytes, phase: bytes) -> DetailLattice:
+    """The ``DetailLattice`` of the detail waves given as bytes (``_wave_key``): the key is the whole
+    input, so another sea state builds its own."""
+    return DetailLattice(np.frombuffer(k), np.frombuffer(direction).reshape(-1, 2), np.frombuffer(amplitude),
+                         np.frombuffer(phase))
+
+
+def detail_map_levels(waves: np.ndarray, resolution: int, out: list[np.ndarray] | None = None) -> list[np.ndarray]:
     """One detail map and its mip chain, level 0 (``resolution``² texels, a power of two) first:
     (sx, sy, sx², sy²) per texel, float32 (numpy has no fast float16 conversion: 3 ms a 128² map),
     rows along the tile's y.
@@ -76,25 +106,17 @@ def detail_map_levels(waves: np.ndarray, resolution: int) -> list[np.ndarray]:
     amplitude, θ = 2π (m u + n v) + phase = 2π (m i + n j) / N + ψ, ψ = phase + π (m + n) / N.
     Both components at once as sx + i sy = Σ (gx + i gy) (e^{iθ} + e^{−iθ}) / 2: an inverse DFT of
     N² coefficients (gx + i gy) e^{±iψ} / 2 placed at the bins ±(m, n) mod N — exact at the texel
-    centres, aliasing included, in O(N² log N) whatever the wave count. Each mip level is the mean of
+    centres, aliasing included, in O(N² log N) whatever the wave count (detail_synth.py: the spectra's
+    fixed part once per lattice and resolution, the phases' each frame). Each mip level is the mean of
     2×2 texels of the one above (float32): what the sampler's trilinear filter reads,
-    and E[s²] − E[s]² of a level is the slope variance it no longer resolves (LEAN mapping)."""
-    n_side = int(resolution)
-    mn = waves[:, 0:2]
-    g = waves[:, 2:3] * mn / np.linalg.norm(mn, axis=1, keepdims=True)
-    half = 0.5 * (g[:, 0] + 1j * g[:, 1])
-    psi = waves[:, 3] + math.pi * (mn[:, 0] + mn[:, 1]) / n_side
-    m, n = mn[:, 0].astype(int), mn[:, 1].astype(int)
-    spectrum = np.zeros((n_side, n_side), dtype=complex)
-    np.add.at(spectrum, (n % n_side, m % n_side), half * np.exp(1j * psi))
-    np.add.at(spectrum, (-n % n_side, -m % n_side), half * np.exp(-1j * psi))
-    s = np.fft.ifft2(spectrum, norm="forward")  # Σ X e^{+2πi (m i + n j) / N}, no 1/N² factor
-    level = np.empty((n_side, n_side, 4), np.float32)  # float64 values rounded once, as a float32 stack
-    level[..., 0], level[..., 1] = s.real, s.imag
-    level[..., 2], level[..., 3] = s.real * s.real, s.imag * s.imag
+    and E[s²] − E[s]² of a level is the slope variance it no longer resolves (LEAN mapping).
+    ``out``: arrays of the band-limited chain's shapes to write the levels into (the last frame's)."""
+    synth = detail_synth(lattice_key(waves), int(resolution), BAND_LIMITED_MIPS)  # detail_synth.py
+    phase = np.ascontiguousarray(waves[:, 3], dtype=np.float64)
     if BAND_LIMITED_MIPS:  # detail_mips.py: no level folds a wave it cannot carry
-        return [level, *band_limited_levels(waves, n_side)]
-    levels = [level]
+        return synth.levels(phase, out)
+    levels = synth.levels(phase)
+    level = levels[0]
     while level.shape[0] > 1:
         level = 0.25 * (level[0::2, 0::2] + level[0::2, 1::2] + level[1::2, 0::2] + level[1::2, 1::2])
         levels.append(level)
@@ -103,11 +125,8 @@ def detail_map_levels(waves: np.ndarray, resolution: int) -> list[np.ndarray]:
 
 def detail_unresolved_var(sea: SeaSurface) -> float:
     """Mean-square slope of the detail waves shorter than every map's band: roughness only."""
-    if sea.detail.n == 0:
-        return 0.0
-    _, band = _detail_bands(sea)
-    lost = band >= DETAIL_MAPS
-    return float(np.sum((sea.detail.amplitude[lost] * sea.detail.k[lost]) ** 2) / 2.0)
+    d = sea.detail
+    return detail_lattice(*_wave_key(d)).unresolved_var if d.n else 0.0
 
 
 def detail_means(tiles: list[tuple[float, np.ndarray]]) -> np.ndarray:
@@ -119,14 +138,7 @@ def detail_means(tiles: list[tuple[float, np.ndarray]]) -> np.ndarray:
     for c, (_, waves) in enumerate(tiles):
         if not len(waves):
             continue
-        mn = waves[:, 0:2]
-        g = waves[:, 2:3] * mn / np.linalg.norm(mn, axis=1, keepdims=True)  # slope amplitude vectors
-        phi = waves[:, 3]
-        same = np.all(mn[:, None] == mn[None], axis=2)
-        opposite = np.all(mn[:, None] == -mn[None], axis=2)
-        w = 0.5 * (same * np.cos(phi[:, None] - phi[None]) + opposite * np.cos(phi[:, None] + phi[None]))
-        means[c, 2] = g[:, 0] @ w @ g[:, 0]
-        means[c, 3] = g[:, 1] @ w @ g[:, 1]
+        means[c, 2:] = tile_pairs(lattice_key(waves)).mean_square(waves[:, 3])  # detail_synth.py
     return means
 
 

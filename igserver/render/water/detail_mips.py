@@ -11,6 +11,9 @@ sampled at its own texel centres, and its (sx², sy²) channels hold sx² + the 
 removed, Σ (1 − G_i G_j) g_i g_j w_ij (the same lattice-point pairing as ``detail_means``): the
 footprint's mean square slope, so the roughness (LEAN mapping) is as before and the 1×1 level is the
 tile average ``detail_means`` computes. The sampler's trilinear filter blends two such levels.
+
+``band_limited_levels`` builds each level directly from the waves, as stated here: the reference of
+detail_synth.py, which makes the same levels each frame from what it keeps per tile lattice.
 """
 
 from __future__ import annotations
@@ -37,7 +40,8 @@ def _pairing(mn: np.ndarray, phase: np.ndarray) -> np.ndarray:
 
 def band_limited_levels(waves: np.ndarray, n_side: int) -> list[np.ndarray]:
     """Mip levels 1.. (N/2, N/4, .. 1 texels a side) of the map of ``waves`` (m, n, A k, phase), each
-    (N_L, N_L, 4) float32 (sx, sy, sx², sy²), rows along the tile's y (as ``detail_map_levels``)."""
+    (N_L, N_L, 4) float32 (sx, sy, sx², sy²), rows along the tile's y (as ``detail_map_levels``):
+    the direct construction (tests' reference; the pass uses detail_synth.py)."""
     mn = waves[:, 0:2]
     g = waves[:, 2:3] * mn / np.linalg.norm(mn, axis=1, keepdims=True)
     m, n = mn[:, 0].astype(int), mn[:, 1].astype(int)

@@ -95,6 +95,7 @@ class WaterPass(UnderwaterDraws, RenderPass):
         self._field_tex = None
         self._detail = None
         self._detail_key = [None] * DETAIL_MAPS
+        self._detail_texels: list[list[np.ndarray] | None] = [None] * DETAIL_MAPS  # each map's last levels
         self._instances = None
         self._tables: SeaTables | None = None
         self._selection = None  # (key, sea, LodSelection) of the last select()
@@ -218,8 +219,13 @@ class WaterPass(UnderwaterDraws, RenderPass):
                                    and self._detail_key[c][1] == float(t)):
                 continue
             self._detail_key[c] = (sea, float(t))
-            for level, texels in enumerate(detail_map_levels(waves, resolution)):
-                tex.write(texels.tobytes(), level=level)
+            # the last write's arrays are filled again (no fresh pages each frame); the chain's shapes
+            # follow the resolution alone, so a map's arrays fit whatever its waves
+            held = self._detail_texels[c]
+            held = held if held is not None and len(held[0]) == resolution else None
+            self._detail_texels[c] = detail_map_levels(waves, resolution, out=held)
+            for level, texels in enumerate(self._detail_texels[c]):
+                tex.write(texels, level=level)
 
     # ---- per frame ------------------------------------------------------------------------------
     def wave_uniforms(self, sea: SeaSurface, scene: Scene, view: CameraView) -> dict:
