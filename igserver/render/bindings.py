@@ -48,6 +48,7 @@ PASS_UNITS = {
 # Uniform-block binding points (std140 blocks shared by every program that declares them).
 BLOCKS = {
     "FRAME": 0,  # per-frame and per-view constants (render/frame_block.py)
+    "VOLUME": 1,  # one fire or smoke volume's march constants (render/volumes/march_block.py)
 }
 
 

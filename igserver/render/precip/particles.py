@@ -241,7 +241,8 @@ def _level_counts(n0: float, sizes: list[float]) -> list[int]:
     return [int(round(n0 * (size / sizes[0]) ** 3 / 4.0**lvl)) for lvl, size in enumerate(sizes)]
 
 
-TILES = Memo()  # the last view's tiles (keyed on every input of level_tiles)
+TILES = Memo()  # the last view's tiles and particle layout (each keyed on every one of its inputs)
+MAX_LEVELS = 16  # levels of detail the GPU's level table holds (precip_common.glsl)
 
 
 def _read_only(arrays: list[np.ndarray]) -> list[np.ndarray]:
@@ -250,7 +251,77 @@ def _read_only(arrays: list[np.ndarray]) -> list[np.ndarray]:
     return arrays
 
 
-def particle_frame(scene: Scene, view: CameraView, settings: PrecipSettings, pool: ParticlePool) -> ParticleFrame:
+@dataclass
+class ParticleLayout:
+    """What a frame's particles are made of apart from the time and the camera's position, made
+    once per change of its inputs (particle_layout): the visible tiles of every level, the levels,
+    the particles' constants of every level one after the other (a row per particle, its level's
+    cube side in ``size``: one numpy operation moves every level), and the GPU's (particle, 8)
+    float32 rows with the constant columns filled (``pack`` fills the rest)."""
+
+    tiles: np.ndarray  # (k, 3) m, camera-relative offsets of the visible tiles of every level
+    levels: list[Level]
+    fade: float
+    size: np.ndarray  # (n, 1) m, the cube side of each particle's level
+    p0: np.ndarray  # (n, 3) m, start positions in the cube
+    velocity: np.ndarray  # (n, 3) m/s, the air's plus the particle's fall
+    d_mm: np.ndarray  # (n,) mm
+    brightness: np.ndarray  # (n,)
+    flutter: tuple | None  # snow: (radius m, hz, phase) arrays; rain: None (radius 0: no flutter terms)
+    streak_time: float  # s, T
+    rows: np.ndarray  # (n, 8) float32: position xyz, diameter m, streak xyz, brightness
+
+    def __post_init__(self):
+        self.streaks = self.velocity * self.streak_time  # m, the streak without flutter (rain's whole streak)
+        _read_only([self.streaks])
+
+    def motion(self, t: float, camera_position: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Every particle's wrapped camera-relative position in [0, size)^3 and streak at ``t``."""
+        size = self.size
+        # float64 reductions: each term mod the cube before the sum, the flutter phase mod 1.
+        q = np.fmod(self.velocity * t, size)  # the travel
+        camera = np.fmod(camera_position, size)
+        q += self.p0
+        if self.flutter is None:
+            streaks = self.streaks
+        else:
+            # A flake's horizontal circle of radius a at hz: (a cos 2 pi phase, a sin 2 pi phase, 0),
+            # now and T earlier (the phase reduced mod 1 first), in one pass for both times.
+            radius, hz, phase0 = self.flutter
+            phase_now = np.fmod(hz * t + phase0, 1.0)
+            angle = 2.0 * math.pi * np.stack([phase_now, phase_now - hz * self.streak_time])
+            x, y = radius * np.cos(angle), radius * np.sin(angle)
+            q[:, 0] += x[0]
+            q[:, 1] += y[0]
+            streaks = self.streaks.copy()
+            streaks[:, 0] += x[0]
+            streaks[:, 0] -= x[1]
+            streaks[:, 1] += y[0]
+            streaks[:, 1] -= y[1]
+        q -= camera
+        q = np.mod(q, size, out=q)
+        q[q >= size] = 0.0  # mod can round up to the size itself
+        return q, streaks
+
+    def pack(self, t: float, camera_position: np.ndarray) -> np.ndarray:
+        """The rows at time ``t`` (float32; reused: valid until the next call)."""
+        q, streaks = self.motion(t, camera_position)
+        self.rows[:, 0:3] = q
+        if self.flutter is not None:
+            self.rows[:, 4:7] = streaks
+        return self.rows
+
+
+def particle_layout(scene: Scene, view: CameraView, settings: PrecipSettings, pool: ParticlePool) -> ParticleLayout:
+    """The frame's ParticleLayout, made again only when an input changes: the precipitation's type,
+    rate and streak time, the knobs, the wind, and the view's orientation and frustum (the tiles are
+    camera-relative: a camera that moves without turning keeps them)."""
+    p, w = scene.weather.precipitation, scene.weather
+    key = (p.type, p.rate, p.streak_time, settings, w.wind_speed, w.wind_direction, view.view_proj.tobytes())
+    return TILES.get("particle_layout", key, lambda: _layout(scene, view, settings, pool))
+
+
+def _layout(scene: Scene, view: CameraView, settings: PrecipSettings, pool: ParticlePool) -> ParticleLayout:
     p = scene.weather.precipitation
     kind, rate, L = p.type, p.rate, settings.tile_size
     fade = settings.fade(kind)
@@ -267,50 +338,43 @@ def particle_frame(scene: Scene, view: CameraView, settings: PrecipSettings, poo
         counts = _level_counts(n0, sizes)
         total = sum(len(t) * c for t, c in zip(tiles, counts))
 
-    t, T = scene.time.sim_time, p.streak_time
-    wind = wind_vector(scene)
-    parts: list[tuple] = []
     levels: list[Level] = []
+    parts: list[dict] = []
+    tile_arrays: list[np.ndarray] = []
     first_tile = first_particle = 0
     for lvl, (size, tile_list, n) in enumerate(zip(sizes, tiles, counts)):
         if n == 0 or len(tile_list) == 0:
             continue
-        q, streaks, d_mm, brightness = _move(pool.get(kind, size, n, lvl), kind, rate, size, wind, t, T,
-                                             view.position)
-        parts.append((q, streaks, d_mm, brightness, tile_list))
+        parts.append({**pool.get(kind, size, n, lvl), "size": np.full((n, 1), size)})
         levels.append(Level(lvl, size, first_tile, len(tile_list), first_particle, n, rho * size**3 / n))
+        tile_arrays.append(tile_list)
         first_tile += len(tile_list)
         first_particle += n
-    if not parts:
-        empty = np.zeros((0, 3))
-        return ParticleFrame(empty, empty, np.zeros(0), np.zeros(0), empty, [], fade)
-    q, streaks, d_mm, brightness, tile_arrays = (np.concatenate(x) for x in zip(*parts))
-    return ParticleFrame(q, streaks, d_mm * 1e-3, brightness, tile_arrays, levels, fade)
-
-
-def _move(c: dict, kind: str, rate: float, size: float, wind: np.ndarray, t: float, T: float,
-          camera_position: np.ndarray) -> tuple:
-    """Wrapped camera-relative positions in [0, size)^3, streaks, diameters (mm), brightness."""
+    if len(levels) > MAX_LEVELS:
+        raise ValueError(f"{len(levels)} precipitation levels of detail, at most {MAX_LEVELS} (lod_distance, fade)")
+    c = {k: np.concatenate([part[k] for part in parts]) if parts else np.zeros((0, 3) if k in ("p0", "size") else 0)
+         for k in ("p0", "u_size", "speed_factor", "flutter_radius", "flutter_hz", "flutter_phase", "brightness", "size")}
     d_mm = diameters(kind, rate, c["u_size"])
     v_fall = fall_speed(kind, d_mm) * c["speed_factor"]
-    velocity = np.repeat(wind[None, :], len(d_mm), axis=0)
+    velocity = np.repeat(wind_vector(scene)[None, :], len(d_mm), axis=0)
     velocity[:, 2] -= v_fall
-    # float64 reductions: each term mod the cube before the sum, the flutter phase mod 1.
-    travel = np.fmod(velocity * t, size)
-    camera = np.fmod(camera_position, size)
-    phase_now = np.fmod(c["flutter_hz"] * t + c["flutter_phase"], 1.0)
-    phase_then = phase_now - c["flutter_hz"] * T
-    flutter_now = _flutter(c["flutter_radius"], phase_now)
-    q = np.mod(c["p0"] + travel + flutter_now - camera, size)
-    q = np.where(q >= size, 0.0, q)  # mod can round up to the size itself
-    streaks = velocity * T + flutter_now - _flutter(c["flutter_radius"], phase_then)
-    return q, streaks, d_mm, c["brightness"]
+    # Rain does not flutter (radius 0): its flutter terms are exact zeros and are left out.
+    flutter = (c["flutter_radius"], c["flutter_hz"], c["flutter_phase"]) if np.any(c["flutter_radius"]) else None
+    rows = np.zeros((first_particle, 8), np.float32)
+    rows[:, 3] = d_mm * 1e-3
+    rows[:, 4:7] = velocity * p.streak_time
+    rows[:, 7] = c["brightness"]
+    all_tiles = np.concatenate(tile_arrays) if tile_arrays else np.zeros((0, 3))
+    arrays = _read_only([all_tiles, c["size"], c["p0"], velocity, d_mm, c["brightness"]])
+    return ParticleLayout(arrays[0], levels, fade, *arrays[1:], flutter, p.streak_time, rows)
 
 
-def _flutter(radius: np.ndarray, phase: np.ndarray) -> np.ndarray:
-    a = 2.0 * math.pi * phase
-    return np.stack([radius * np.cos(a), radius * np.sin(a), np.zeros_like(radius)], axis=1)
+def particle_frame(scene: Scene, view: CameraView, settings: PrecipSettings, pool: ParticlePool) -> ParticleFrame:
+    layout = particle_layout(scene, view, settings, pool)
+    q, streaks = layout.motion(scene.time.sim_time, view.position)
+    return ParticleFrame(q, streaks, layout.d_mm * 1e-3, layout.brightness, layout.tiles, layout.levels, layout.fade)
 
 
-__all__ = ["PrecipSettings", "ParticlePool", "ParticleFrame", "Level", "particle_frame", "particle_count",
+__all__ = ["PrecipSettings", "ParticlePool", "ParticleFrame", "ParticleLayout", "Level", "particle_frame",
+           "particle_layout", "particle_count",
            "level_tiles", "level_tile_size", "level_count", "diameters", "PRESETS"]

@@ -1,8 +1,9 @@
 // Precipitation streaks (docs/design.md#precipitation): one screen-aligned quad per particle copy, from the particle's
 // position T ago to its current position (particles.py), at least one pixel wide.
 //
-// Particle i (gl_VertexID / 4) of tile k (u_first_tile + gl_InstanceID) sits at q_i + L k,
-// camera-relative. Its light comes from precip_light.comp.glsl (once per streak). Opacity carries
+// Particle i (gl_VertexID / 4) of a tile sits at q_i + the tile's offset, camera-relative. One
+// indirect command per level draws its tiles as instances (the tile's offset and level are the
+// instance's attribute, from the command's base instance on). Its light comes from precip_light.comp.glsl (once per streak). Opacity carries
 // the coverage of the m real drops one streak stands for: a drop of diameter D_px (pixels) sweeping
 // the streak during the exposure covers D_px^2 pixel-exposures in all, however long the streak
 // (time-averaged coverage of a moving disk), so spread over the quad's area w (l + w):
@@ -17,7 +18,8 @@
 #include "common/frame.glsl"
 #include "precip/precip_common.glsl"
 
-uniform float u_drops_per_streak;  // m, of this level
+uniform float u_level_drops[MAX_LEVELS];  // m, drops per streak of each level
+in vec4 in_tile;                   // per instance: xyz the tile's camera-relative offset (m), w its level
 uniform float u_fade;              // m, streaks gone beyond
 uniform float u_px_per_tan;        // px per unit tangent (0.5 height P[1][1])
 
@@ -33,9 +35,11 @@ const vec2 CORNERS[4] = vec2[4](vec2(0, -1), vec2(1, -1), vec2(1, 1), vec2(0, 1)
 
 void main() {
     int index = gl_VertexID / 4;
-    Particle particle = particles[u_first_particle + index];
+    int level = int(in_tile.w);
+    ivec4 lv = u_levels[level];
+    Particle particle = particles[lv.LEVEL_FIRST_PARTICLE + index];
     vec2 corner = CORNERS[gl_VertexID % 4];  // x: 0 = tail (T ago), 1 = head (now); y: side
-    vec3 head = particle.pos_diameter.xyz + tiles[u_first_tile + gl_InstanceID].xyz;
+    vec3 head = particle.pos_diameter.xyz + in_tile.xyz;
     vec3 tail = head - particle.streak_brightness.xyz;
     vec4 clip_tail = u_view_proj * vec4(tail, 1.0);
     vec4 clip_head = u_view_proj * vec4(head, 1.0);
@@ -57,7 +61,7 @@ void main() {
     vec2 across = vec2(-along.y, along.x);
     float d_px = particle.pos_diameter.w / dist * u_px_per_tan;
     float w = max(d_px, 1.0);
-    float area = u_drops_per_streak * d_px * d_px;  // px^2 of coverage this streak carries
+    float area = u_level_drops[level] * d_px * d_px;  // px^2 of coverage this streak carries
     // Widened at most 4x (16x the flake's area): fill cost stays bounded when the cap makes m huge.
     if (area > w * (l_px + w)) w = min(0.5 * (sqrt(l_px * l_px + 4.0 * area) - l_px), 4.0 * w);
     vec2 s = mix(s_tail, s_head, corner.x) + along * (corner.x * 2.0 - 1.0) * 0.5 * w + across * corner.y * 0.5 * w;
@@ -70,5 +74,5 @@ void main() {
     float coverage = area / (w > 2.0 ? w * l_px + 0.25 * PI * w * w : w * (l_px + w));
     float fade = (1.0 - smoothstep(0.6 * u_fade, u_fade, dist)) * smoothstep(0.2, 0.8, dist);
     v_alpha = clamp(coverage, 0.0, 1.0) * fade;
-    v_radiance = radiance[u_first_streak + gl_InstanceID * u_particles + index].rgb;
+    v_radiance = radiance[lv.LEVEL_FIRST_STREAK + gl_InstanceID * lv.LEVEL_PARTICLES + index].rgb;
 }

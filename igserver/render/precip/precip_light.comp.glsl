@@ -9,7 +9,8 @@ layout(local_size_x = 64) in;
 #include "common/lights.glsl"
 #include "precip/precip_common.glsl"
 
-uniform int u_streaks;              // tiles x particles at this level
+uniform int u_streaks;              // tiles x particles, every level
+uniform int u_level_count;
 uniform float u_albedo;
 uniform float u_phase_g;           // Henyey-Greenstein asymmetry of one particle's scattering
 
@@ -38,9 +39,13 @@ vec3 particle_radiance(vec3 p) {
 void main() {
     int s = int(gl_GlobalInvocationID.x);
     if (s >= u_streaks) return;
-    int tile = s / u_particles;
-    Particle particle = particles[u_first_particle + s - tile * u_particles];
-    vec3 head = particle.pos_diameter.xyz + tiles[u_first_tile + tile].xyz;
+    int level = 0;  // the streaks of level l start at u_levels[l].LEVEL_FIRST_STREAK, in order
+    while (level + 1 < u_level_count && s >= u_levels[level + 1].LEVEL_FIRST_STREAK) ++level;
+    ivec4 lv = u_levels[level];
+    int local = s - lv.LEVEL_FIRST_STREAK;
+    int tile = local / lv.LEVEL_PARTICLES;
+    Particle particle = particles[lv.LEVEL_FIRST_PARTICLE + local - tile * lv.LEVEL_PARTICLES];
+    vec3 head = particle.pos_diameter.xyz + tiles[lv.LEVEL_FIRST_TILE + tile].xyz;
     vec3 light = particle_radiance(head) * particle.streak_brightness.w;
-    radiance[u_first_streak + s] = vec4(pre_expose(apply_aerial_perspective(light, head)), 1.0);
+    radiance[s] = vec4(pre_expose(apply_aerial_perspective(light, head)), 1.0);
 }

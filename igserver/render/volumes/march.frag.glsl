@@ -29,27 +29,15 @@ uniform sampler3D u_volume_next;
 uniform float u_blend;
 #endif
 uniform sampler2D u_scene_distance;  // m along the view ray, 1e30 = sky
-uniform vec3 u_box_min;              // m, camera-relative AABB of the (bent) container
-uniform vec3 u_box_max;
-uniform vec3 u_base;                 // m, camera-relative base centre
-uniform vec3 u_extent;               // m: radius, radius, height
-uniform vec2 u_lean;                 // m, horizontal offset of the axis at the top (wind)
-uniform float u_step;                // m, longest march step (box diagonal / steps)
-uniform float u_voxel;               // m, the texture's voxel size
 uniform float u_pixel_angle;         // rad per pixel of the march's resolution
-uniform float u_sigma;               // 1/m, extinction at density 1
 uniform float u_jitter_offset;       // per-frame shift of the start jitter, in [0,1)
 uniform vec2 u_layer_range;          // cross-fade: drawn where the pixel's dither value is in [x, y) (volumes.py)
-#ifdef SMOKE
-uniform float u_hg_g;                // Henyey-Greenstein asymmetry
-uniform float u_albedo_scale;        // x the profile's albedo (sooty fire smoke)
-uniform vec3 u_glow_pos;             // camera-relative position of the fire's light
-uniform vec3 u_glow_intensity;       // cd per channel (0 when none)
-#else
-uniform vec3 u_emission;             // cd/m^2 of colour 1 (the effect's luminance)
-#endif
+// The volume's own constants (box, base, extent, lean, steps, extinction, albedo, emission, glow).
+#include "volumes/march_block.glsl"
 
 in vec3 v_rel;
+flat in vec3 v_box_min;  // m, camera-relative AABB of the slab drawn
+flat in vec3 v_box_max;
 layout(location = 0) out vec4 out_color;
 
 float interleaved_gradient_noise(vec2 p) {
@@ -89,7 +77,7 @@ void main() {
     vec3 dir = normalize(v_rel);
     // Slab test against the AABB.
     vec3 inv = 1.0 / dir;
-    vec3 ta = u_box_min * inv, tb = u_box_max * inv;
+    vec3 ta = v_box_min * inv, tb = v_box_max * inv;
     vec3 tmin = min(ta, tb), tmax = max(ta, tb);
     float t0 = max(max(max(tmin.x, tmin.y), tmin.z), 0.0);
     float t1 = min(min(tmax.x, tmax.y), tmax.z);

@@ -2,9 +2,10 @@
 
 Per visible volume (effects.visible_volumes: active or fading, non-zero size, in the frustum):
   1. modelling: a compute shader writes the effect's 3D texture (rgba16f, colour + density) from
-     its revolved profile and the turbulence; 2. rendering: the box's back faces are drawn into
-     the HDR colour with premultiplied blending; each fragment marches the texture (march.frag.glsl)
-     and stops at the copied scene distance.
+     its revolved profile and the turbulence; 2. rendering: the back faces of the container's slabs
+     are drawn into the HDR colour with premultiplied blending (one instanced draw a volume, its
+     constants one record of the march block: march.py MarchPlan, march_block.py); each fragment
+     marches the texture (march.frag.glsl) and stops at the copied scene distance.
 
 When the modelling stage runs: the texture depends on the effect's parameters and on the noise
 scroll tau (sim_time). It is re-modelled only when that state changed since the last frame, so
@@ -34,9 +35,9 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from ..bindings import use_texture
+from ..bindings import BLOCKS, use_texture, write_buffer
 from ...assets import AssetError, resolve_asset
-from ...effect_kinds import EFFECT_KINDS, FUELS
+from ...effect_kinds import EFFECT_KINDS
 from ...scene.model import Scene
 from .. import presets
 from ..camera import CameraView
@@ -44,30 +45,18 @@ from ..memo import Memo, view_key
 from ..passes import RenderPass
 from ..texture_pool import TexturePool
 from ..shaders import set_uniforms
-from .effects import NOISE_PERIOD, NOISE_SCALE, Volume, fade_level, plume_soot_extinction, visible_volumes
+from .effects import NOISE_PERIOD, NOISE_SCALE, Volume, fade_level, visible_volumes
+from . import march_block
 from .fire_lights import fire_light
-from .profiles import PLUME_VIRTUAL_ORIGIN, SMOKE_ALBEDO, load_profile
+from .march import MarchPlan, extinction, footprint_scale, scattering, texture_size
+from .profiles import load_profile
 
 MAX_SHADOW_TEXTURES = 3  # per smoke effect: the keyframes in flight (k, k + 1, k + 2) may differ in a fade
 MAX_PROFILE_TEXTURES = 32  # profile textures kept resident (LRU); each is small, their number is not
-FIRE_LUMINANCE = 2.0e4  # cd/m^2 of profile colour 1 at intensity 1 (a candle is ~1e4, large flames more)
-FIRE_SIGMA_D = 1.5  # extinction of a gas burner's density 1 times its diameter: a premixed flame, thin
-# A pool fire's soot absorbs (and emits) per metre of flame, a property of the fuel: k = 1.7-3.5 /m
-# for gasoline, kerosene and fuel oils (Babrauskas, SFPE Handbook, the k beta of the burning-rate
-# law). Across a base of diameter D the optical depth is k D: a 3 m fire's base is opaque (e^-6),
-# a 0.3 m one translucent (e^-0.6), and the intermittent tips, where the profile thins, let light
-# through (effect_kinds.FUELS: k beta per fuel; methanol's soot-free flame stays nearly clear).
-# (A fixed optical depth of 1.5 per diameter left every fire a translucent ghost.)
-SMOKE_SIGMA_D = 3.0
 PUFF_AMPLITUDE = 0.25  # a puffing flame's necks and bulges: its radius x (1 +- 0.25)
 EVICT_AFTER_FRAMES = 120
 SCALE_FADE_FRAMES = 8  # frames over which a changed march resolution cross-fades (~0.27 s at 30 Hz)
 MAX_STREAM_DT = 1.0  # s: frames further apart in sim_time are not one continuous view (no fade)
-
-
-def _scattering(vol: Volume) -> bool:
-    """The march shades the volume as a lit, scattering medium (SMOKE), not as emitted light."""
-    return EFFECT_KINDS[vol.kind].shading == "scattering"
 
 
 @dataclass(frozen=True)
@@ -108,27 +97,6 @@ def volumes_needed(scene: Scene, view: CameraView) -> bool:
     return bool(scene.effects) and bool(visible_volumes(scene, view))
 
 
-def texture_size(vol: Volume, view: CameraView, settings: VolumeSettings) -> tuple[int, int, int]:
-    """(x, y, z) voxels: the knob, lowered for containers that are small on screen."""
-    distance = max(float(np.linalg.norm(view.relative(vol.bounding_sphere[0]))) - vol.bounding_sphere[1], 1e-3)
-    pixels_per_m = view.projection[1, 1] * view.height / 2.0 / distance
-    # About one voxel per 1.5 px; for smoke, per 1.5 pixels of the preset's march (scale 2 at
-    # medium): neighbouring rays a march pixel apart skip finer voxels, which only alias. A far
-    # plume's texture then halves per axis (sea_harbour_fire's 32 x 32 x 50 at 111 m: 16 x 16 x 25,
-    # its modelling an eighth) and its low-passed error against a 64-voxel full-resolution march
-    # rises from 0.5-0.9 to 1.7-3.0 levels of 8 bits (the plume's pixels, EV 6, four sim times;
-    # by eye the same dark plume at 111 m), for half the pass's worker CPU.
-    # A flame keeps the full-resolution rule: its clipped silhouette and tips are its picture.
-    march_px = max(settings.scale, 1) if _scattering(vol) else 1
-    across = 2.0 * vol.radius * pixels_per_m / (1.5 * march_px)
-    res_xy = settings.resolution
-    if settings.lod:
-        res_xy = int(min(res_xy, max(settings.min_resolution, 2 ** round(math.log2(max(across, 1.0))))))
-    aspect = vol.height / max(2.0 * vol.radius, 1e-6)
-    res_z = int(min(max(round(res_xy * aspect), settings.min_resolution), 4 * res_xy))
-    return res_xy, res_xy, res_z
-
-
 # A soft part that moved this much since a keyframe was modelled is a jump (a host setting another time of
 # day, a fire resized), not the drift of a running clock (the sun moves 0.0004 deg per 0.1 s keyframe, a
 # fade a few per cent): the keyframe is modelled again now instead of showing the old state until sim_time
@@ -140,6 +108,8 @@ SOFT_JUMP_RELATIVE = 0.2
 def _soft_jump(old: tuple, new: tuple) -> bool:
     """Whether the soft state ``new`` (radius, height, opacity, level, sun direction or None) jumped from
     ``old``, the one a keyframe was modelled with."""
+    if old == new:
+        return False
     *old_sizes, old_sun = old
     *new_sizes, new_sun = new
     if (old_sun is None) != (new_sun is None):
@@ -158,79 +128,10 @@ def model_octaves(vol: Volume, size: tuple[int, int, int], settings: VolumeSetti
     either way, 0.1 less on average with the octave dropped, and a third less noise to model).
     Flames keep the knob's: the octaves' sum sets how far the tips reach (v = z + roughness Turb
     sqrt(z))."""
-    if not _scattering(vol):
+    if not scattering(vol):
         return settings.octaves
     halvings = max(round(math.log2(max(settings.resolution, 1) / max(size[0], 1))), 0)
     return max(settings.octaves - halvings, 1)
-
-
-MAX_MARCH_SCALE = 4  # the coarsest march (quarter resolution per axis)
-# A march pixel may be at most this many voxels wide at the far side of a container. Measured
-# (night_fire, medium knobs, 640x360, low-passed error in 8-bit levels against a 1024-step
-# full-resolution march of the same texture, half -> quarter resolution): camera in the plume
-# (3.4 px per far voxel) 0.07 -> 0.17; 4 m from the fire (2.8 px) 0.27 -> 0.96; 6 m (2.7 px)
-# 0.53 -> 1.78; 12 m (2.0 px) 1.41 -> 3.76. 1.25 takes quarter resolution only where it adds
-# ~0.1 level.
-MARCH_PIXEL_VOXELS = 1.25
-
-
-def footprint_scale(volumes: list[Volume], sizes: list[tuple[int, int, int]], view: CameraView) -> int:
-    """The coarsest march divisor (a power of two, at most MAX_MARCH_SCALE) whose march pixels are
-    at most MARCH_PIXEL_VOXELS voxels wide everywhere in every visible container: a finer march
-    only samples the same trilinear texture more densely. The voxel's angle is taken at the far
-    side of the container's bounding sphere and the pixel's at the frame's centre (where a pixel
-    spans the most angle), so every voxel spans at least that many pixels. With the camera in a
-    plume the march falls to quarter resolution (0.38x its cost); a fire 4 m away or more keeps
-    the preset's half resolution."""
-    _, _, bottom, top = view.tangents
-    rad_per_px = (top - bottom) / max(view.height, 1)
-    scale = MAX_MARCH_SCALE
-    for vol, size in zip(volumes, sizes):
-        voxel = min(2.0 * vol.radius / size[0], 2.0 * vol.radius / size[1], vol.height / size[2])
-        centre, radius = vol.bounding_sphere
-        far = float(np.linalg.norm(view.relative(centre))) + radius
-        pixels = voxel / max(far, 1e-6) / rad_per_px  # pixels per voxel, the fewest in the container
-        s = 1
-        while 2 * s <= MAX_MARCH_SCALE and 2 * s <= MARCH_PIXEL_VOXELS * pixels:
-            s *= 2
-        scale = min(scale, s)
-    return scale
-
-
-def screen_rect(volumes: list[Volume], view: CameraView, width: int, height: int, pad: int):
-    """(x, y, w, h) in pixels (GL's lower-left origin) covering every volume's box, padded; the
-    whole screen when a box reaches behind the near plane. The full-resolution passes of the
-    reduced march (downsample, upsample) run only there."""
-    x0, y0, x1, y1 = width, height, 0, 0
-    for vol in volumes:
-        lo, hi = (view.relative(c) for c in vol.box)
-        corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-        clip = corners @ view.view_proj.T
-        if (clip[:, 3] <= view.near).any():
-            return 0, 0, width, height
-        ndc = clip[:, :2] / clip[:, 3:4]
-        px = (ndc * 0.5 + 0.5) * np.array([width, height])
-        x0, y0 = min(x0, float(px[:, 0].min())), min(y0, float(px[:, 1].min()))
-        x1, y1 = max(x1, float(px[:, 0].max())), max(y1, float(px[:, 1].max()))
-    x0, y0 = max(int(math.floor(x0)) - pad, 0), max(int(math.floor(y0)) - pad, 0)
-    x1, y1 = min(int(math.ceil(x1)) + pad, width), min(int(math.ceil(y1)) + pad, height)
-    return x0, y0, max(x1 - x0, 0), max(y1 - y0, 0)
-
-
-def _extinction(vol: Volume, smoke: bool) -> float:
-    """1/m, the extinction of the volume's density 1: smoke per its plume's diameter, a pool
-    fire's flame per metre (its fuel's k beta), a gas burner per its diameter."""
-    if smoke and vol.key[1] == "smoke" and EFFECT_KINDS[vol.effect.type].plume is not None:
-        # A fire's plume: its soot from the heat release (effects.plume_soot_extinction), at the
-        # plume's base (its height above the pool, its half-density radius: smoke_profile).
-        e = vol.effect
-        base_radius = 0.8 * PLUME_VIRTUAL_ORIGIN / (1.0 + PLUME_VIRTUAL_ORIGIN) * vol.radius
-        return plume_soot_extinction(e, float(vol.base[2] - e.position[2]), base_radius)
-    if smoke:
-        return SMOKE_SIGMA_D / max(vol.effect.diameter, 1e-3)
-    if EFFECT_KINDS[vol.kind].container == "pool_fire":
-        return FUELS[vol.effect.fuel].k_beta
-    return FIRE_SIGMA_D / max(vol.effect.diameter, 1e-3)
 
 
 class _Model:
@@ -305,6 +206,9 @@ class VolumesPass(RenderPass):
         self._low_last = None
         self._scale_state: tuple[int | None, float | None] = (None, None)  # last march scale, its sim_time
         self._fade: tuple[int, int] | None = None  # (old scale, frames left) of a running cross-fade
+        self._model_inputs: dict = {}  # modelling program -> the model inputs (dict) last written to it
+        self._block = None  # the march plan's records (march_block.py), grown when a plan needs more
+        self._block_align = int(ctx.info.get("GL_UNIFORM_BUFFER_OFFSET_ALIGNMENT", 256) or 256)
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
         return volumes_needed(scene, view)
@@ -335,24 +239,24 @@ class VolumesPass(RenderPass):
             self._profiles.popitem(last=False)[1].release()
         return tex
 
-    def _static_state(self, vol: Volume, frame, settings: VolumeSettings, size) -> tuple[tuple, tuple]:
-        """Everything the texture depends on except the noise scroll, as (hard, soft): a change of
-        a hard part (texture size, octaves, the effect's parameters) re-models at once; the soft
-        part changes continuously while time runs (fade, the sun) and is picked up at the next
-        keyframe of a capped rate, blending in."""
-        sun = tuple(float(x) for x in frame.celestial.sun_dir) if _scattering(vol) else None
-        # the fuel and the heat release set the plume's soot and size: a host changing them changes the
-        # fire now, not at the next keyframe
-        hard = (size, settings.octaves, vol.seed, vol.kind, vol.profile, vol.effect.diameter,
-                vol.effect.intensity, vol.effect.active, vol.effect.fuel, vol.effect.heat_release_kw)
-        return hard, (vol.radius, vol.height, vol.opacity, vol.level, sun)
+    @staticmethod
+    def _static_state(plan: "MarchPlan", i: int, frame) -> tuple[tuple, tuple]:
+        """Everything volume ``i``'s texture depends on except the noise scroll, as (hard, soft): a
+        change of a hard part (texture size, octaves, the effect's parameters: MarchPlan) re-models
+        at once; the soft part changes continuously while time runs (fade, the sun) and is picked up
+        at the next keyframe of a capped rate, blending in."""
+        sun = tuple(float(x) for x in frame.celestial.sun_dir) if plan.smoke[i] else None
+        return plan.hard[i], (*plan.soft[i], sun)
 
-    def _models_for(self, vol: Volume, frame, settings: VolumeSettings) -> tuple[moderngl.Texture, moderngl.Texture, float]:
-        """(texture, next texture, blend weight of the next) for this frame, modelling what is missing."""
-        slot = self._slots.setdefault(vol.key, _Slot(self.pool))
+    def _models_for(self, plan: "MarchPlan", i: int, frame, settings: VolumeSettings) -> tuple[moderngl.Texture, moderngl.Texture, float]:
+        """(texture, next texture, blend weight of the next) of the plan's volume ``i`` for this
+        frame, modelling what is missing."""
+        vol, size = plan.volumes[i], plan.sizes[i]
+        slot = self._slots.get(vol.key)
+        if slot is None:
+            slot = self._slots[vol.key] = _Slot(self.pool)
         slot.last_frame = self._frame
-        size = texture_size(vol, frame.view, settings)
-        static = self._static_state(vol, frame, settings, size)
+        static = self._static_state(plan, i, frame)
         sim_time = frame.scene.time.sim_time
         if settings.model_hz <= 0.0:
             state = (static, vol.noise_offset(sim_time), vol.puff_phase(sim_time))
@@ -419,9 +323,9 @@ class VolumesPass(RenderPass):
             model = _Model(self.pool.take(size, 4, (moderngl.LINEAR, moderngl.LINEAR)), size, self.pool)
         else:
             model = reuse
-        smoke = _scattering(vol)
+        smoke = scattering(vol)
         sun = tuple(float(x) for x in frame.celestial.sun_dir) if smoke else None
-        sigma = _extinction(vol, smoke)
+        sigma = extinction(vol, smoke)
         model.done_z = 0
         model.smoke = smoke
         model.slot = self._slots[vol.key]
@@ -456,7 +360,10 @@ class VolumesPass(RenderPass):
         if z1 <= z0:
             return
         program = self.programs.compute("volumes/model.comp.glsl", {"SMOKE": 1} if model.smoke else None)
-        set_uniforms(program, {**model.uniforms, "u_z_first": z0, "u_shadows": 1})
+        if self._model_inputs.get(program) is not model.uniforms:  # (a new model's inputs are a new dict)
+            set_uniforms(program, {**model.uniforms, "u_shadows": 1})
+            self._model_inputs[program] = model.uniforms
+        set_uniforms(program, {"u_z_first": z0})
         use_texture(self._profile_texture(model.vol), 0)
         if model.smoke:
             use_texture(self._shadows(model), 1)
@@ -546,25 +453,42 @@ class VolumesPass(RenderPass):
         self.stats = {"modelled": 0, "drawn": 0, "voxels": 0}
         if frame.resources.get("eye_under_water"):  # the water pass put the eye below the surface: fire and
             return  # smoke are in the air, the water hides them (docs/water.md#under-water)
-        # The volumes follow the effects, their fade levels now, the wind that bends them and the view.
+        # The volumes follow the effects, their fade levels now, the wind that bends them and the view;
+        # the march's plan (texture sizes, boxes, constants) those and the knobs.
         t = scene.time.sim_time
         key = (tuple(scene.effects), tuple(fade_level(e, t) for e in scene.effects), scene.weather.wind_speed,
                scene.weather.wind_direction, view_key(view))
         volumes = self.memo.get("visible_volumes", key, lambda: visible_volumes(scene, view))
-        textures = [self._models_for(vol, frame, settings) for vol in volumes]
-        scale = max(int(settings.scale), 1)
-        if settings.lod:
-            scale = max(scale, footprint_scale(volumes, [t[0].size for t in textures], view))
+        plan = self.memo.get("march_plan", (key, settings), lambda: MarchPlan(volumes, scene, view, settings).pack(
+            scene, view, settings, self._block_align))
+        textures = [self._models_for(plan, i, frame, settings) for i in range(len(volumes))]
+        scale = max(max(int(settings.scale), 1), plan.lod_scale)
         self.stats["scale"] = scale
+        self._write_block(plan, scene)
         for scale, dither in self._layers(scale, scene.time.sim_time):
-            self._draw_layer(frame, targets, volumes, textures, settings, scale, dither)
+            self._draw_layer(frame, targets, plan, textures, settings, scale, dither)
         self._evict()
 
-    def _draw_layer(self, frame, targets, volumes, textures, settings: VolumeSettings, scale: int,
+    def _write_block(self, plan: "MarchPlan", scene: Scene) -> None:
+        """The plan's records with this frame's glow intensities (flicker), into the block's buffer."""
+        data = plan.records
+        if plan.glows:
+            data = bytearray(data)
+            for offset, effect in plan.glows:
+                light = fire_light(effect, scene)
+                if light is not None:
+                    data[offset:offset + 12] = np.asarray(light.color, np.float32).tobytes()
+            data = bytes(data)
+        if self._block is None or self._block.size < len(data):
+            if self._block is not None:
+                self._block.release()
+            self._block = self.ctx.buffer(reserve=max(len(data), plan.stride) * 2, dynamic=True)
+        write_buffer(self._block, data)
+
+    def _draw_layer(self, frame, targets, plan: "MarchPlan", textures, settings: VolumeSettings, scale: int,
                     dither: tuple[float, float]) -> None:
         """March at 1 / ``scale`` resolution and composite into the frame's pixels whose dither
         value is in ``dither`` (a cross-fade layer; [0, 1) otherwise)."""
-        view = frame.view
         distance = frame.resources["scene_distance"]
         if scale > 1:
             width, height = targets.size
@@ -572,7 +496,7 @@ class VolumesPass(RenderPass):
             low_color, low_distance, color_fbo, distance_fbo = self._low_targets(low_size)
             # Full-resolution work only where the boxes are (the upsample reads one low-res texel
             # around each pixel: the low-resolution rectangle is padded by two).
-            x, y, w, h = screen_rect(volumes, view, width, height, pad=2 * scale)
+            x, y, w, h = plan.screen_rect(frame.view, width, height, pad=2 * scale)
             low_rect = (x // scale, y // scale, -(-w // scale) + 2, -(-h // scale) + 2)
             self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
             distance_fbo.use()
@@ -584,17 +508,15 @@ class VolumesPass(RenderPass):
             distance_fbo.scissor = None
             color_fbo.use()
             color_fbo.clear(0.0, 0.0, 0.0, 0.0)
-            self._march(frame, volumes, textures, settings, low_distance, low_size[1], (0.0, 1.0))
+            self._march(frame, plan, textures, settings, low_distance, low_size[1], (0.0, 1.0))
             targets.color_fbo.use()
             targets.color_fbo.scissor = (x, y, w, h)
             self.ctx.enable(moderngl.BLEND)
             self.ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
             up = self.programs.program("common/fullscreen.vert.glsl", "volumes/upsample.frag.glsl",
                                        {"LAYER_FADE": 1} if tuple(dither) != (0.0, 1.0) else None)
-            far = max((float(np.linalg.norm(view.relative(v.bounding_sphere[0]))) + v.bounding_sphere[1]
-                       for v in volumes), default=1.0)
             set_uniforms(up, {"u_volume_color": 0, "u_volume_distance": 2, "u_scene_distance": 1, "u_scale": scale,
-                              "u_volumes_far": far, "u_layer_range": dither})
+                              "u_volumes_far": plan.far, "u_layer_range": dither})
             use_texture(low_color, 0)
             use_texture(distance, 1)
             use_texture(low_distance, 2)
@@ -603,13 +525,14 @@ class VolumesPass(RenderPass):
             self.ctx.disable(moderngl.BLEND)
         else:
             targets.color_fbo.use()
-            self._march(frame, volumes, textures, settings, distance, targets.size[1], dither)
+            self._march(frame, plan, textures, settings, distance, targets.size[1], dither)
 
-    def _march(self, frame, volumes, textures, settings: VolumeSettings, distance, march_height: int,
+    def _march(self, frame, plan: "MarchPlan", textures, settings: VolumeSettings, distance, march_height: int,
                dither: tuple[float, float]) -> None:
-        """Draw every volume's box into the bound framebuffer (premultiplied, far to near) at the
+        """Draw every volume's slabs into the bound framebuffer (premultiplied, far to near) at the
         pixels whose dither value is in ``dither``; ``march_height``: its height in pixels (for
-        the footprint of a pixel)."""
+        the footprint of a pixel). A volume is one instanced draw of its slabs, its constants its
+        record of the block (march_block.py)."""
         scene, view = frame.scene, frame.view
         self.ctx.disable(moderngl.DEPTH_TEST)
         self.ctx.enable(moderngl.BLEND | moderngl.CULL_FACE)
@@ -617,9 +540,7 @@ class VolumesPass(RenderPass):
         self.ctx.cull_face = "front"
         self.ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
         use_texture(distance, 1)
-        jitter_offset = (scene.host_frame * 0.6180339887) % 1.0  # golden-ratio sequence per frame
         _, _, bottom, top = view.tangents
-        pixel_angle = (math.atan(top) - math.atan(bottom)) / max(march_height, 1)  # rad per march pixel
         # The frame's aerial-perspective table when the surfaces filled it this frame: one lookup a
         # pixel instead of the atmosphere per pixel (a tenth of the close fire's march); else per pixel.
         table = frame.resources.get("aerial_table")
@@ -628,63 +549,38 @@ class VolumesPass(RenderPass):
             table.bind()
             aerial = table.uniforms()
         self.stats["aerial_table"] = aerial is not None
-        for vol, (tex, tex_next, blend) in zip(volumes, textures):
-            smoke = _scattering(vol)
-            defines = {"SMOKE": 1} if smoke else {}
-            if aerial is None:
-                defines["AERIAL_EXACT"] = 1
-            if settings.model_hz > 0.0:
-                defines["BLEND"] = 1
-            if tuple(dither) != (0.0, 1.0):
-                defines["LAYER_FADE"] = 1  # a cross-fade layer: the per-pixel dither and discard
-            program = self.programs.program("volumes/march.vert.glsl", "volumes/march.frag.glsl", defines or None)
-            set_uniforms(program, frame.uniforms)
-            set_uniforms(program, aerial or {})
-            lo, hi = vol.box
-            size = tex.size
-            # Steps: the knob's share of the diagonal at most, one voxel at least, in between the
-            # pixel footprint at the sample's distance (march.frag.glsl).
-            step = float(np.linalg.norm(hi - lo)) / settings.steps
-            voxel = min(2.0 * vol.radius / size[0], 2.0 * vol.radius / size[1], vol.height / size[2])
-            uniforms = {
-                "u_volume": 0, "u_volume_next": 2, "u_blend": blend, "u_scene_distance": 1,
-                "u_base": tuple(float(x) for x in view.relative(vol.base)),
-                "u_extent": (vol.radius, vol.radius, vol.height),
-                "u_lean": (float(vol.lean[0]), float(vol.lean[1])),
-                "u_step": max(step, 1e-4),
-                "u_voxel": max(min(voxel, step), 1e-4),
-                "u_pixel_angle": pixel_angle,
-                "u_sigma": _extinction(vol, smoke),
-                "u_jitter_offset": jitter_offset,
-                "u_layer_range": dither,
-            }
-            if smoke:
-                uniforms["u_hg_g"] = 0.6
-                # a plume is lit by its own effect's flame (a smoke effect casts no light: None)
-                glow = fire_light(vol.effect, scene)
-                uniforms["u_glow_pos"] = tuple(float(x) for x in view.relative(glow.position)) if glow else (0.0, 0.0, 0.0)
-                uniforms["u_glow_intensity"] = tuple(float(x) for x in glow.color) if glow else (0.0, 0.0, 0.0)
-                # sooty smoke of a fire vs. a light grey smoke generator: scale the profile's albedo
-                sooty = EFFECT_KINDS[vol.effect.type].plume is not None and vol.profile is None
-                uniforms["u_albedo_scale"] = FUELS[vol.effect.fuel].smoke_albedo / SMOKE_ALBEDO if sooty else 1.0
-            else:
-                lum = FIRE_LUMINANCE * math.sqrt(vol.intensity)
-                uniforms["u_emission"] = (lum, lum, lum)
-            set_uniforms(program, uniforms)
+        per_frame = {
+            "u_volume": 0, "u_volume_next": 2, "u_scene_distance": 1,
+            "u_pixel_angle": (math.atan(top) - math.atan(bottom)) / max(march_height, 1),  # rad per march pixel
+            "u_jitter_offset": (scene.host_frame * 0.6180339887) % 1.0,  # golden-ratio sequence per frame
+            "u_layer_range": dither,
+        }
+        programs = {}
+        for i, (tex, tex_next, blend) in enumerate(textures):
+            smoke = plan.smoke[i]
+            program = programs.get(smoke)
+            if program is None:
+                defines = {"SMOKE": 1} if smoke else {}
+                if aerial is None:
+                    defines["AERIAL_EXACT"] = 1
+                if settings.model_hz > 0.0:
+                    defines["BLEND"] = 1
+                if tuple(dither) != (0.0, 1.0):
+                    defines["LAYER_FADE"] = 1  # a cross-fade layer: the per-pixel dither and discard
+                program = programs[smoke] = self.programs.program("volumes/march.vert.glsl",
+                                                                  "volumes/march.frag.glsl", defines or None)
+                set_uniforms(program, frame.uniforms)
+                set_uniforms(program, {**aerial, **per_frame} if aerial else per_frame)
+            set_uniforms(program, {"u_blend": blend})
+            self._block.bind_to_uniform_block(BLOCKS["VOLUME"], offset=i * plan.stride, size=march_block.RECORD_BYTES)
             use_texture(tex, 0)
             use_texture(tex_next, 2)
-            # The container as slabs (Volume.slabs), each marching its own stretch of the ray: along
-            # a ray z is monotonic, so its slabs come in order of their height distance from the
-            # camera; drawn farthest first, the ONE, ONE_MINUS_SRC_ALPHA blend composes them as one
+            # The container as slabs (Volume.slabs), each marching its own stretch of the ray, drawn
+            # farthest first (MarchPlan): the ONE, ONE_MINUS_SRC_ALPHA blend composes them as one
             # front-to-back march would.
-            cam_z = float(view.position[2])
-            slabs = sorted(vol.slabs(), key=lambda b: -max(float(b[0][2]) - cam_z, cam_z - float(b[1][2]), 0.0))
-            for slab_lo, slab_hi in slabs:
-                set_uniforms(program, {"u_box_min": tuple(float(x) for x in view.relative(slab_lo)),
-                                       "u_box_max": tuple(float(x) for x in view.relative(slab_hi))})
-                self._vao(program).render(moderngl.TRIANGLES)
+            self._vao(program).render(moderngl.TRIANGLES, instances=plan.slab_counts[i])
             self.stats["drawn"] += 1
-            self.stats["slabs"] = self.stats.get("slabs", 0) + len(slabs)
+        self.stats["slabs"] = self.stats.get("slabs", 0) + sum(plan.slab_counts)
         self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
         self.ctx.cull_face = "back"
 
