@@ -147,6 +147,39 @@ def test_frame_block_layout_is_what_glsl_reads(renderer):
     program.release(), out.release(), block.release()  # the renderer binds its own block again next frame
 
 
+def test_the_block_packed_field_by_field_equals_a_whole_pack():
+    """FrameBlock packs only the fields whose value changed since its last frame: after any sequence
+    of changes (one field, several, a zero's sign, an array value, the same value again) its bytes
+    are those of a pack from nothing."""
+    rng = np.random.default_rng(9)
+
+    def value(f):
+        n = max(f.count, 1) * f.components
+        if f.glsl == "int":
+            return int(rng.integers(0, 64))
+        flat = rng.uniform(-10, 10, n).astype(np.float32)
+        if f.count or f.glsl == "mat4":
+            return flat.tobytes()
+        return float(flat[0]) if n == 1 else tuple(float(x) for x in flat)
+
+    values = {f.name: value(f) for f in frame_block.FIELDS}
+    packer = frame_block.Packer()
+    scalars = [f.name for f in frame_block.FIELDS if f.glsl == "float" and not f.count]
+    vectors = [f.name for f in frame_block.FIELDS if f.glsl.startswith("vec") and not f.count]
+    for step in range(40):
+        for f in rng.choice(frame_block.FIELDS, size=int(rng.integers(0, 4)), replace=False):
+            values[f.name] = value(f)
+        if step % 5 == 1:  # 0.0 -> -0.0: equal as numbers, other bits
+            name = scalars[0]
+            values[name] = 0.0 if step % 10 == 1 else -0.0
+            vec = vectors[0]
+            values[vec] = (0.0, 1.0, 2.0) if step % 10 == 1 else (-0.0, 1.0, 2.0)
+        if step % 7 == 3:  # an array value, as numpy
+            name = vectors[step % len(vectors)]
+            values[name] = rng.uniform(-1, 1, next(f.components for f in frame_block.FIELDS if f.name == name))
+        assert packer.pack(values) == frame_block.pack(values), step
+
+
 def test_unchanged_uniforms_and_bindings_are_not_written_again(renderer):
     ctx = renderer.ctx
     programs = ProgramCache(ctx)

@@ -25,8 +25,10 @@ CHANGES = [
 
 def _clear_caches():
     frame_sky._sky_light_cache.clear()
+    frame_sky.SKY_PARTS.clear()
     frame_mod._view_sky_cache.clear()
     frame_mod._celestial_state.cache_clear()
+    frame_mod.SETUP.clear()
 
 
 def _snapshot(renderer, scene):
@@ -56,3 +58,52 @@ def test_memoised_setup_equals_cold(renderer, change):
     # The change really is visible to the setup (else the case tests nothing).
     _clear_caches()
     assert _snapshot(renderer, base)[0] != _snapshot(renderer, changed)[0]
+
+
+def _setup_counts() -> dict:
+    out = {f"setup.{k}": v for k, v in frame_mod.SETUP.computed.items()}
+    out.update({f"sky.{k}": v for k, v in frame_sky.SKY_PARTS.computed.items()})
+    return out
+
+
+def _demo_stream(renderer, scene, frames, t0):
+    for i in range(frames):
+        renderer.render(apply_patch(scene, {"time": {"sim_time": t0 + i / 30.0}}))
+
+
+def _demo():
+    from igserver.scene import load_scene
+    return apply_patch(load_scene("demo"), {"camera": {"width": 64, "height": 36}})
+
+
+def test_a_stream_that_only_advances_sim_time_rederives_no_setup_item(renderer):
+    # The demo's fire flickers and its cirrus drifts with sim_time: those are per frame; the view,
+    # sun and moon, fog layer, sky light and uniforms are not.
+    scene = _demo()
+    _demo_stream(renderer, scene, 3, scene.time.sim_time)
+    before = _setup_counts()
+    assert {"setup.view", "setup.celestial", "setup.light_uniforms", "sky.sky", "sky.haze"} <= set(before)
+    _demo_stream(renderer, scene, 6, scene.time.sim_time + 1.0)
+    assert _setup_counts() == before
+
+
+@pytest.mark.parametrize("patch, items", [
+    ({"camera": {"heading": 291.0}}, {"setup.view"}),
+    ({"camera": {"position": [0.0, -120.0, 30.0]}}, {"setup.view", "sky.sky"}),
+    ({"time": {"sun_override": {"elevation": 4.0, "azimuth": 280.0}}},
+     {"setup.celestial", "setup.light_uniforms", "sky.sky"}),
+    ({"atmosphere": {"visibility": 5000.0}}, {"sky.haze", "sky.sky"}),
+    ({"weather": {"cirrus_coverage": 0.6}}, {"sky.sky"}),
+])
+def test_each_setup_input_recomputes_its_items_and_nothing_else(renderer, patch, items):
+    scene = _demo()
+    _demo_stream(renderer, scene, 2, scene.time.sim_time)
+    before = _setup_counts()
+    changed = apply_patch(scene, patch)
+    renderer.render(apply_patch(changed, {"time": {"sim_time": scene.time.sim_time + 2.0}}))
+    after = _setup_counts()
+    grew = {k for k in after if after[k] != before.get(k)}
+    assert items <= grew, (patch, grew)
+    assert not grew & {"setup.view"} or "camera" in patch, grew  # only the camera makes a new view
+    renderer.render(apply_patch(changed, {"time": {"sim_time": scene.time.sim_time + 2.5}}))
+    assert _setup_counts() == after

@@ -225,3 +225,26 @@ def test_rain_glows_with_half_its_extinction(renderer):
     assert uniforms["u_halo_count"] >= 1
     assert uniforms["u_halo_beta"] == pytest.approx(beta_wet - 0.5 * rain, rel=1e-5)
     assert halo_uniforms(frame_dry)["u_halo_beta"] == pytest.approx(beta_dry, rel=1e-6)
+
+
+def test_radius_kept_per_light_and_fog_follows_intensity_and_threshold_exactly():
+    # halo_radius keeps the bound's profile per (distance, fog, pixel angle); the flickering
+    # intensity and the exposure's threshold still decide the radius every call, exactly as the
+    # profile computed afresh does.
+    d, beta, omega, g, pixel = 60.0, 8e-4, 0.93, 0.78, 1e-3
+    angles = np.maximum(halos._ANGLES, 0.5 * pixel)
+    hh = np.maximum(d * np.sin(angles), 0.05)
+    bound = halos.halo_bound(angles, d, beta, g)
+    radii = set()
+    for intensity in np.geomspace(10.0, 1e6, 25):
+        for threshold in (1e-3, 0.05, 2.0):
+            radiance = omega * beta * intensity / hh * bound
+            above = np.nonzero(radiance >= threshold)[0]
+            expected = 0.0 if len(above) == 0 else float(halos._ANGLES[min(above[-1] + 1, len(halos._ANGLES) - 1)])
+            got = halos.halo_radius(d, beta, omega, g, float(intensity), threshold, pixel)
+            assert got == expected
+            radii.add(got)
+    assert len(radii) > 5  # the intensity and threshold really move it
+    # another distance or fog is another profile
+    assert any(halos.halo_radius(d * 3, beta, omega, g, 1e5, t, pixel) != halos.halo_radius(d, beta, omega, g, 1e5, t, pixel)
+               for t in np.geomspace(1e-3, 1e2, 11))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import moderngl
 import numpy as np
@@ -16,6 +16,7 @@ from .camera import CameraView, gl_matrix, make_view
 from .depth import zero_to_one
 from .frame_block import MAX_LIGHTS, FrameBlock
 from .lights import PointLight, gather_lights, light_uniforms
+from .memo import Memo
 from .post.exposure import (GROUND_REFLECTANCE, EyeAdaptation, display_metered_ev100, exposure_of_ev100,
                             frustum_directions)
 from .sky.daylight import SUN_ANGULAR_RADIUS, Daylight
@@ -35,13 +36,18 @@ class SunMoon:
     moon_azimuth: float
     moon_phase: float
 
-    @property
+    @cached_property
     def sun_dir(self) -> np.ndarray:
-        return np.array(direction_enu(self.sun_elevation, self.sun_azimuth))
+        return _read_only(np.array(direction_enu(self.sun_elevation, self.sun_azimuth)))
 
-    @property
+    @cached_property
     def moon_dir(self) -> np.ndarray:
-        return np.array(direction_enu(self.moon_elevation, self.moon_azimuth))
+        return _read_only(np.array(direction_enu(self.moon_elevation, self.moon_azimuth)))
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a.flags.writeable = False
+    return a
 
 
 # The ephemeris per (utc, place): sim_time does not move the sky, so a stream asks for the same
@@ -50,7 +56,14 @@ _celestial_state = lru_cache(maxsize=64)(celestial_state)
 
 
 def sun_and_moon(scene: Scene) -> SunMoon:
-    """From the ephemeris, or the instructor's fixed sun (the moon stays on the ephemeris)."""
+    """From the ephemeris, or the instructor's fixed sun (the moon stays on the ephemeris); one
+    object while its inputs stay the same (its directions computed once)."""
+    loc = scene.location
+    key = (scene.time.utc, loc.lat, loc.lon, loc.altitude, scene.time.sun_override)
+    return SETUP.get("celestial", key, lambda: _sun_and_moon(scene))
+
+
+def _sun_and_moon(scene: Scene) -> SunMoon:
     loc = scene.location
     state = _celestial_state(scene.time.utc, loc.lat, loc.lon, loc.altitude)
     sun_el, sun_az = state.sun_elevation, state.sun_azimuth
@@ -174,10 +187,26 @@ def _view_sky_samples(sky: SkyFrame, scene: Scene, view, celestial, haze_height_
     return out
 
 
+# What the frame setup derives from the world and keeps until its inputs change (memo.py): the
+# camera's view, the uniforms of the view and of the sky's light.
+SETUP = Memo()
+
+
+def frame_view(camera, zero_to_one_depth: bool) -> tuple[CameraView, dict]:
+    """make_view and the view's uniforms, kept while the camera record and the depth range are the
+    same (a still camera: one view object, its cull planes computed once). Its arrays are read-only."""
+    def compute():
+        view = make_view(camera, zero_to_one_depth)
+        for a in (view.position, view.rotation, view.view, view.projection):
+            a.flags.writeable = False
+        return view, _view_uniforms(view, camera)
+    return SETUP.get("view", (camera, zero_to_one_depth), compute)
+
+
 def build_frame(ctx: moderngl.Context, scene: Scene, state: FrameState | None = None) -> FrameContext:
     """Per-frame data. ``state`` (the renderer's) eases fog changes and adapts the exposure over
     sim_time; without it the frame shows the steady state of its scene."""
-    view = make_view(scene.camera, zero_to_one(ctx))
+    view, view_uniforms = frame_view(scene.camera, zero_to_one(ctx))
     celestial = sun_and_moon(scene)
     altitude = scene.location.altitude + float(view.position[2])
     # Sky: resident atmosphere tables (units 12..15), fog layer, sky-view table (9..11), light.
@@ -196,7 +225,7 @@ def build_frame(ctx: moderngl.Context, scene: Scene, state: FrameState | None = 
     frame.resources["haze"] = sky.haze
     frame.resources["frame_state"] = state
     frame.resources["meter_samples"] = samples  # channels meter the union of their views (render/multiview.py)
-    frame.uniforms = common_uniforms(frame)
+    frame.uniforms = common_uniforms(frame, view_uniforms)
     frame.uniforms.update(sky.uniforms)
     frame.defines = light_defines(celestial, lights)
     FrameBlock.get(ctx).update(frame.uniforms)
@@ -258,8 +287,21 @@ def _vec3(v) -> tuple[float, float, float]:
     return tuple(float(x) for x in v)
 
 
-def common_uniforms(frame: FrameContext) -> dict:
-    view, light, scene = frame.view, frame.light, frame.scene
+def common_uniforms(frame: FrameContext, view_uniforms: dict | None = None) -> dict:
+    """The frame's uniforms but the sky's; ``view_uniforms``: the view's part, when already made."""
+    view, light = frame.view, frame.light
+    light_key = (tuple(v.tobytes() if isinstance(v, np.ndarray) else v for v in vars(light).values()), frame.celestial)
+    return {
+        **(view_uniforms if view_uniforms is not None else _view_uniforms(view, frame.scene.camera)),
+        **SETUP.get("light_uniforms", light_key, lambda: _light_uniforms(light, frame.celestial)),
+        "u_camera_altitude": frame.camera_altitude,
+        "u_exposure": frame.exposure,
+        "u_adaptation_luminance": float(frame.meter_luminance),
+        **light_uniforms(frame.lights, view, MAX_LIGHTS),
+    }
+
+
+def _view_uniforms(view: CameraView, camera) -> dict:
     return {
         "u_view_proj": gl_matrix(view.view_proj),
         "u_inv_view_proj": gl_matrix(np.linalg.inv(view.view_proj)),  # float64 inverse, finite depths
@@ -268,13 +310,17 @@ def common_uniforms(frame: FrameContext) -> dict:
         "u_camera_forward": _vec3(view.rotation[:, 1]),
         "u_frustum_tangents": tuple(float(t) for t in view.tangents),
         "u_resolution": (float(view.width), float(view.height)),
-        "u_camera_altitude": frame.camera_altitude,
-        "u_exposure": frame.exposure,
-        "u_sun_dir": _vec3(frame.celestial.sun_dir),
+        "u_view_pixel_angle": pixel_angle(camera),
+    }
+
+
+def _light_uniforms(light: Daylight, celestial: SunMoon) -> dict:
+    return {
+        "u_sun_dir": _vec3(celestial.sun_dir),
         "u_sun_illuminance": _vec3(light.sun_illuminance),
-        "u_moon_dir": _vec3(frame.celestial.moon_dir),
+        "u_moon_dir": _vec3(celestial.moon_dir),
         "u_moon_illuminance": _vec3(light.moon_illuminance),
-        "u_moon_phase": frame.celestial.moon_phase,
+        "u_moon_phase": celestial.moon_phase,
         "u_sky_ambient": _vec3(light.sky_ambient),
         "u_sky_zenith": _vec3(light.zenith),
         "u_sky_horizon": _vec3(light.horizon),
@@ -282,10 +328,7 @@ def common_uniforms(frame: FrameContext) -> dict:
         "u_halo_color": _vec3(light.halo),
         "u_halo_exponent": light.halo_exponent,
         "u_sun_disk_cos": math.cos(SUN_ANGULAR_RADIUS),
-        "u_view_pixel_angle": pixel_angle(scene.camera),
         "u_sun_disk_luminance": _vec3(light.sun_disk_luminance),
-        "u_adaptation_luminance": float(frame.meter_luminance),
         "u_fog_color": _vec3(light.horizon),
         "u_fog_scale_height": 1200.0,
-        **light_uniforms(frame.lights, view, MAX_LIGHTS),
     }

@@ -19,6 +19,7 @@ array element is aligned to and padded to 16 bytes.
 
 from __future__ import annotations
 
+import math
 import weakref
 from dataclasses import dataclass
 
@@ -110,21 +111,55 @@ def glsl() -> str:
 def pack(values: dict) -> bytes:
     """The block's bytes from the frame's uniform values (tuples, numbers, or the float32 bytes the
     plain uniforms take: matrices column-major, arrays tightly packed)."""
-    out = np.zeros(SIZE // 4, np.float32)
-    ints = out.view(np.int32)
-    for f in FIELDS:
-        value = values[f.name]
-        at = OFFSETS[f.name] // 4
-        if f.glsl == "int":
-            ints[at] = int(value)
-            continue
-        data = np.frombuffer(value, np.float32) if isinstance(value, bytes) else np.asarray(value, np.float32).ravel()
-        if f.count and f.components < 4:  # array elements padded to 16 bytes
-            padded = out[at: at + 4 * f.count].reshape(f.count, 4)
-            padded[:, : f.components] = data.reshape(f.count, f.components)
-        else:
-            out[at: at + data.size] = data
-    return out.tobytes()
+    return Packer().pack(values)
+
+
+class Packer:
+    """pack() that keeps the last bytes and the value of each field they hold: a frame writes only
+    the fields whose value changed (the lights' colours and the exposure in a stream), the rest of
+    the block is the last frame's bytes."""
+
+    def __init__(self):
+        self._out = np.zeros(SIZE // 4, np.float32)
+        self._held: dict[str, object] = {}
+
+    def pack(self, values: dict) -> bytes:
+        out, held = self._out, self._held
+        ints = out.view(np.int32)
+        for f in FIELDS:
+            value = values[f.name]
+            last = held.get(f.name, _UNSET)
+            if last is value or _same(last, value):
+                continue
+            at = OFFSETS[f.name] // 4
+            if f.glsl == "int":
+                ints[at] = int(value)
+            else:
+                data = (np.frombuffer(value, np.float32) if isinstance(value, bytes)
+                        else np.asarray(value, np.float32).ravel())
+                if f.count and f.components < 4:  # array elements padded to 16 bytes
+                    padded = out[at: at + 4 * f.count].reshape(f.count, 4)
+                    padded[:, : f.components] = data.reshape(f.count, f.components)
+                else:
+                    out[at: at + data.size] = data
+            held[f.name] = value.copy() if isinstance(value, np.ndarray) else value
+        return out.tobytes()
+
+
+_UNSET = object()
+
+
+def _same(a, b) -> bool:
+    """Whether the value ``b`` packs to the bytes ``a`` did: equal numbers (bytes, tuples) of the
+    same type, a zero of the same sign (0.0 == -0.0, and a shader may tell them apart). Arrays are
+    never the same (they are packed anew)."""
+    if type(a) is not type(b) or isinstance(b, np.ndarray) or not a == b:
+        return False
+    if isinstance(b, float):
+        return b != 0.0 or math.copysign(1.0, a) == math.copysign(1.0, b)
+    if isinstance(b, tuple) and 0.0 in b:
+        return all(_same(x, y) for x, y in zip(a, b))
+    return True
 
 
 class FrameBlock:
@@ -138,6 +173,7 @@ class FrameBlock:
         self.size = tuple(size)
         self.buffer = ctx.buffer(reserve=SIZE, dynamic=True)
         self.writes = 0
+        self._packer = Packer()
 
     @classmethod
     def get(cls, ctx) -> "FrameBlock":
@@ -147,7 +183,7 @@ class FrameBlock:
         self.buffer.release()
 
     def update(self, values: dict) -> None:
-        if write_buffer(self.buffer, pack(values)):
+        if write_buffer(self.buffer, self._packer.pack(values)):
             self.writes += 1
         # Bound every frame (one call): a binding point is context state that other code on the
         # context (a probe, a test) may have used since.

@@ -184,13 +184,24 @@ def halo_radius(d: float, beta: float, omega: float, g: float, intensity: float,
     nodes); 0 when it nowhere does, pi when the whole sphere may show the halo. Nearer the light
     than half a ``pixel_angle`` (rad) the halo is the light's own pixel: the bound is taken there
     (about half the halo's mean over that pixel: its 1 / angle core averages to twice the rim's)."""
-    angles = np.maximum(_ANGLES, 0.5 * pixel_angle)
-    h = np.maximum(d * np.sin(angles), 0.05)
-    radiance = omega * beta * intensity / h * halo_bound(angles, d, beta, g)
+    h, bound = _halo_profile(d, beta, g, pixel_angle)
+    radiance = omega * beta * intensity / h * bound
     above = np.nonzero(radiance >= threshold)[0]
     if len(above) == 0:
         return 0.0
     return float(_ANGLES[min(above[-1] + 1, len(_ANGLES) - 1)])
+
+
+@lru_cache(maxsize=64)
+def _halo_profile(d: float, beta: float, g: float, pixel_angle: float) -> tuple[np.ndarray, np.ndarray]:
+    """halo_radius's distances h (m) of the view rays from the light and halo_bound at _ANGLES:
+    what does not depend on the light's intensity (which flickers) or the exposure, kept per exact
+    (d, beta, g, pixel_angle) while the camera, the light and the fog stay put."""
+    angles = np.maximum(_ANGLES, 0.5 * pixel_angle)
+    h = np.maximum(d * np.sin(angles), 0.05)
+    bound = halo_bound(angles, d, beta, g)
+    h.flags.writeable = bound.flags.writeable = False
+    return h, bound
 
 
 _NODES: dict[int, tuple[np.ndarray, np.ndarray]] = {}

@@ -19,6 +19,7 @@ import numpy as np
 from ...weather import precipitation_extinction
 from ..bindings import PASS_UNITS, use_texture
 from ..camera import cone_on_screen
+from ..memo import view_key
 from ..passes import RenderPass
 from ..shaders import set_uniforms
 from .exposure import display_metered_ev100, displayed, exposure_of_ev100
@@ -77,7 +78,7 @@ def halo_uniforms(frame, exposure_correction: float = 1.0) -> dict:
         d = max(float(np.linalg.norm(rel)), 1e-3)
         radius = halo_radius(d, beta, float(haze.omega), float(haze.g), float(np.max(light.color)), threshold,
                              pixel_angle)
-        if radius > 0.0 and cone_on_screen(view, rel / d, radius):
+        if radius > 0.0 and _cone_on_screen(view, rel, d, radius):
             lights.append(light)
             if len(lights) == MAX_HALOS:
                 break
@@ -91,6 +92,21 @@ def halo_uniforms(frame, exposure_correction: float = 1.0) -> dict:
     return {"u_halo_count": len(lights), "u_halo_pos": pos.tobytes(), "u_halo_intensity": col.tobytes(),
             "u_halo_beta": beta, "u_halo_omega": float(haze.omega), "u_halo_g": float(haze.g), "u_halo_far": 20.0 / beta,
             **table_uniforms()}
+
+
+_cones: dict = {}
+
+
+def _cone_on_screen(view, rel: np.ndarray, d: float, radius: float) -> bool:
+    """cone_on_screen of a light's halo (``rel``: camera-relative position, ``d`` its length), kept
+    per exact view, position and radius: a still camera and still lights test it once."""
+    key = (view_key(view), rel.tobytes(), radius)
+    hit = _cones.get(key)
+    if hit is None:
+        if len(_cones) > 64:
+            _cones.clear()
+        hit = _cones[key] = cone_on_screen(view, rel / d, radius)
+    return hit
 
 
 def rod_fraction(adaptation_luminance: float) -> float:

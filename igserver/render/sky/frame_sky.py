@@ -17,6 +17,7 @@ from ...astro.ephemeris import direction_enu, refraction_deg
 from ...scene.model import Scene
 from ...weather import effective_visibility, wind_heading
 from ..bindings import FRAME_UNITS, use_texture
+from ..memo import Memo
 from .atmosphere_model import (KOSCHMIEDER, PRESETS, SOLAR_ILLUMINANCE, AtmosphereParameters, atmosphere_parameters,
                                ground_extinction_550_per_m, turbidity_class)
 from .daylight import Daylight, daylight
@@ -164,23 +165,59 @@ def fog_relief_uniforms(haze: HazeLayer | None, height_m: float, camera_xy_m, su
     return (float(pos[0]), float(pos[1]), float(height_m - haze.top), amplitude)
 
 
+# The part of sky_frame that follows the world (everything but the cirrus layer's drift with
+# sim_time and the GL bindings), per exact inputs (Memo: the last value per view).
+SKY_PARTS = Memo()
+
+
 def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
               camera_xy_m: np.ndarray, transition: HazeTransition | None = None) -> SkyFrame:
     atm = scene.atmosphere
-    tables = None
-    sky_view = None
-    uniforms: dict = {}
-    ground_m = scene.location.altitude
-    moon_toa_lux = moon_illuminance_toa(celestial.moon_phase)
-    moon_toa = moon_toa_lux * SOLAR_ILLUMINANCE / float(np.dot(LUMA, SOLAR_ILLUMINANCE))
+    tables = params = haze = None
     if atm.model == "precomputed":
         params = scene_atmosphere(scene)
         tables = AtmosphereTables.get(ctx, params)
         tables.bind()
-        haze = scene_haze(scene, params)
+        # scene_haze's inputs: visibility (with the precipitation's), turbidity, fog top, the
+        # atmosphere's parameters (from the atmosphere record), the ground's albedo
+        haze = SKY_PARTS.get("haze", (atm, scene.weather.precipitation, scene.ground, scene.ocean.enabled),
+                             lambda: scene_haze(scene, params))
         if transition is not None:
             beta = transition.apply(haze.beta, atm.visibility_transition, scene.time.sim_time)
             haze = replace(haze, beta=beta)
+    xy = (float(camera_xy_m[0]), float(camera_xy_m[1]))
+    # Everything _sky_parts reads: the tables, the fog layer, the atmosphere and weather records
+    # (visibility, turbidity, cirrus), the ground's altitude, sun and moon, the camera's position.
+    key = (None if tables is None else (id(tables), tables.key), None if haze is None else haze.key, atm,
+           scene.weather, scene.location.altitude, celestial, altitude_m, xy)
+    light, horizontal, static, table, table_key, sky_sun = SKY_PARTS.get(
+        "sky", key, lambda: _sky_parts(scene, celestial, altitude_m, xy, tables, params, haze))
+    uniforms = dict(static)
+    uniforms["u_cirrus_offset"] = cirrus_offset_units(scene, camera_xy_m)
+    if table is not None:
+        use_texture(haze_table_texture(ctx, table, table_key), HAZE_TABLE_UNIT)
+    sky_view = None
+    if tables is not None:
+        sky_view = SkyView.get(ctx)
+        # The clear sky is scattered light: its sun stands where the scattering air sees it.
+        sky_view.update(tables, {**uniforms, "u_camera_altitude": altitude_m,
+                                 "u_sun_dir": sky_sun, "u_moon_dir": _t(celestial.moon_dir)},
+                        altitude_m, sky_sun, celestial.moon_dir, uniforms["u_moon_scale"])
+        sky_view.bind()
+        uniforms.update(sky_view.uniforms())
+    return SkyFrame(light, uniforms, tables, sky_view, haze, horizontal)
+
+
+def _sky_parts(scene: Scene, celestial, altitude_m: float, camera_xy_m: tuple, tables, params, haze) -> tuple:
+    """(light, horizontal illuminance, the sky's uniforms but the cirrus offset and the sky-view
+    units, the fog layer's light table and its key or None, the sky's sun direction)."""
+    atm = scene.atmosphere
+    uniforms: dict = {}
+    table = key = None
+    ground_m = scene.location.altitude
+    moon_toa_lux = moon_illuminance_toa(celestial.moon_phase)
+    moon_toa = moon_toa_lux * SOLAR_ILLUMINANCE / float(np.dot(LUMA, SOLAR_ILLUMINANCE))
+    if tables is not None:
         # Everything below depends only on these inputs (exact values: a hit is the same result);
         # in a stream with a fixed UTC and steady fog they repeat every frame.
         key = (tables.key, atm.turbidity, altitude_m, ground_m, celestial.sun_elevation, celestial.moon_elevation,
@@ -207,15 +244,12 @@ def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
             hit = _sky_light_cache[key] = (light, horizontal, part, table)
         light, horizontal, part, table = hit
         uniforms.update(part)
-        if table is not None:
-            use_texture(haze_table_texture(ctx, table, key), HAZE_TABLE_UNIT)
         uniforms["u_haze_table"] = HAZE_TABLE_UNIT
         uniforms["u_sky_model"] = 1
         uniforms["u_fog_beta"] = float(haze.beta[1])
     else:
         light = daylight(celestial.sun_elevation, altitude_m, atm.turbidity,
                          celestial.moon_elevation, celestial.moon_phase)
-        haze = None
         horizontal = float(np.dot(LUMA, light.sun_illuminance)) * max(
             math.sin(math.radians(celestial.sun_elevation)), 0.0) + float(
             np.dot(LUMA, light.sky_ambient)) * math.pi
@@ -229,7 +263,6 @@ def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
     # pass multiplies by the view transmittance.
     moon_lux = moon_toa / max(celestial.moon_phase, 1e-3)
     uniforms["u_fog_relief"] = fog_relief_uniforms(haze, altitude_m - ground_m, camera_xy_m, celestial.sun_elevation)
-    off_x, off_y = cirrus_offset_units(scene, camera_xy_m)
     sun_h = sun_horizontal(celestial.sun_dir)
     bottom = uniforms.get("u_bottom_radius_km", AtmosphereParameters.bottom_radius_km)
     moon_up = celestial.moon_elevation > -10.0 and celestial.moon_phase > 0.0
@@ -241,22 +274,13 @@ def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
         "u_moon_disk_luminance": _t(moon_lux / MOON_SOLID_ANGLE),
         "u_cirrus_coverage": float(scene.weather.cirrus_coverage),
         "u_cirrus_altitude_km": scene.weather.cirrus_altitude / 1000.0,
-        "u_cirrus_offset": (off_x, off_y),
         "u_cirrus_feature_km": CIRRUS_FEATURE_KM,
         "u_cirrus_period": CIRRUS_PERIOD_UNITS,
         "u_sky_view_sun_h": sun_h,
         "u_horizon_elevation": horizon_elevation(altitude_m, bottom),
     })
-    if tables is not None:
-        sky_view = SkyView.get(ctx)
-        # The clear sky is scattered light: its sun stands where the scattering air sees it.
-        sky_sun = direction_enu(sky_sun_elevation(celestial.sun_elevation), celestial.sun_azimuth)
-        sky_view.update(tables, {**uniforms, "u_camera_altitude": altitude_m,
-                                 "u_sun_dir": _t(sky_sun), "u_moon_dir": _t(celestial.moon_dir)},
-                        altitude_m, sky_sun, celestial.moon_dir, uniforms["u_moon_scale"])
-        sky_view.bind()
-        uniforms.update(sky_view.uniforms())
-    return SkyFrame(light, uniforms, tables, sky_view, haze, horizontal)
+    sky_sun = _t(direction_enu(sky_sun_elevation(celestial.sun_elevation), celestial.sun_azimuth))
+    return light, horizontal, uniforms, table, key, sky_sun
 
 
 HAZE_TABLE_UNIT = FRAME_UNITS["HAZE_TABLE"]

@@ -54,6 +54,7 @@ class SkyView:
             tex.repeat_x = tex.repeat_y = False
             self.textures[name] = tex
         self._key = None
+        self._exact_key = None  # the exact inputs of the last update (a repeat returns at once)
         self.radiance_host: np.ndarray | None = None  # (H, W, 3) cd/m^2, for the exposure meter
         self.fills = 0
 
@@ -63,10 +64,15 @@ class SkyView:
 
     def update(self, tables: AtmosphereTables, uniforms: dict, altitude_m: float, sun_dir, moon_dir,
                moon_scale) -> None:
+        # The rounded key below is a function of these exact inputs: equal inputs, the same table.
+        exact = (tables, tables.key, tuple(sun_dir), tuple(moon_dir), tuple(moon_scale), altitude_m)
+        if exact == self._exact_key:
+            return
         key = (id(tables), tables.key, tuple(np.round(np.asarray(sun_dir), 5)), tuple(np.round(np.asarray(moon_dir), 5)),
                tuple(np.round(np.asarray(moon_scale) * 1e12, 3)), round(altitude_m, 1) if altitude_m < 500 else
                float(f"{altitude_m:.3g}"))
         if key == self._key:
+            self._exact_key = exact
             return
         prog = self.programs.compute("sky/sky_view.glsl")
         set_uniforms(prog, uniforms)
@@ -78,6 +84,7 @@ class SkyView:
         data = np.frombuffer(self.textures["u_sky_view_radiance"].read(), dtype=np.float32)
         self.radiance_host = data.reshape(self.size[1], self.size[0], 4)[..., :3].astype(np.float64)
         self._key = key
+        self._exact_key = exact
         self.fills += 1
 
     def bind(self) -> None:

@@ -75,6 +75,8 @@ class GpuMaterial:
         self.occlusion = textures.from_image(mat.occlusion_image, False, textures.white)
         self.emissive = textures.from_image(mat.emissive_image, True, textures.white_srgb)
         self.has_normal = mat.normal_image is not None
+        # the textures bound for this material (draws that share them are drawn one after another)
+        self.texture_set = tuple(id(t) for t in (self.base, self.mr, self.normal, self.occlusion, self.emissive))
         self.uniforms = {
             "u_base_factor": tuple(mat.base_factor),
             "u_metallic_factor": mat.metallic,

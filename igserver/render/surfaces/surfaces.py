@@ -275,10 +275,31 @@ class SurfacesPass(RenderPass):
     def _draw_batches(self, program, batches: dict[str, Batch], use: str, blended: bool | None = None,
                       alpha_tested: bool | None = None) -> None:
         """Draw the ``use`` instances of every primitive; ``blended`` / ``alpha_tested`` select
-        primitives by alpha mode (BLEND; MASK or BLEND) when not None."""
+        primitives by alpha mode (BLEND; MASK or BLEND) when not None. A material's uniforms and
+        textures are set once for its run of draws (draw_list)."""
+        material = None
+        for prim, mat, rows in self._draw_list(batches, use, blended, alpha_tested):
+            if mat is not material:
+                set_uniforms(program, mat.uniforms)
+                mat.bind()
+                material = mat
+            prim.draw(program, use, rows)
+
+    def _draw_list(self, batches: dict[str, Batch], use: str, blended, alpha_tested) -> list:
+        """(primitive, material, instance rows) of the draws, kept with the batches object they
+        were made from (batches are made anew when any of their inputs changes). Opaque draws are
+        grouped by their material's textures (first-seen order, stable within a group), so a
+        run of primitives with the same textures binds them once; blended ones keep the models'
+        order (their blending order)."""
+        held = getattr(self, "_draw_lists", None)
+        if held is None or held[0] is not batches:
+            held = self._draw_lists = (batches, {})
+        key = (use, blended, alpha_tested)
+        if key in held[1]:
+            return held[1][key]
+        draws = []
         for batch in batches.values():
-            stacked = batch.rows[use]  # (instances, primitives, 24)
-            if len(stacked) == 0:
+            if len(batch.rows[use]) == 0:
                 continue
             for p, prim in enumerate(batch.model.primitives):
                 mode = prim.material.data.alpha_mode
@@ -286,9 +307,14 @@ class SurfacesPass(RenderPass):
                     continue
                 if alpha_tested is not None and (mode != 0) != alpha_tested:
                     continue
-                set_uniforms(program, prim.material.uniforms)
-                prim.material.bind()
-                prim.draw(program, use, batch.primitive_rows(use, p))
+                draws.append((prim, prim.material, batch.primitive_rows(use, p)))
+        if not blended:
+            groups: dict[tuple, int] = {}
+            for _, mat, _ in draws:
+                groups.setdefault(mat.texture_set, len(groups))
+            draws.sort(key=lambda d: groups[d[1].texture_set])  # stable: the models' order within a group
+        held[1][key] = draws
+        return draws
 
     def _receiver_defines(self, frame) -> dict:
         """The frame's light terms, and shadow lookups only for the maps this frame drew."""
