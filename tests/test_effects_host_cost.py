@@ -117,8 +117,9 @@ def _pass_calls(renderer, scene, name) -> GLCallCounter:
 
 def test_volumes_draw_each_volume_once_from_its_block_record(renderer):
     """Demo (a fire and its plume, 8 slabs in all, half-resolution march): one instanced draw per
-    volume plus the downsample and the upsample, no uniform written per slab or per volume but the
-    keyframe blend; 68 GL calls a frame before the block, 48 with it."""
+    volume plus the downsample and the upsample, no uniform written per slab or per volume (the
+    keyframe blend and the jitter's shift are the records' per-frame lanes); 68 GL calls a frame
+    before the block, 44 with it."""
     scene = _demo()
     _stream(renderer, scene, 5)
     calls = _pass_calls(renderer, scene, "volumes")
@@ -126,11 +127,11 @@ def test_volumes_draw_each_volume_once_from_its_block_record(renderer):
     assert stats["drawn"] == 2 and stats["slabs"] > stats["drawn"] and stats["scale"] == 2
     assert calls.by_name["VertexArray.render"] == stats["drawn"] + 2
     assert calls.by_name["Buffer.bind_to_uniform_block"] == stats["drawn"]
-    assert calls.by_name["Buffer.write"] <= 1  # the records, when the glow's flicker changed them
+    assert calls.by_name["Buffer.write"] == 1  # the records with the frame's blend, jitter and glow
     per_volume = {"u_base", "u_extent", "u_lean", "u_step", "u_voxel", "u_sigma", "u_glow_pos", "u_glow_intensity",
-                  "u_box_min", "u_box_max", "u_emission", "u_albedo_scale"}
+                  "u_box_min", "u_box_max", "u_emission", "u_albedo_scale", "u_blend", "u_jitter_offset"}
     assert not [k for k in calls.by_name if k.startswith("Uniform[") and k[8:-7] in per_volume], calls.by_name
-    assert calls.total <= 52, calls.by_name.most_common()
+    assert calls.total <= 46, calls.by_name.most_common()
     assert calls.created() == 0
 
 
@@ -170,10 +171,11 @@ def test_volume_block_layout_is_what_glsl_reads(renderer):
     data = np.zeros((2, stride // 4), np.float32)
     for i, r in enumerate(records):
         data[i, :march_block.ROWS * 4] = march_block.record(**r).ravel()
-    data[1, march_block.GLOW_OFFSET // 4: march_block.GLOW_OFFSET // 4 + 3] = (1.0, 2.0, 3.0)
+    data[1, march_block.GLOW:march_block.GLOW + 3] = (1.0, 2.0, 3.0)  # the per-frame lanes
+    data[1, march_block.BLEND], data[1, march_block.JITTER] = 0.25, 0.625
     members = ["u_slab_min[0].xyz", "u_slab_max[0].xyz", "u_slab_min[4].xyz", "u_slab_max[4].xyz", "u_base",
                "vec3(u_step, u_voxel, u_sigma)", "u_extent", "vec3(u_lean, u_hg_g)", "u_glow_pos",
-               "vec3(u_albedo_scale, 0.0, 0.0)", "u_glow_intensity", "u_emission"]
+               "vec3(u_albedo_scale, u_blend, u_jitter_offset)", "u_glow_intensity", "u_emission"]
     lines = [f"out_values[{i}] = vec4({m}, 0.0);" for i, m in enumerate(members)]
     with open(march_block.__file__.replace(".py", ".glsl")) as fh:
         block = fh.read()
@@ -190,7 +192,7 @@ def test_volume_block_layout_is_what_glsl_reads(renderer):
     r = records[1]
     expected = [r["slabs"][0][0], r["slabs"][0][1], r["slabs"][4][0], r["slabs"][4][1], r["base"],
                 (r["step"], r["voxel"], r["sigma"]), r["extent"], (*r["lean"], r["hg_g"]), r["glow_pos"],
-                (r["albedo_scale"], 0.0, 0.0), (1.0, 2.0, 3.0), r["emission"]]
+                (r["albedo_scale"], 0.25, 0.625), (1.0, 2.0, 3.0), r["emission"]]
     np.testing.assert_array_equal(got, np.asarray(expected, np.float64).astype(np.float32))
     program.release(), buffer.release(), out.release()
 

@@ -25,14 +25,13 @@
 
 uniform sampler3D u_volume;
 #ifdef BLEND
-uniform sampler3D u_volume_next;
-uniform float u_blend;
+uniform sampler3D u_volume_next;  // weight u_blend (march_block.glsl)
 #endif
 uniform sampler2D u_scene_distance;  // m along the view ray, 1e30 = sky
 uniform float u_pixel_angle;         // rad per pixel of the march's resolution
-uniform float u_jitter_offset;       // per-frame shift of the start jitter, in [0,1)
 uniform vec2 u_layer_range;          // cross-fade: drawn where the pixel's dither value is in [x, y) (volumes.py)
-// The volume's own constants (box, base, extent, lean, steps, extinction, albedo, emission, glow).
+// The volume's own constants (box, base, extent, lean, steps, extinction, albedo, emission, glow)
+// and the frame's blend and jitter shift.
 #include "volumes/march_block.glsl"
 
 in vec3 v_rel;

@@ -9,8 +9,10 @@ layout(std140, binding = BLOCK_VOLUME) uniform VolumeBlock {
     vec4 u_lean_sigma_g;         // xy horizontal offset of the axis at the top (wind); z extinction
                                  // at density 1 (1/m); w Henyey-Greenstein asymmetry (smoke)
     vec4 u_glow_pos_albedo;      // xyz the fire's light (smoke); w x the profile's albedo (sooty smoke)
-    vec4 u_glow_intensity_;      // xyz cd per channel of that light (0 when none)
-    vec4 u_emission_;            // xyz cd/m^2 of colour 1 (fire)
+    vec4 u_glow_intensity_;      // xyz cd per channel of that light (0 when none); w the keyframe
+                                 // blend: weight of the next model (BLEND)
+    vec4 u_emission_;            // xyz cd/m^2 of colour 1 (fire); w per-frame shift of the start
+                                 // jitter, in [0,1)
 };
 #define u_base u_base_step.xyz
 #define u_step u_base_step.w
@@ -23,3 +25,5 @@ layout(std140, binding = BLOCK_VOLUME) uniform VolumeBlock {
 #define u_albedo_scale u_glow_pos_albedo.w
 #define u_glow_intensity u_glow_intensity_.xyz
 #define u_emission u_emission_.xyz
+#define u_blend u_glow_intensity_.w
+#define u_jitter_offset u_emission_.w

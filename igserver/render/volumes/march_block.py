@@ -3,11 +3,11 @@
 
 Everything the march of one volume reads that is not per frame - its slabs' boxes, base, extent,
 lean, steps, extinction, albedo, emission, the glow's position - changes only with the visible
-volumes, the view and the knobs, so it is packed once per change of those (volumes.py _MarchPlan),
+volumes, the view and the knobs, so it is packed once per change of those (march.py MarchPlan),
 every visible volume's record one after the other in one buffer; a frame binds each volume's record
-(one call) instead of writing a dozen uniforms per volume and two per slab. The one per-frame part,
-the glow's flickering intensity, is patched into the bytes before the buffer is written (one write
-a frame, skipped when the bytes are unchanged).
+(one call) instead of writing a dozen uniforms per volume and two per slab. The per-frame parts -
+the glow's flickering intensity, the keyframe blend, the start jitter's shift - are patched into
+the records before the buffer is written (one write a frame, skipped when the bytes are unchanged).
 
 Every member is a vec4, so the std140 layout is rows of 16 bytes in declaration order (ROW).
 """
@@ -49,4 +49,8 @@ def record(slabs: list[tuple], base, step: float, extent, voxel: float, lean, si
     return out
 
 
-GLOW_OFFSET = 16 * ROW["glow_intensity"]  # bytes into a record: the glow's rgb intensity (3 float32)
+# The per-frame lanes (float32 index into a record): the glow's rgb intensity, the keyframe blend,
+# the start jitter's shift.
+GLOW = 4 * ROW["glow_intensity"]
+BLEND = 4 * ROW["glow_intensity"] + 3
+JITTER = 4 * ROW["emission"] + 3

@@ -464,21 +464,24 @@ class VolumesPass(RenderPass):
         textures = [self._models_for(plan, i, frame, settings) for i in range(len(volumes))]
         scale = max(max(int(settings.scale), 1), plan.lod_scale)
         self.stats["scale"] = scale
-        self._write_block(plan, scene)
+        self._write_block(plan, scene, textures)
         for scale, dither in self._layers(scale, scene.time.sim_time):
             self._draw_layer(frame, targets, plan, textures, settings, scale, dither)
         self._evict()
 
-    def _write_block(self, plan: "MarchPlan", scene: Scene) -> None:
-        """The plan's records with this frame's glow intensities (flicker), into the block's buffer."""
-        data = plan.records
-        if plan.glows:
-            data = bytearray(data)
-            for offset, effect in plan.glows:
-                light = fire_light(effect, scene)
-                if light is not None:
-                    data[offset:offset + 12] = np.asarray(light.color, np.float32).tobytes()
-            data = bytes(data)
+    def _write_block(self, plan: "MarchPlan", scene: Scene, textures) -> None:
+        """The plan's records with this frame's values - the keyframe blend, the start jitter's
+        shift, the glow intensities (flicker) - into the block's buffer (one write)."""
+        if not textures:
+            return
+        records = np.frombuffer(plan.records, np.float32).reshape(len(textures), -1).copy()
+        records[:, march_block.BLEND] = [blend for _, _, blend in textures]
+        records[:, march_block.JITTER] = (scene.host_frame * 0.6180339887) % 1.0  # golden-ratio sequence per frame
+        for i, effect in plan.glows:
+            light = fire_light(effect, scene)
+            if light is not None:
+                records[i, march_block.GLOW:march_block.GLOW + 3] = light.color
+        data = records.tobytes()
         if self._block is None or self._block.size < len(data):
             if self._block is not None:
                 self._block.release()
@@ -509,10 +512,8 @@ class VolumesPass(RenderPass):
             color_fbo.use()
             color_fbo.clear(0.0, 0.0, 0.0, 0.0)
             self._march(frame, plan, textures, settings, low_distance, low_size[1], (0.0, 1.0))
-            targets.color_fbo.use()
+            targets.color_fbo.use()  # (blending as the march left it: ONE, ONE_MINUS_SRC_ALPHA)
             targets.color_fbo.scissor = (x, y, w, h)
-            self.ctx.enable(moderngl.BLEND)
-            self.ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA
             up = self.programs.program("common/fullscreen.vert.glsl", "volumes/upsample.frag.glsl",
                                        {"LAYER_FADE": 1} if tuple(dither) != (0.0, 1.0) else None)
             set_uniforms(up, {"u_volume_color": 0, "u_volume_distance": 2, "u_scene_distance": 1, "u_scale": scale,
@@ -525,16 +526,18 @@ class VolumesPass(RenderPass):
             self.ctx.disable(moderngl.BLEND)
         else:
             targets.color_fbo.use()
+            self.ctx.disable(moderngl.DEPTH_TEST)
             self._march(frame, plan, textures, settings, distance, targets.size[1], dither)
+            self.ctx.disable(moderngl.BLEND)
 
     def _march(self, frame, plan: "MarchPlan", textures, settings: VolumeSettings, distance, march_height: int,
                dither: tuple[float, float]) -> None:
         """Draw every volume's slabs into the bound framebuffer (premultiplied, far to near) at the
         pixels whose dither value is in ``dither``; ``march_height``: its height in pixels (for
         the footprint of a pixel). A volume is one instanced draw of its slabs, its constants its
-        record of the block (march_block.py)."""
-        scene, view = frame.scene, frame.view
-        self.ctx.disable(moderngl.DEPTH_TEST)
+        record of the block (march_block.py). Depth testing off before; blending
+        (ONE, ONE_MINUS_SRC_ALPHA) left on after."""
+        view = frame.view
         self.ctx.enable(moderngl.BLEND | moderngl.CULL_FACE)
         self.ctx.front_face = "ccw"
         self.ctx.cull_face = "front"
@@ -552,11 +555,10 @@ class VolumesPass(RenderPass):
         per_frame = {
             "u_volume": 0, "u_volume_next": 2, "u_scene_distance": 1,
             "u_pixel_angle": (math.atan(top) - math.atan(bottom)) / max(march_height, 1),  # rad per march pixel
-            "u_jitter_offset": (scene.host_frame * 0.6180339887) % 1.0,  # golden-ratio sequence per frame
             "u_layer_range": dither,
         }
         programs = {}
-        for i, (tex, tex_next, blend) in enumerate(textures):
+        for i, (tex, tex_next, _) in enumerate(textures):
             smoke = plan.smoke[i]
             program = programs.get(smoke)
             if program is None:
@@ -571,7 +573,6 @@ class VolumesPass(RenderPass):
                                                                   "volumes/march.frag.glsl", defines or None)
                 set_uniforms(program, frame.uniforms)
                 set_uniforms(program, {**aerial, **per_frame} if aerial else per_frame)
-            set_uniforms(program, {"u_blend": blend})
             self._block.bind_to_uniform_block(BLOCKS["VOLUME"], offset=i * plan.stride, size=march_block.RECORD_BYTES)
             use_texture(tex, 0)
             use_texture(tex_next, 2)
@@ -581,7 +582,7 @@ class VolumesPass(RenderPass):
             self._vao(program).render(moderngl.TRIANGLES, instances=plan.slab_counts[i])
             self.stats["drawn"] += 1
         self.stats["slabs"] = self.stats.get("slabs", 0) + sum(plan.slab_counts)
-        self.ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
+        self.ctx.disable(moderngl.CULL_FACE)
         self.ctx.cull_face = "back"
 
     def _evict(self) -> None:
