@@ -4,6 +4,7 @@ models' order), blended draws in the models' order, the list kept while the batc
 
 from collections import Counter
 
+import numpy as np
 import pytest
 
 from igserver.render.surfaces.surfaces import SurfacesPass
@@ -57,17 +58,21 @@ def test_every_primitive_once_grouped_by_textures(demo_pass, use, blended, alpha
     batches = surfaces._instances(scene, surfaces_view(renderer, scene))
     draws = surfaces._draw_list(batches, use, blended, alpha_tested)
     naive = _naive(batches, use, blended, alpha_tested)
-    assert Counter(id(p) for p, _, _ in draws) == Counter(id(p) for p in naive)
-    assert all(mat is prim.material for prim, mat, _ in draws)
+    assert Counter(id(p) for p, _, _, _ in draws) == Counter(id(p) for p in naive)
+    assert all(mat is prim.material for prim, mat, _, _ in draws)
+    for prim, _, rows, count in draws:  # each primitive's own instance rows
+        batch = next(b for b in batches.values() if prim in b.model.primitives)
+        expected = batch.rows[use][:, batch.model.primitives.index(prim), :]
+        assert count == len(expected) and rows == np.ascontiguousarray(expected, np.float32).tobytes()
     if blended:
-        assert [p for p, _, _ in draws] == naive  # blending order kept
+        assert [p for p, _, _, _ in draws] == naive  # blending order kept
         return
-    sets = [mat.texture_set for _, mat, _ in draws]
+    sets = [mat.texture_set for _, mat, _, _ in draws]
     runs = [s for i, s in enumerate(sets) if i == 0 or sets[i - 1] != s]
     assert len(runs) == len(set(sets))  # each texture set in one run
     if use == "view":
         assert len(naive) > 10
-        assert _binds(m for _, m, _ in draws) < _binds(p.material for p in naive)
+        assert _binds(m for _, m, _, _ in draws) < _binds(p.material for p in naive)
 
 
 def surfaces_view(renderer, scene):

@@ -67,22 +67,35 @@ class ProgramCache:
         self.ctx = ctx
         self.context_defines = dict(context_defines or {})
         self._programs: dict[tuple, moderngl.Program | moderngl.ComputeShader] = {}
+        self._quick: dict[tuple, tuple] = {}  # the key of the program of exact arguments
 
     def program(self, vertex: str, fragment: str, defines: dict | None = None) -> moderngl.Program:
+        # The program of these exact arguments (a pass asks every frame): the key below is a
+        # function of them, so the look-up skips building it.
+        quick = ("prog", vertex, fragment, tuple(defines.items()) if defines else ())
+        held = self._programs.get(self._quick.get(quick))
+        if held is not None:
+            return held
         defines = {**self.context_defines, "FRAME_BLOCK": 1, **(defines or {})}
         key = ("prog", vertex, fragment, tuple(sorted((defines or {}).items())))
         if key not in self._programs:
             sources = (assemble(vertex, "VERTEX", defines), assemble(fragment, "FRAGMENT", defines))
             program = self.ctx.program(vertex_shader=sources[0], fragment_shader=sources[1])
             self._programs[key] = _note_block_reads(program, defines, sources)
+        self._quick[quick] = key
         return self._programs[key]
 
     def compute(self, path: str, defines: dict | None = None) -> moderngl.ComputeShader:
+        quick = ("comp", path, tuple(defines.items()) if defines else ())
+        held = self._programs.get(self._quick.get(quick))
+        if held is not None:
+            return held
         defines = {**self.context_defines, "FRAME_BLOCK": 0, **(defines or {})}
         key = ("comp", path, tuple(sorted((defines or {}).items())))
         if key not in self._programs:
             source = assemble(path, "COMPUTE", defines)
             self._programs[key] = _note_block_reads(self.ctx.compute_shader(source), defines, (source,))
+        self._quick[quick] = key
         return self._programs[key]
 
     def __len__(self) -> int:
@@ -123,9 +136,19 @@ def uniform_inputs(program, values: dict, skip: tuple = ()) -> tuple:
     """The values ``values`` gives ``program``'s active uniforms (all but ``skip``), as an exact,
     hashable key: what a table the program draws or fills was made from, so the table can be kept
     until one of them changes (a uniform the shader gains joins the key by itself)."""
-    names = set(block_reads(program))
-    names.update(name for name in program if isinstance(program[name], moderngl.Uniform))
-    return tuple((name, _frozen(values[name])) for name in sorted(names) if name in values and name not in skip)
+    return tuple((name, _frozen(values[name])) for name in _input_names(program) if name in values and name not in skip)
+
+
+def _input_names(program) -> tuple:
+    """The names uniform_inputs reads, sorted: the frame-block fields the program reads and its
+    uniforms (found once per program: they are fixed when it is linked)."""
+    try:
+        return program._igserver_input_names
+    except AttributeError:
+        names = set(block_reads(program))
+        names.update(name for name in program if isinstance(program[name], moderngl.Uniform))
+        program._igserver_input_names = tuple(sorted(names))
+        return program._igserver_input_names
 
 
 def _frozen(value):

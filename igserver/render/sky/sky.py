@@ -11,6 +11,7 @@ import numpy as np
 from ...astro import star_field
 from .. import depth
 from ..bindings import PASS_UNITS, use_texture
+from ..memo import view_key
 from ..passes import RenderPass
 from ..shaders import set_uniforms, uniform_inputs
 from .frame_sky import held_haze_table
@@ -267,8 +268,7 @@ class SkyPass(RenderPass):
 
     def _disks(self, frame, defines: dict, targets) -> None:
         """The sun's and the moon's disks, added inside a scissor box around each (sky.glsl SKY_DISKS)."""
-        boxes = [b for b in (disk_box(frame, frame.celestial.sun_dir, SUN_BOX_RAD),
-                             disk_box(frame, frame.celestial.moon_dir, MOON_BOX_RAD)) if b is not None]
+        boxes = self._disk_boxes(frame)
         if not boxes:
             return
         program = self.programs.program("common/fullscreen.vert.glsl", "sky/sky.glsl", {**defines, "SKY_DISKS": 1})
@@ -283,6 +283,18 @@ class SkyPass(RenderPass):
         finally:
             fbo.scissor = None
             self.ctx.disable(moderngl.BLEND)
+
+    def _disk_boxes(self, frame) -> list:
+        """The sun's and the moon's scissor boxes on screen, kept per exact view, directions and
+        field of view (disk_box's inputs)."""
+        c = frame.celestial
+        key = (view_key(frame.view), frame.scene.camera.fov_y, tuple(c.sun_dir), tuple(c.moon_dir))
+        held = getattr(self, "_held_disk_boxes", None)
+        if held is None or held[0] != key:
+            boxes = [b for b in (disk_box(frame, c.sun_dir, SUN_BOX_RAD), disk_box(frame, c.moon_dir, MOON_BOX_RAD))
+                     if b is not None]
+            held = self._held_disk_boxes = (key, boxes)
+        return held[1]
 
     def _cirrus_table(self, frame, model: str, targets) -> None:
         """Draw the cirrus layer at 1/cirrus_scale resolution into two float textures on units 7 and

@@ -88,6 +88,9 @@ class GpuMaterial:
             "u_alpha_cutoff": mat.alpha_cutoff,
             "u_has_normal_tex": int(self.has_normal),
         }
+        # What a draw of this material sets: two materials with equal states draw alike, so a run
+        # of draws sets it once.
+        self.state = (self.texture_set, tuple(sorted(self.uniforms.items())))
 
     def bind(self) -> None:
         for unit, tex in enumerate((self.base, self.mr, self.normal, self.occlusion, self.emissive)):
@@ -118,8 +121,12 @@ class GpuPrimitive:
 
     def draw(self, program: moderngl.Program, use: str, instances: np.ndarray) -> None:
         """Draw ``instances`` ((n, 24) float32, n <= MAX_ENTITIES) with ``program``."""
+        self.draw_rows(program, use, np.ascontiguousarray(instances, dtype=np.float32).tobytes(), len(instances))
+
+    def draw_rows(self, program: moderngl.Program, use: str, data: bytes, count: int) -> None:
+        """Draw ``count`` instances whose rows are ``data`` (float32 bytes, 24 a row) with ``program``."""
         buf = self.instance_buffer(use)
-        write_buffer(buf, np.ascontiguousarray(instances, dtype=np.float32).tobytes())
+        write_buffer(buf, data)
         key = (id(program), use)
         vao = self._vaos.get(key)
         if vao is None:
@@ -128,7 +135,7 @@ class GpuPrimitive:
                 (buf, INSTANCE_FORMAT, *INSTANCE_ATTRIBUTES),
             ], index_buffer=self.ibo, index_element_size=4, skip_errors=True)
             self._vaos[key] = vao
-        vao.render(moderngl.TRIANGLES, vertices=self.vertex_count, instances=len(instances))
+        vao.render(moderngl.TRIANGLES, vertices=self.vertex_count, instances=count)
 
 
 class GpuModel:

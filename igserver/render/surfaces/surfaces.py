@@ -214,7 +214,11 @@ class SurfacesPass(RenderPass):
         self.last_shadow_passes = []
         self._key_shadow = None  # (direction toward the light, texel m, caster bounds) when drawn
         self._bound_shadow_maps = []  # (texture, unit): bound again for the late blended pass
-        bounds = np.concatenate([b.caster_bounds for b in batches.values()] or [np.zeros((0, 4))])
+        held = getattr(self, "_caster_bounds", None)  # kept with the batches object they come from
+        if held is None or held[0] is not batches:
+            held = self._caster_bounds = (batches, np.concatenate([b.caster_bounds for b in batches.values()]
+                                                                  or [np.zeros((0, 4))]))
+        bounds = held[1]
         if not scene.shadows.enabled or len(bounds) == 0:
             return uniforms
         view = frame.view
@@ -232,7 +236,8 @@ class SurfacesPass(RenderPass):
             use_texture(tex, SHADOW_UNIT_KEY)
             self._bound_shadow_maps.append((tex, SHADOW_UNIT_KEY))
             uniforms.update({"u_key_shadow_light": which, "u_key_shadow_texel": projection.texel})
-            uniforms["u_key_shadow_matrix"] = gl_matrix(projection.map_matrix())
+            uniforms["u_key_shadow_matrix"] = self.memo.get("key_shadow_matrix", fit_key,
+                                                            lambda: gl_matrix(projection.map_matrix()))
             self._key_shadow = (np.asarray(direction, dtype=np.float64), projection.texel, bounds)
             self.last_shadow_passes.append("sun" if which == SUN_LIGHT else "moon")
         spot = self._shadow_spot(frame)
@@ -277,16 +282,16 @@ class SurfacesPass(RenderPass):
         """Draw the ``use`` instances of every primitive; ``blended`` / ``alpha_tested`` select
         primitives by alpha mode (BLEND; MASK or BLEND) when not None. A material's uniforms and
         textures are set once for its run of draws (draw_list)."""
-        material = None
-        for prim, mat, rows in self._draw_list(batches, use, blended, alpha_tested):
-            if mat is not material:
+        state = None
+        for prim, mat, rows, count in self._draw_list(batches, use, blended, alpha_tested):
+            if mat.state != state:
                 set_uniforms(program, mat.uniforms)
                 mat.bind()
-                material = mat
-            prim.draw(program, use, rows)
+                state = mat.state
+            prim.draw_rows(program, use, rows, count)
 
     def _draw_list(self, batches: dict[str, Batch], use: str, blended, alpha_tested) -> list:
-        """(primitive, material, instance rows) of the draws, kept with the batches object they
+        """(primitive, material, instance rows as bytes, instance count) of the draws, kept with the batches object they
         were made from (batches are made anew when any of their inputs changes). Opaque draws are
         grouped by their material's textures (first-seen order, stable within a group), so a
         run of primitives with the same textures binds them once; blended ones keep the models'
@@ -307,10 +312,11 @@ class SurfacesPass(RenderPass):
                     continue
                 if alpha_tested is not None and (mode != 0) != alpha_tested:
                     continue
-                draws.append((prim, prim.material, batch.primitive_rows(use, p)))
+                rows = batch.primitive_rows(use, p)
+                draws.append((prim, prim.material, rows.tobytes(), len(rows)))
         if not blended:
             groups: dict[tuple, int] = {}
-            for _, mat, _ in draws:
+            for _, mat, _, _ in draws:
                 groups.setdefault(mat.texture_set, len(groups))
             draws.sort(key=lambda d: groups[d[1].texture_set])  # stable: the models' order within a group
         held[1][key] = draws
@@ -348,8 +354,7 @@ class SurfacesPass(RenderPass):
         set_uniforms(program, receiver_uniforms)
         self._set_samplers(program)
         self._draw_batches(program, batches, "view", blended=False)
-        if any(p.material.data.alpha_mode == 2 for b in batches.values() if len(b.rows["view"])
-               for p in b.model.primitives):
+        if self._draw_list(batches, "view", True, None):
             # Blended surfaces come later, over the water and the sky (BlendedSurfacesPass).
             frame.resources["blended_surfaces"] = lambda: self._draw_blended(frame, targets, program, batches)
 
