@@ -31,6 +31,7 @@ FRAME_UNITS = {
     "AERIAL_TAU": 18,         # the camera-frustum aerial-perspective table (common/aerial_table.py)
     "AERIAL_SOURCE": 19,
     "FOAM_NOISE": 20,         # the sea's foam noise (water), constant for the process's life
+    "HAZE_LOBE": 21,          # the fog layer's phase-weighted sky light (sky/haze_lobe.py)
 }
 
 # Pass-local units: bound by the pass that reads them, reused by the next pass.

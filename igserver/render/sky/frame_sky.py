@@ -22,6 +22,7 @@ from .atmosphere_model import (KOSCHMIEDER, PRESETS, SOLAR_ILLUMINANCE, Atmosphe
                                ground_extinction_550_per_m, turbidity_class)
 from .daylight import Daylight, daylight
 from .haze import GROUND_ALBEDO, HazeLayer, HazeTransition, haze_layer
+from .haze_lobe import HazeLobe
 from .lighting import (MOON_ANGULAR_RADIUS, MOON_SOLID_ANGLE, NIGHT_SKY_ILLUMINANCE, NIGHT_SKY_LUMINANCE,
                        clear_light, moon_illuminance_toa, precomputed_daylight)
 from .sky_view import SkyView, horizon_elevation, sun_horizontal
@@ -205,6 +206,10 @@ def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
                         altitude_m, sky_sun, celestial.moon_dir, uniforms["u_moon_scale"])
         sky_view.bind()
         uniforms.update(sky_view.uniforms())
+        if haze is not None:
+            lobe = HazeLobe.get(ctx)
+            lobe.update(sky_view, uniforms, haze, altitude_m, altitude_m - scene.location.altitude)
+            uniforms.update(lobe.uniforms())
     return SkyFrame(light, uniforms, tables, sky_view, haze, horizontal)
 
 

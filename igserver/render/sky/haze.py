@@ -30,7 +30,11 @@ through it; up and down fluxes at h follow by adding the two parts (one geometri
 The in-scattered radiance toward the eye is the source
     S(h, v) = omega [ E_beam(h) p_HG(nu) + (F_up (1 - v_z) / 2 + F_down_diffuse (1 + v_z) / 2) / pi ]
 (a viewer looking down sees light going up), taken at an effective height along the ray, and
-L_in = S (1 - exp(-tau_ray)).
+L_in = S (1 - exp(-tau_ray)). The shaders add omega A(h, v), the lobe: the clear sky's light that
+reaches h straight through the layer, scattered by p_HG instead of isotropically, less the same light
+as the isotropic term holds it (common/atmosphere.glsl haze_sky_lobe, tabulated by haze_lobe.py; zero
+for an isotropic sky). It needs the clear sky's radiance per direction, which this module does not
+have: source() here is the isotropic model (the CPU exposure estimate's).
 """
 
 from __future__ import annotations
