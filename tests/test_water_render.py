@@ -387,7 +387,7 @@ def test_fan_blocks_carry_no_wave(renderer):
 
 
 @pytest.mark.parametrize("wind", [0.0, 1.0, 5.0, 9.4, 22.6, 40.0])
-def test_detail_maps_keep_each_waves_direction_and_length(wind):
+def test_detail_maps_keep_each_waves_direction_and_length(wind, monkeypatch):
     # Each detail map holds waves on its tile's lattice (k = 2 pi (m, n) / L, so the tile repeats).
     # Snapped at 1-2 cycles a tile, waves went to 0, 45 or 90 degrees and the map showed a square
     # lattice (Beaufort 9's dotted sea). Every wave spans >= DETAIL_MIN_CYCLES = 5 cycles of its tile,
@@ -398,9 +398,12 @@ def test_detail_maps_keep_each_waves_direction_and_length(wind):
     from igserver.render.water.detail import (DETAIL_MAPS, DETAIL_MIN_WAVES, _detail_bands, detail_tiles,
                                                detail_unresolved_var)
 
+    import igserver.render.water.detail as detail
+
     scene = sea_scene(weather={"wind_speed": wind})
     sea = sea_surface(scene.ocean, scene.weather)
     d = sea.detail
+    monkeypatch.setattr(detail, "DETAIL_LATTICE_FILL", False)  # the snapped waves (the fill: next test)
     tiles = detail_tiles(sea, 0.0)
     _, band = _detail_bands(sea)
     kept = 0
@@ -421,6 +424,44 @@ def test_detail_maps_keep_each_waves_direction_and_length(wind):
     lost = band >= DETAIL_MAPS
     assert kept + np.count_nonzero(lost) == d.n
     assert detail_unresolved_var(sea) == pytest.approx(float(np.sum((d.amplitude[lost] * d.k[lost]) ** 2) / 2.0))
+
+
+@pytest.mark.parametrize("wind", [0.0, 5.0, 22.6])
+def test_filled_detail_maps_keep_their_band_slope_and_the_winds_direction(wind, monkeypatch):
+    """A filled map (detail.py DETAIL_LATTICE_FILL) holds its band's lattice points, 5 to 38.5 cycles a
+    tile, with the slope variance of the detail waves it replaces, travelling with the wind: the slope
+    variance's mean direction within 5 deg of the wind sea's, none of it against the wind (beyond 90 deg
+    off it under 1 %), at least 500 points a map; each point's frequency is the deep-water one of its
+    wave number, and a map's fill is the same from frame to frame but for the phases."""
+    import math
+
+    import igserver.render.water.detail as detail
+
+    scene = sea_scene(weather={"wind_speed": wind})
+    sea = sea_surface(scene.ocean, scene.weather)
+    monkeypatch.setattr(detail, "DETAIL_LATTICE_FILL", False)
+    snapped = detail.detail_tiles(sea, 0.0)
+    monkeypatch.setattr(detail, "DETAIL_LATTICE_FILL", True)
+    filled, later = detail.detail_tiles(sea, 0.0), detail.detail_tiles(sea, 1.0)
+    az = math.radians(sea.spectrum.azimuth_to)
+    wind_dir = np.array([math.sin(az), math.cos(az)])
+    for (size, want), (size_f, got), (_, got_later) in zip(snapped, filled, later):
+        assert size_f == size
+        if not len(want):
+            assert not len(got)
+            continue
+        r = np.linalg.norm(got[:, :2], axis=1)
+        assert len(got) >= 500 and r.min() >= 5.0 and r.max() < 38.5
+        variance = got[:, 2] ** 2 / 2.0
+        assert variance.sum() == pytest.approx(float(np.sum(want[:, 2] ** 2) / 2.0), rel=1e-9)
+        unit = got[:, :2] / r[:, None]
+        mean = (variance[:, None] * unit).sum(axis=0)
+        assert np.degrees(np.arccos(mean @ wind_dir / np.linalg.norm(mean))) < 5.0
+        assert variance[unit @ wind_dir < 0.0].sum() < 0.01 * variance.sum()
+        assert np.array_equal(got[:, :3], got_later[:, :3]) and not np.array_equal(got[:, 3], got_later[:, 3])
+        omega = np.sqrt(9.80665 * r * 2.0 * math.pi / size)
+        step = np.angle(np.exp(1j * (got[:, 3] - got_later[:, 3])))
+        assert np.allclose(step, np.angle(np.exp(1j * omega)), atol=1e-6)
 
 
 @pytest.mark.parametrize("wind", [12.0, 22.6])

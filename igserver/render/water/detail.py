@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 
-from ...water.spectrum import WaveSet
+from ...water.spectrum import SPREADING_S, WaveSet
 from ...water.surface import SeaSurface
 from ..camera import CameraView
 from . import lod
@@ -27,7 +27,20 @@ DETAIL_MAPS = 3
 DETAIL_MIN_CYCLES = 5.0
 DETAIL_RATIO = 7.7
 DETAIL_MIN_WAVES = 4
-# Mip levels 1.. of each map band-limited (detail_mips.py); False: each the 2×2 box mean of the one
+# Each map's tile is filled with every lattice wave of its band (a continuous spectrum sampled on the
+# tile's lattice), not only with the detail waves snapped to it: a tile of a dozen waves shows their few
+# directions as a diamond lattice wherever the map is resolved (the near water seen level from 2 m at
+# 1280x720, its spectral peak 4.5x the frame's mean power). The map keeps its waves' slope variance,
+# spread over the lattice points (m, n) of its band (DETAIL_MIN_CYCLES up to DETAIL_MIN_CYCLES x
+# DETAIL_RATIO cycles a tile) as the short waves' saturation range spreads it, equal slope variance per
+# ln k (Phillips 1985; a weight 1 / |(m, n)|² per point), and over directions by the wind sea's
+# spreading cos^2s(Δθ / 2) (spectrum.py SPREADING_S), each point with a random phase (fixed per sea).
+# Points weighted below DETAIL_FILL_FLOOR of the strongest are left out: the short waves far off the
+# wind (~1,000 points a map remain; at 1e-3, 1,700 points cost 0.3 ms more a frame for no visible
+# change; at 3e-2, 430 points drew the lattice again). False: the snapped detail waves only.
+DETAIL_LATTICE_FILL = True
+DETAIL_FILL_FLOOR = 1e-2
+# Each map's levels band-limited (detail_mips.py); False: each the 2×2 box mean of the one
 # above (the tests' reference: it folds the waves near a level's Nyquist into a lattice).
 BAND_LIMITED_MIPS = True
 
@@ -58,10 +71,14 @@ def detail_tiles(sea: SeaSurface, t: float) -> list[tuple[float, np.ndarray]]:
     if d.n == 0:
         return [(1.0, np.zeros((0, 4)))] * DETAIL_MAPS
     tiles = []
-    for size, fixed, omega, phase in detail_lattice(*_wave_key(d)).tiles:
+    for size, fixed, omega, phase in _lattice_of(sea).tiles:
         phase = np.mod(phase - np.mod(omega * t, 2.0 * math.pi), 2.0 * math.pi)
         tiles.append((size, np.column_stack([fixed, phase])))
     return tiles
+
+
+def _lattice_of(sea: SeaSurface) -> "DetailLattice":
+    return detail_lattice(*_wave_key(sea.detail), sea.spectrum.azimuth_to, DETAIL_LATTICE_FILL)
 
 
 def _wave_key(d: WaveSet) -> tuple[bytes, ...]:
@@ -74,26 +91,54 @@ class DetailLattice:
     the waves' (m, n, A k) on its lattice, their ω and phases at t = 0; and the mean-square slope of
     the waves shorter than every map's band."""
 
-    def __init__(self, k: np.ndarray, direction: np.ndarray, amplitude: np.ndarray, phase: np.ndarray):
+    def __init__(self, k: np.ndarray, direction: np.ndarray, amplitude: np.ndarray, phase: np.ndarray,
+                 azimuth_to: float = 0.0, fill: bool = False):
         tops, band = _bands(k)
         self.tiles = []
+        rng = np.random.default_rng(int(np.sum(phase) * 1e6) % 2**32)  # the fill's phases: fixed per sea
         for c, top in enumerate(tops):
             size = DETAIL_MIN_CYCLES * top
             pick = band == c
             cycles = np.rint(k[pick, None] * direction[pick] * size / (2.0 * math.pi))
             k_snap = np.linalg.norm(cycles, axis=1) * 2.0 * math.pi / size
+            slope = amplitude[pick] * k_snap
+            if fill and len(slope):
+                cycles, slope = _lattice_fill(float(np.sum(slope**2) / 2.0), azimuth_to)
+                k_snap = np.linalg.norm(cycles, axis=1) * 2.0 * math.pi / size
+                wave_phase = rng.uniform(0.0, 2.0 * math.pi, len(slope))
+            else:
+                wave_phase = phase[pick]
             omega = np.sqrt(9.80665 * k_snap)
-            self.tiles.append((size, np.column_stack([cycles, amplitude[pick] * k_snap]), omega, phase[pick]))
+            self.tiles.append((size, np.column_stack([cycles, slope]), omega, wave_phase))
         lost = band >= DETAIL_MAPS
         self.unresolved_var = float(np.sum((amplitude[lost] * k[lost]) ** 2) / 2.0)
 
 
+def _lattice_fill(variance: float, azimuth_to: float) -> tuple[np.ndarray, np.ndarray]:
+    """Every lattice point (m, n) of a map's band (DETAIL_LATTICE_FILL) and its slope amplitude A k,
+    their mean-square slope Σ (A k)² / 2 = ``variance``; waves travel toward ``azimuth_to`` (deg) ±
+    the wind sea's spreading."""
+    r_lo, r_hi = DETAIL_MIN_CYCLES, DETAIL_MIN_CYCLES * DETAIL_RATIO
+    side = np.arange(-math.ceil(r_hi), math.ceil(r_hi) + 1, dtype=np.float64)
+    m, n = (a.ravel() for a in np.meshgrid(side, side, indexing="ij"))
+    r = np.hypot(m, n)
+    ring = (r >= r_lo) & (r < r_hi)
+    m, n, r = m[ring], n[ring], r[ring]
+    az = math.radians(azimuth_to)
+    cos_off = (m * math.sin(az) + n * math.cos(az)) / r  # cos of the angle to the mean direction (ENU)
+    weight = (0.5 * (1.0 + cos_off)) ** SPREADING_S / (r * r)  # cos^2s(Δθ / 2) per unit ln k
+    keep = weight >= DETAIL_FILL_FLOOR * weight.max()
+    weight = weight[keep]
+    return np.column_stack([m[keep], n[keep]]), np.sqrt(2.0 * variance * weight / weight.sum())
+
+
 @functools.lru_cache(maxsize=4)
-def detail_lattice(k: bytes, direction: bytes, amplitude: bytes, phase: bytes) -> DetailLattice:
-    """The ``DetailLattice`` of the detail waves given as bytes (``_wave_key``): the key is the whole
-    input, so another sea state builds its own."""
+def detail_lattice(k: bytes, direction: bytes, amplitude: bytes, phase: bytes, azimuth_to: float = 0.0,
+                   fill: bool = False) -> DetailLattice:
+    """The ``DetailLattice`` of the detail waves given as bytes (``_wave_key``), the wind sea's
+    direction and the fill rule: the key is the whole input, so another sea state builds its own."""
     return DetailLattice(np.frombuffer(k), np.frombuffer(direction).reshape(-1, 2), np.frombuffer(amplitude),
-                         np.frombuffer(phase))
+                         np.frombuffer(phase), azimuth_to, fill)
 
 
 def detail_map_levels(waves: np.ndarray, resolution: int, out: list[np.ndarray] | None = None) -> list[np.ndarray]:
@@ -106,10 +151,12 @@ def detail_map_levels(waves: np.ndarray, resolution: int, out: list[np.ndarray] 
     amplitude, θ = 2π (m u + n v) + phase = 2π (m i + n j) / N + ψ, ψ = phase + π (m + n) / N.
     Both components at once as sx + i sy = Σ (gx + i gy) (e^{iθ} + e^{−iθ}) / 2: an inverse DFT of
     N² coefficients (gx + i gy) e^{±iψ} / 2 placed at the bins ±(m, n) mod N — exact at the texel
-    centres, aliasing included, in O(N² log N) whatever the wave count (detail_synth.py: the spectra's
-    fixed part once per lattice and resolution, the phases' each frame). Each mip level is the mean of
-    2×2 texels of the one above (float32): what the sampler's trilinear filter reads,
-    and E[s²] − E[s]² of a level is the slope variance it no longer resolves (LEAN mapping).
+    centres, in O(N² log N) whatever the wave count (detail_synth.py: the spectra's fixed part once
+    per lattice and resolution, the phases' each frame). Every level, level 0 included, carries only
+    the waves below half its Nyquist frequency, the others' slope variance in its (sx², sy²)
+    (detail_mips.py: nothing folds onto a longer wave), so E[s²] − E[s]² of a level is the slope
+    variance it no longer resolves (LEAN mapping). The reference chain (BAND_LIMITED_MIPS False):
+    level 0 with every wave, aliasing included, and each level the 2×2 mean of the one above.
     ``out``: arrays of the band-limited chain's shapes to write the levels into (the last frame's)."""
     synth = detail_synth(lattice_key(waves), int(resolution), BAND_LIMITED_MIPS)  # detail_synth.py
     phase = np.ascontiguousarray(waves[:, 3], dtype=np.float64)
@@ -126,7 +173,7 @@ def detail_map_levels(waves: np.ndarray, resolution: int, out: list[np.ndarray] 
 def detail_unresolved_var(sea: SeaSurface) -> float:
     """Mean-square slope of the detail waves shorter than every map's band: roughness only."""
     d = sea.detail
-    return detail_lattice(*_wave_key(d)).unresolved_var if d.n else 0.0
+    return _lattice_of(sea).unresolved_var if d.n else 0.0
 
 
 def detail_means(tiles: list[tuple[float, np.ndarray]]) -> np.ndarray:

@@ -39,15 +39,16 @@ def _pairing(mn: np.ndarray, phase: np.ndarray) -> np.ndarray:
 
 
 def band_limited_levels(waves: np.ndarray, n_side: int) -> list[np.ndarray]:
-    """Mip levels 1.. (N/2, N/4, .. 1 texels a side) of the map of ``waves`` (m, n, A k, phase), each
+    """The levels (N, N/2, .. 1 texels a side) of the map of ``waves`` (m, n, A k, phase), each
     (N_L, N_L, 4) float32 (sx, sy, sx², sy²), rows along the tile's y (as ``detail_map_levels``):
-    the direct construction (tests' reference; the pass uses detail_synth.py)."""
+    the direct construction (tests' reference; the pass uses detail_synth.py). Level 0 is band-limited
+    as the others: a tile filled up to 38.5 cycles (detail.py) holds waves past its Nyquist at 64²."""
     mn = waves[:, 0:2]
     g = waves[:, 2:3] * mn / np.linalg.norm(mn, axis=1, keepdims=True)
     m, n = mn[:, 0].astype(int), mn[:, 1].astype(int)
     w = _pairing(mn, waves[:, 3])
     levels = []
-    size = n_side // 2
+    size = n_side
     while size >= 1:
         gain = _gain(mn, size)
         if not np.any(gain > 0.0):  # no wave fits (the coarse levels: every wave spans >= 5 cycles a tile)

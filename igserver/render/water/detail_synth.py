@@ -3,17 +3,18 @@ the tile's lattice (m, n, A k) and the resolution alone computed once per lattic
 what depends on the waves' phases φ.
 
 A level of S texels a side is the inverse DFT of ½ G (g_x + i g_y) e^{±iψ} at the bins ±(m, n) mod S,
-ψ = φ + π (m + n) / S (the phase at the level's texel centres), G the wave's gain there (level 0: 1;
-the band-limited levels 1..: detail_mips.py ``_gain``). Each coefficient is c_± e^{±iφ}, with
-c_± = ½ G (g_x + i g_y) e^{±iπ (m + n) / S} fixed: a frame's spectra of all levels are the fixed c_±
-times the frame's phasors, summed per bin (level 0 may fold a wave past its Nyquist onto another's
-bin). The spectrum's rows holding no bin are zero: the inverse DFT's pass along m skips them. The
+ψ = φ + π (m + n) / S (the phase at the level's texel centres), G the wave's gain there (every level
+of the band-limited chain, level 0 included: detail_mips.py ``_gain``; the box chain's level 0: 1).
+Each coefficient is c_± e^{±iφ}, with c_± = ½ G (g_x + i g_y) e^{±iπ (m + n) / S} fixed: a frame's
+spectra of all levels are the fixed c_± times the frame's phasors, summed per bin (the box chain's
+level 0 may fold a wave past its Nyquist onto another's bin). The spectrum's rows holding no bin are
+zero: the inverse DFT's pass along m skips them. The
 variance a level's gains removed, Σ (1 − G_i G_j) g_i g_j w_ij (detail_mips.py), is nonzero only
 for the pairs of waves on the same or opposite lattice points, w = ½ cos(φ_i ∓ φ_j): fixed weights
 (1 − G_i G_j) g_i g_j per pair and level times the pairs' cosines.
 
-The same values as detail_mips.py ``band_limited_levels`` (its tests' reference), in another order of
-float64 sums (a few 1e-16 relative, below float32's rounding of the texels).
+The same values as detail_mips.py ``band_limited_levels`` (its tests' reference), within float32's
+rounding (the sums run in another order, the inverse DFTs in complex64).
 """
 
 from __future__ import annotations
@@ -72,7 +73,9 @@ class DetailSynth:
         m, n = mn[:, 0].astype(int), mn[:, 1].astype(int)
         half = 0.5 * (pairs.g[:, 0] + 1j * pairs.g[:, 1])
         sizes = [resolution >> level for level in range(int(math.log2(resolution)) + 1 if band_limited else 1)]
-        gains = [np.ones(count)] + [_gain(mn, size) for size in sizes[1:]]
+        # Level 0 band-limited too (a wave past half its Nyquist would fold onto a longer one, and a
+        # tile filled up to 38.5 cycles holds many at 64² and below); the box chain's level 0 keeps all.
+        gains = [_gain(mn, size) for size in sizes] if band_limited else [np.ones(count)]
         # Levels carrying a wave (a spectrum): level 0 and the band-limited ones until none fits.
         self.spectral = [s for s, gain in zip(sizes, gains) if s == resolution or np.any(gain > 0.0)]
         self.sizes = sizes
@@ -80,7 +83,7 @@ class DetailSynth:
         # the spectrum is zero: its rows' inverse DFTs along m are zero, so only these are done).
         self.rows, bins, columns, values, start = [], [], [], [], 0
         for size, gain in zip(self.spectral, gains):
-            keep = np.nonzero(gain > 0.0)[0]  # levels 1..: |m|, |n| < size / 2, no two kept bins fold together
+            keep = np.nonzero(gain > 0.0)[0]  # |m|, |n| < size / 2: no two kept bins fold together
             shift = math.pi * (m[keep] + n[keep]) / size
             row = np.concatenate([n[keep] % size, -n[keep] % size])
             rows, row = np.unique(row, return_inverse=True)
@@ -95,8 +98,8 @@ class DetailSynth:
         # would wait for cores that llvmpipe's rasterizer holds).
         self.bins, self.slot = np.unique(np.concatenate(bins), return_inverse=True)
         self.columns, self.values = np.concatenate(columns), np.concatenate(values)
-        # Per level 1.. and pair: (1 − G_i G_j) g_i g_j for sx², then for sy² (levels × 2 rows).
-        lost = np.array([1.0 - gain[pairs.i] * gain[pairs.j] for gain in gains[1:]]).reshape(-1, len(pairs.i))
+        # Per level and pair: (1 − G_i G_j) g_i g_j for sx², then for sy² (levels × 2 rows).
+        lost = np.array([1.0 - gain[pairs.i] * gain[pairs.j] for gain in gains]).reshape(-1, len(pairs.i))
         self.removed = np.concatenate([lost * pairs.gg[0], lost * pairs.gg[1]])
 
     def levels(self, phase: np.ndarray, out: list[np.ndarray] | None = None) -> list[np.ndarray]:
@@ -107,13 +110,13 @@ class DetailSynth:
             out = [np.empty((size, size, 4), np.float32) for size in self.sizes]
         rotor = np.exp(1j * phase)
         terms = self.values * np.concatenate([rotor, rotor.conj()])[self.columns]
-        removed = np.sum(self.removed * self.pairs.weights(phase), axis=1).reshape(2, -1)  # (sx², sy²) per level 1..
+        removed = np.sum(self.removed * self.pairs.weights(phase), axis=1).reshape(2, -1)  # (sx², sy²) per level
         with _LOCK:
             flat = _work(self.total)
             flat.real[self.bins] = np.bincount(self.slot, terms.real, len(self.bins))
             flat.imag[self.bins] = np.bincount(self.slot, terms.imag, len(self.bins))
             for level, (size, texels) in enumerate(zip(self.sizes, out)):
-                extra = removed[:, level - 1] if level else (0.0, 0.0)  # level 0 keeps every wave
+                extra = removed[:, level]
                 if level >= len(self.spectral):  # no wave fits: zero slope, the tile's slope variance
                     texels[...] = (0.0, 0.0, *extra)
                     continue
@@ -124,13 +127,15 @@ class DetailSynth:
                 block = flat[start:start + len(rows) * size].reshape(-1, size)
                 along_m[rows] = np.fft.ifft(block, axis=1, norm="forward")
                 np.fft.ifft(along_m, axis=0, norm="forward", out=s)
-                texels[..., 0], texels[..., 1] = s.real, s.imag  # float64 values rounded once
+                texels[..., 0], texels[..., 1] = s.real, s.imag
                 for channel, part, add in ((2, s.real, extra[0]), (3, s.imag, extra[1])):
                     np.add(np.multiply(part, part, out=square), add, out=texels[..., channel])
         return out
 
 
 # Work arrays shared by every DetailSynth (one set per level size; the lock: one user at a time).
+# The inverse DFTs run in complex64 (numpy's pocketfft keeps the precision: 3.5x faster than complex128
+# at 128²): their rounding, a few 1e-7 of the map's largest slope, is that of the float32 texels.
 _LOCK = threading.Lock()
 _WORK: dict = {}
 
@@ -139,7 +144,7 @@ def _work(total: int) -> np.ndarray:
     """The zeroed flat array of a map's bins (entries past the bins a map writes stay zero)."""
     flat = _WORK.get("flat")
     if flat is None or len(flat) < total:
-        flat = _WORK["flat"] = np.zeros(max(total, 4096), dtype=complex)
+        flat = _WORK["flat"] = np.zeros(max(total, 4096), dtype=np.complex64)
     else:
         flat[:total] = 0.0
     return flat[:total]
@@ -149,8 +154,8 @@ def _grid(size: int, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarr
     """A level's (along m: zero but on ``rows``, which the caller fills; the field; a float64 square)."""
     held = _WORK.get(size)
     if held is None:
-        held = _WORK[size] = (np.zeros((size, size), complex), np.empty((size, size), complex),
-                              np.empty((size, size)), [np.arange(0)])
+        held = _WORK[size] = (np.zeros((size, size), np.complex64), np.empty((size, size), np.complex64),
+                              np.empty((size, size), np.float32), [np.arange(0)])
     along_m, s, square, last = held
     along_m[last[0]] = 0.0
     last[0] = rows
