@@ -86,9 +86,13 @@ def fire_light(effect: Effect, scene: Scene) -> PointLight | None:
     parts = flame(effect, scene)
     if parts is None:
         return None
-    # The frame's light list and the smoke's glow ask for the same light at the same time: the last
-    # one per effect is kept with its flame and time.
-    t = scene.time.sim_time
+    return flame_light(parts, effect, scene.time.sim_time)
+
+
+def flame_light(parts: Flame, effect: Effect, t: float) -> PointLight | None:
+    """The light of ``effect``'s flame ``parts`` (``flame(effect, scene)``) at sim time ``t``: its
+    flicker applied. The frame's light list and the smoke's glow ask for the same light at the same
+    time: the last one per effect is kept with its flame and time."""
     last = _LAST_LIGHT.get(effect.id)
     if last is not None and last[0] is parts and last[1] == t:  # (parts: for this effect, seed included)
         return last[2]

@@ -151,7 +151,7 @@ class MarchPlan:
         self.stride = 0
         self.records = b""
         self.slab_counts: list[int] = []
-        self.glows: list[tuple[int, object]] = []  # (volume index, effect) of each plume its fire lights
+        self.glows: list[tuple] = []  # (volume index, effect, its Flame) of each plume its fire lights
 
     def pack(self, scene: Scene, view: CameraView, settings: "VolumeSettings", alignment: int) -> "MarchPlan":
         stride = march_block.stride(alignment)
@@ -174,7 +174,7 @@ class MarchPlan:
                 lit = flame(vol.effect, scene)
                 if lit is not None:
                     glow_pos = view.relative(lit.position)
-                    self.glows.append((i, vol.effect))
+                    self.glows.append((i, vol.effect, lit))
                 # sooty smoke of a fire vs. a light grey smoke generator: scale the profile's albedo
                 sooty = EFFECT_KINDS[vol.effect.type].plume is not None and vol.profile is None
                 albedo_scale = FUELS[vol.effect.fuel].smoke_albedo / SMOKE_ALBEDO if sooty else 1.0

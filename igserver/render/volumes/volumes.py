@@ -47,7 +47,7 @@ from ..texture_pool import TexturePool
 from ..shaders import set_uniforms
 from .effects import NOISE_PERIOD, NOISE_SCALE, Volume, fade_level, visible_volumes
 from . import march_block
-from .fire_lights import fire_light
+from .fire_lights import flame_light
 from .march import MarchPlan, extinction, footprint_scale, scattering, texture_size
 from .profiles import load_profile
 
@@ -110,13 +110,15 @@ def _soft_jump(old: tuple, new: tuple) -> bool:
     ``old``, the one a keyframe was modelled with."""
     if old == new:
         return False
-    *old_sizes, old_sun = old
-    *new_sizes, new_sun = new
+    old_sun, new_sun = old[-1], new[-1]
     if (old_sun is None) != (new_sun is None):
         return True
-    if old_sun is not None and sum(a * b for a, b in zip(old_sun, new_sun)) < SOFT_JUMP_SUN_COS:
+    if old_sun is not None and (old_sun[0] * new_sun[0] + old_sun[1] * new_sun[1]
+                                + old_sun[2] * new_sun[2]) < SOFT_JUMP_SUN_COS:
         return True
-    return any(abs(a - b) > SOFT_JUMP_RELATIVE * max(abs(a), abs(b), 1e-6) for a, b in zip(old_sizes, new_sizes))
+    if old[:-1] == new[:-1]:  # (while time runs, only the sun moves)
+        return False
+    return any(abs(a - b) > SOFT_JUMP_RELATIVE * max(abs(a), abs(b), 1e-6) for a, b in zip(old[:-1], new[:-1]))
 
 
 def model_octaves(vol: Volume, size: tuple[int, int, int], settings: VolumeSettings) -> int:
@@ -207,6 +209,7 @@ class VolumesPass(RenderPass):
         self._scale_state: tuple[int | None, float | None] = (None, None)  # last march scale, its sim_time
         self._fade: tuple[int, int] | None = None  # (old scale, frames left) of a running cross-fade
         self._model_inputs: dict = {}  # modelling program -> the model inputs (dict) last written to it
+        self._programs: dict[tuple, object] = {}  # the pass's variants (_program)
         self._block = None  # the march plan's records (march_block.py), grown when a plan needs more
         self._block_align = int(ctx.info.get("GL_UNIFORM_BUFFER_OFFSET_ALIGNMENT", 256) or 256)
 
@@ -359,7 +362,8 @@ class VolumesPass(RenderPass):
         z1 = min(z0 + -(-(max(z_end, z0) - z0) // 4) * 4, model.size[2])
         if z1 <= z0:
             return
-        program = self.programs.compute("volumes/model.comp.glsl", {"SMOKE": 1} if model.smoke else None)
+        program = self._program(("model", model.smoke), lambda: self.programs.compute(
+            "volumes/model.comp.glsl", {"SMOKE": 1} if model.smoke else None))
         if self._model_inputs.get(program) is not model.uniforms:  # (a new model's inputs are a new dict)
             set_uniforms(program, {**model.uniforms, "u_shadows": 1})
             self._model_inputs[program] = model.uniforms
@@ -477,8 +481,8 @@ class VolumesPass(RenderPass):
         records = np.frombuffer(plan.records, np.float32).reshape(len(textures), -1).copy()
         records[:, march_block.BLEND] = [blend for _, _, blend in textures]
         records[:, march_block.JITTER] = (scene.host_frame * 0.6180339887) % 1.0  # golden-ratio sequence per frame
-        for i, effect in plan.glows:
-            light = fire_light(effect, scene)
+        for i, effect, lit in plan.glows:
+            light = flame_light(lit, effect, scene.time.sim_time)
             if light is not None:
                 records[i, march_block.GLOW:march_block.GLOW + 3] = light.color
         data = records.tobytes()
@@ -504,7 +508,8 @@ class VolumesPass(RenderPass):
             self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
             distance_fbo.use()
             distance_fbo.scissor = low_rect
-            down = self.programs.program("common/fullscreen.vert.glsl", "volumes/downsample.frag.glsl", {"SCALE": scale})
+            down = self._program(("down", scale), lambda: self.programs.program(
+                "common/fullscreen.vert.glsl", "volumes/downsample.frag.glsl", {"SCALE": scale}))
             set_uniforms(down, {"u_scene_distance": 1})
             use_texture(distance, 1)
             self.fullscreen(down)
@@ -514,8 +519,9 @@ class VolumesPass(RenderPass):
             self._march(frame, plan, textures, settings, low_distance, low_size[1], (0.0, 1.0))
             targets.color_fbo.use()  # (blending as the march left it: ONE, ONE_MINUS_SRC_ALPHA)
             targets.color_fbo.scissor = (x, y, w, h)
-            up = self.programs.program("common/fullscreen.vert.glsl", "volumes/upsample.frag.glsl",
-                                       {"LAYER_FADE": 1} if tuple(dither) != (0.0, 1.0) else None)
+            fade = tuple(dither) != (0.0, 1.0)
+            up = self._program(("up", fade), lambda: self.programs.program(
+                "common/fullscreen.vert.glsl", "volumes/upsample.frag.glsl", {"LAYER_FADE": 1} if fade else None))
             set_uniforms(up, {"u_volume_color": 0, "u_volume_distance": 2, "u_scene_distance": 1, "u_scale": scale,
                               "u_volumes_far": plan.far, "u_layer_range": dither})
             use_texture(low_color, 0)
@@ -562,15 +568,8 @@ class VolumesPass(RenderPass):
             smoke = plan.smoke[i]
             program = programs.get(smoke)
             if program is None:
-                defines = {"SMOKE": 1} if smoke else {}
-                if aerial is None:
-                    defines["AERIAL_EXACT"] = 1
-                if settings.model_hz > 0.0:
-                    defines["BLEND"] = 1
-                if tuple(dither) != (0.0, 1.0):
-                    defines["LAYER_FADE"] = 1  # a cross-fade layer: the per-pixel dither and discard
-                program = programs[smoke] = self.programs.program("volumes/march.vert.glsl",
-                                                                  "volumes/march.frag.glsl", defines or None)
+                variant = (smoke, aerial is None, settings.model_hz > 0.0, tuple(dither) != (0.0, 1.0))
+                program = programs[smoke] = self._program(("march", *variant), lambda: self._march_program(*variant))
                 set_uniforms(program, frame.uniforms)
                 set_uniforms(program, {**aerial, **per_frame} if aerial else per_frame)
             self._block.bind_to_uniform_block(BLOCKS["VOLUME"], offset=i * plan.stride, size=march_block.RECORD_BYTES)
@@ -584,6 +583,23 @@ class VolumesPass(RenderPass):
         self.stats["slabs"] = self.stats.get("slabs", 0) + sum(plan.slab_counts)
         self.ctx.disable(moderngl.CULL_FACE)
         self.ctx.cull_face = "back"
+
+    def _march_program(self, smoke: bool, exact: bool, blend: bool, fade: bool):
+        defines = {"SMOKE": 1} if smoke else {}
+        if exact:
+            defines["AERIAL_EXACT"] = 1
+        if blend:
+            defines["BLEND"] = 1
+        if fade:
+            defines["LAYER_FADE"] = 1  # a cross-fade layer: the per-pixel dither and discard
+        return self.programs.program("volumes/march.vert.glsl", "volumes/march.frag.glsl", defines or None)
+
+    def _program(self, variant: tuple, make):
+        """The pass's program of ``variant`` (a few flags), from the program cache once."""
+        program = self._programs.get(variant)
+        if program is None:
+            program = self._programs[variant] = make()
+        return program
 
     def _evict(self) -> None:
         """Free the textures of effects not seen for a while (gone, out of view, inactive)."""
