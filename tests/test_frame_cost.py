@@ -195,8 +195,14 @@ def test_unchanged_uniforms_and_bindings_are_not_written_again(renderer):
         for _ in range(3):
             bindings.use_texture(tex, 5)
     assert calls.by_name["Texture.use"] == 1
+    other = ctx.texture((2, 2), 4)
+    with GLCallCounter() as calls:  # a material's five units: only the ones whose texture changes
+        bindings.use_textures((tex, other, tex, tex, other), 4)
+        bindings.use_textures((tex, other, other, tex, other), 4)
+    assert calls.by_name["Texture.use"] == 5 + 1  # five units first, then the one that changed
+    assert [bindings._bound(ctx)[u] for u in range(4, 9)] == [tex, other, other, tex, other]
     bindings.forget_bindings(ctx)
-    tex.release()
+    tex.release(), other.release()
 
 
 def test_frame_block_bytes_follow_the_frame_and_only_it(renderer):

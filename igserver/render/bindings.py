@@ -73,6 +73,17 @@ def use_texture(texture, unit: int) -> None:
         bound[unit] = texture
 
 
+def use_textures(textures, first_unit: int = 0) -> None:
+    """use_texture for each of ``textures`` (of one context) on consecutive units from ``first_unit``."""
+    if not textures:
+        return
+    bound = _bound(textures[0].ctx)
+    for unit, texture in enumerate(textures, first_unit):
+        if bound.get(unit) is not texture:
+            texture.use(unit)
+            bound[unit] = texture
+
+
 def forget_bindings(ctx) -> None:
     """After binding textures some other way (moderngl's ``use`` directly, a sampler object's
     state changed): bind every unit again on next use."""

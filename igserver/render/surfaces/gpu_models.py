@@ -17,7 +17,7 @@ import numpy as np
 
 from ...assets.gltf import model_path
 from ...scene.model import MAX_ENTITIES
-from ..bindings import PASS_UNITS, use_texture, write_buffer
+from ..bindings import PASS_UNITS, use_textures, write_buffer
 from .loader import MaterialData, ModelData, load_model
 from .models import BUILTIN, box_model
 
@@ -75,8 +75,10 @@ class GpuMaterial:
         self.occlusion = textures.from_image(mat.occlusion_image, False, textures.white)
         self.emissive = textures.from_image(mat.emissive_image, True, textures.white_srgb)
         self.has_normal = mat.normal_image is not None
-        # the textures bound for this material (draws that share them are drawn one after another)
-        self.texture_set = tuple(id(t) for t in (self.base, self.mr, self.normal, self.occlusion, self.emissive))
+        # the textures bound for this material on units BASE_TEX.. (draws that share them are drawn
+        # one after another)
+        self.textures = (self.base, self.mr, self.normal, self.occlusion, self.emissive)
+        self.texture_set = tuple(id(t) for t in self.textures)
         self.uniforms = {
             "u_base_factor": tuple(mat.base_factor),
             "u_metallic_factor": mat.metallic,
@@ -93,9 +95,12 @@ class GpuMaterial:
         self.state = (self.texture_set, tuple(sorted(self.uniforms.items())))
 
     def bind(self) -> None:
-        for unit, tex in enumerate((self.base, self.mr, self.normal, self.occlusion, self.emissive)):
-            use_texture(tex, unit)
+        use_textures(self.textures, PASS_UNITS["BASE_TEX"])
 
+
+# GpuMaterial.bind binds its five textures on consecutive units from BASE_TEX, in this order.
+_MATERIAL_UNITS = ("BASE_TEX", "MR_TEX", "NORMAL_TEX", "OCCLUSION_TEX", "EMISSIVE_TEX")
+assert [PASS_UNITS[k] - PASS_UNITS["BASE_TEX"] for k in _MATERIAL_UNITS] == list(range(5))
 
 SAMPLER_UNITS = {"u_base_tex": PASS_UNITS["BASE_TEX"], "u_mr_tex": PASS_UNITS["MR_TEX"], "u_normal_tex": PASS_UNITS["NORMAL_TEX"],
                  "u_occlusion_tex": PASS_UNITS["OCCLUSION_TEX"], "u_emissive_tex": PASS_UNITS["EMISSIVE_TEX"]}
