@@ -161,3 +161,28 @@ def test_the_pass_uploads_the_frames_levels(renderer):
             assert np.array_equal(got, want), (c, level)
         written += 1
     assert written >= 1
+
+
+def test_unchanged_small_levels_are_not_uploaded_again(renderer, monkeypatch):
+    # The coarse levels no wave fits hold the tile's moments, constant while no two waves share a
+    # lattice point: a later frame uploads the levels that changed only (the readback test above
+    # checks that the textures still hold every level of the frame).
+    import moderngl
+
+    scene = apply_patch(Scene(), {"ocean": {"enabled": True}, "weather": {"wind_speed": 12.0},
+                                  "camera": {"position": [0.0, 0.0, 3.0], "pitch": -10.0, "width": 64, "height": 36}})
+    water = renderer.graph.passes["water"]
+    renderer.render(apply_patch(scene, {"time": {"sim_time": 70.0}}))
+    detail_ids = {id(tex) for tex in water._detail}
+    writes = []
+    write = moderngl.Texture.write
+    monkeypatch.setattr(moderngl.Texture, "write",
+                        lambda self, data, *a, level=0, **k: (writes.append(level) if id(self) in detail_ids else None,
+                                                              write(self, data, *a, level=level, **k))[1])
+    renderer.render(apply_patch(scene, {"time": {"sim_time": 70.5}}))
+    resolution = water._detail[0].size[0]
+    chain = int(math.log2(resolution)) + 1
+    assert water._maps_written >= 1
+    assert 0 < len(writes) < water._maps_written * chain
+    assert all(level == 0 or resolution >> level > 1 for level in writes)  # the 1x1 moments kept
+    assert writes.count(0) == water._maps_written

@@ -43,6 +43,9 @@ MAX_WAVES = 64
 DETAIL_UNIT0 = PASS_UNITS["SEA_DETAIL0"]  # and the next two
 FIELD_UNIT = PASS_UNITS["SEA_FIELD"]
 FIELD_SCALAR_UNIT = PASS_UNITS["SEA_FIELD_SCALAR"]
+# Detail map levels of at most this many texels a side are compared with what they hold before an
+# upload (a 16² level is 4 KiB): the coarse levels no wave fits hold the tile's constant moments.
+SMALL_LEVEL = 16
 
 
 @dataclass(frozen=True)
@@ -96,6 +99,7 @@ class WaterPass(UnderwaterDraws, RenderPass):
         self._detail = None
         self._detail_key = [None] * DETAIL_MAPS
         self._detail_texels: list[list[np.ndarray] | None] = [None] * DETAIL_MAPS  # each map's last levels
+        self._detail_small: dict[tuple[int, int], bytes] = {}  # (map, level): what the small levels hold
         self._instances = None
         self._tables: SeaTables | None = None
         self._selection = None  # (key, sea, LodSelection) of the last select()
@@ -206,6 +210,7 @@ class WaterPass(UnderwaterDraws, RenderPass):
                 for tex in self._detail:
                     tex.release()
             self._detail_key = [None] * DETAIL_MAPS
+            self._detail_small = {}
             self._detail = [self.ctx.texture((resolution, resolution), 4, dtype="f4") for _ in range(DETAIL_MAPS)]
             for tex in self._detail:
                 tex.build_mipmaps()  # allocates the chain that _update_detail overwrites level by level
@@ -225,6 +230,11 @@ class WaterPass(UnderwaterDraws, RenderPass):
             held = held if held is not None and len(held[0]) == resolution else None
             self._detail_texels[c] = detail_map_levels(waves, resolution, out=held)
             for level, texels in enumerate(self._detail_texels[c]):
+                if texels.shape[0] <= SMALL_LEVEL:  # a coarse level often holds what it held (no wave fits)
+                    content = texels.tobytes()
+                    if self._detail_small.get((c, level)) == content:
+                        continue
+                    self._detail_small[(c, level)] = content
                 tex.write(texels, level=level)
 
     # ---- per frame ------------------------------------------------------------------------------
@@ -297,12 +307,19 @@ class WaterPass(UnderwaterDraws, RenderPass):
         # patches first: the near blocks), maps, streaks; one instanced draw each.
         shape = np.where(flat, selection.coarse_sides.astype(int), -1) + 1  # 0: full patch, 1 + mask: fan
         group = ((near_hull.astype(int) * (len(lod.SIDES) ** 2 + 1) + shape) * (used_maps + 1) + maps) * 2 + streaks
-        groups = []  # (program key, fan mask or -1, blocks, slot: the group's id, so a slot keeps its shape)
+        groups = []  # (program key, fan mask or -1, blocks, slot: the group's id, so a slot keeps its shape,
+        #            the blocks as the instance buffer's bytes)
         for g in np.unique(group):
             first = int(np.argmax(group == g))
             key = (bool(near_hull[first]), int(maps[first]), bool(streaks[first]))
-            groups.append((key, int(shape[first]) - 1, selection.nodes[group == g], int(g)))
-        return near_hull, maps, streaks, flat, groups
+            nodes = selection.nodes[group == g]
+            data = np.ascontiguousarray(nodes, np.float32).tobytes()
+            groups.append((key, int(shape[first]) - 1, nodes, int(g), data))
+        stats = {"hull_blocks": int(np.count_nonzero(near_hull)), "fan_blocks": int(np.count_nonzero(flat)),
+                 "one_segment_sides": int(np.unpackbits(selection.coarse_sides).sum()),
+                 "blocks_by_detail_maps": np.bincount(maps, minlength=used_maps + 1).tolist(),
+                 "foam_streak_blocks": int(np.count_nonzero(streaks))}
+        return near_hull, maps, streaks, flat, groups, stats
 
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
@@ -326,7 +343,7 @@ class WaterPass(UnderwaterDraws, RenderPass):
         plan_key = (self._selection_version, b"".join(h.tobytes() for h in hulls),
                     tuple((size, len(w)) for size, w in tiles), view.tangents, view.width, view.height, level_z,
                     self.skip_minified_maps, self.skip_faded_streaks)
-        near_hull, maps, streaks, flat, groups = self.memo.get(
+        near_hull, maps, streaks, flat, groups, plan_stats = self.memo.get(
             "draw_plan", plan_key, lambda: self._draw_plan(sea, selection, hulls, tiles, view, level_z, used_maps))
         # Tile averages of the maps some block does not read (empty maps average 0).
         means = detail_means(tiles) if np.any(maps < used_maps) else np.zeros((DETAIL_MAPS, 4))
@@ -339,19 +356,17 @@ class WaterPass(UnderwaterDraws, RenderPass):
             self._detail_map_values = shared["detail_map"].tobytes()
             shared["values"] = self._underwater
         programs = {}
-        for key, _, nodes, _ in groups:
+        lights = local_light_defines(frame.lights)
+        for key, *_ in groups:
             if key not in programs:
                 with_hulls, m, streak = key
-                programs[key] = self._configured_program(frame, sea, shared, m, means, with_hulls and bool(hulls),
-                                                         streak)
+                programs[key] = self._configured_program(sea, shared, m, means, with_hulls and bool(hulls),
+                                                         streak, lights)
         self.stats = {"blocks": int(len(selection.nodes)), "triangles": selection.triangles,
                       "lod_error_px": selection.error_bound_px, "error_sphere_m": selection.error_sphere,
                       "finest_spacing_m": selection.finest_spacing, "waves": sea.n,
-                      "detail_resolution": resolution, "hull_blocks": int(np.count_nonzero(near_hull)),
-                      "fan_blocks": int(np.count_nonzero(flat)),
-                      "one_segment_sides": int(np.unpackbits(selection.coarse_sides).sum()),
-                      "blocks_by_detail_maps": np.bincount(maps, minlength=used_maps + 1).tolist(),
-                      "foam_streak_blocks": int(np.count_nonzero(streaks))}
+                      "detail_resolution": resolution, **plan_stats,
+                      "blocks_by_detail_maps": list(plan_stats["blocks_by_detail_maps"])}
         if len(selection.nodes) == 0:
             return
         if self._underwater is not None:
@@ -368,8 +383,8 @@ class WaterPass(UnderwaterDraws, RenderPass):
             # field): back faces (the far slopes of waves) are always hidden, so they are not drawn.
             self.ctx.enable(moderngl.CULL_FACE)
             self.ctx.front_face = "ccw"  # the patch's triangles wind counter-clockwise seen from above
-        for key, fan, nodes, slot in groups:
-            self._vao(programs[key], nodes, slot, fan).render(moderngl.TRIANGLES, instances=len(nodes))
+        for key, fan, nodes, slot, data in groups:
+            self._vao(programs[key], data, slot, fan).render(moderngl.TRIANGLES, instances=len(nodes))
         self.ctx.disable(moderngl.CULL_FACE)
         self.stats["culled_back_faces"] = not under
         self.stats["underwater"] = self._underwater is not None
@@ -422,12 +437,13 @@ class WaterPass(UnderwaterDraws, RenderPass):
         moved = eye - last[1]
         return float(moved[0]), float(moved[1])
 
-    def _configured_program(self, frame, sea, shared: dict, read_maps: int, means: np.ndarray, with_hulls: bool,
-                            foam_streaks: bool) -> moderngl.Program:
+    def _configured_program(self, sea, shared: dict, read_maps: int, means: np.ndarray, with_hulls: bool,
+                            foam_streaks: bool, lights: dict) -> moderngl.Program:
         """The water program (with or without the hull test, reading the first ``read_maps`` detail
-        maps and the tile means of the others, with or without the foam's streak noise) with this
-        frame's uniforms (``_frame_uniforms``) set."""
-        program = self._program(sea.field is not None, with_hulls, read_maps, local_light_defines(frame.lights), foam_streaks)
+        maps and the tile means of the others, with or without the foam's streak noise, the frame's
+        local lights ``lights``: frame.local_light_defines) with this frame's uniforms
+        (``_frame_uniforms``) set."""
+        program = self._program(sea.field is not None, with_hulls, read_maps, lights, foam_streaks)
         set_uniforms(program, shared["values"])
         set_uniforms(program, {"u_detail_map": shared["detail_map"][: max(read_maps, 1)].tobytes()})
         mean = program.get("u_detail_mean", None)
@@ -496,11 +512,11 @@ class WaterPass(UnderwaterDraws, RenderPass):
             obj.release()
         return selection, positions
 
-    def _vao(self, program, nodes: np.ndarray, slot: int = 0, fan: int = -1) -> moderngl.VertexArray:
-        """The patch (or a fan of flat blocks, ``_patch_buffer``) drawn once per block of ``nodes``;
-        each slot (block group drawn in one frame) has its own instance buffer."""
+    def _vao(self, program, data: bytes, slot: int = 0, fan: int = -1) -> moderngl.VertexArray:
+        """The patch (or a fan of flat blocks, ``_patch_buffer``) drawn once per block of ``data`` (the
+        blocks' rows as float32 bytes); each slot (block group drawn in one frame) has its own
+        instance buffer."""
         verts, index = self._patch_buffer(fan)
-        data = np.ascontiguousarray(nodes, dtype=np.float32).tobytes()
         buffers = self._instances if self._instances is not None else {}
         self._instances = buffers
         if slot not in buffers or buffers[slot].size < len(data):
