@@ -56,12 +56,15 @@ def test_ladder_changes_one_knob_per_rung():
 def test_auto_preset_adapts_in_the_renderer(renderer):
     from igserver.render import overload
 
-    scene = tiny({"ground": {"enabled": False}, "quality": {"preset": "auto", "target_ms": 1.0}}, 16, 16)
+    # The sea: its mesh's vertex work and the host's frame setup alone take a few ms at any size (a
+    # 16x16 sky frame now and then met the 1 ms target on an idle machine).
+    scene = tiny({"ground": {"enabled": False}, "ocean": {"enabled": True},
+                  "quality": {"preset": "auto", "target_ms": 1.0}}, 16, 16)
     renderer.frame_quality = overload.FrameQuality()
     first = renderer.render(scene)
     for _ in range(overload.WARMUP_FRAMES + overload.DOWN_FRAMES + 1):
         result = renderer.render(scene)
-    # A 1 ms target cannot be met on llvmpipe: the controller stepped down from medium at scale 1
+    # A 1 ms target cannot be met: the controller stepped down from medium at scale 1
     # to the cheapest point, and says the target is not met.
     assert first.overload["scale"] == 1.0 and first.overload["rungs"]["volumes"] == "medium"
     assert result.overload["scale"] == 0.5 and result.overload["met"] is False
