@@ -61,7 +61,8 @@ def test_memoised_setup_equals_cold(renderer, change):
 
 
 def _setup_counts() -> dict:
-    out = {f"setup.{k}": v for k, v in frame_mod.SETUP.computed.items()}
+    # (the provisional meter's solve, "meter_target", follows the fire's flicker: per frame in the demo)
+    out = {f"setup.{k}": v for k, v in frame_mod.SETUP.computed.items() if k != "meter_target"}
     out.update({f"sky.{k}": v for k, v in frame_sky.SKY_PARTS.computed.items()})
     return out
 
@@ -107,3 +108,15 @@ def test_each_setup_input_recomputes_its_items_and_nothing_else(renderer, patch,
     assert not grew & {"setup.view"} or "camera" in patch, grew  # only the camera makes a new view
     renderer.render(apply_patch(changed, {"time": {"sim_time": scene.time.sim_time + 2.5}}))
     assert _setup_counts() == after
+
+
+def test_the_provisional_meter_solves_once_per_change_of_its_samples(renderer):
+    # A view without flickering lights meters the same samples every frame: solved once; the fire's
+    # flicker changes them every frame: solved every frame.
+    from igserver.scene import load_scene
+    for name, fire in (("harbour_noon", False), ("night_fire", True)):
+        scene = apply_patch(load_scene(name), {"camera": {"width": 64, "height": 36}})
+        _demo_stream(renderer, scene, 2, scene.time.sim_time)
+        before = frame_mod.SETUP.computed["meter_target"]
+        _demo_stream(renderer, scene, 4, scene.time.sim_time + 1.0)
+        assert frame_mod.SETUP.computed["meter_target"] - before == (4 if fire else 0), name

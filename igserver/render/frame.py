@@ -216,7 +216,8 @@ def build_frame(ctx: moderngl.Context, scene: Scene, state: FrameState | None = 
     # Provisional exposure for the passes (pre-exposure keeps half floats in range): the view
     # estimated from the sky-view table; the post pass meters the rendered frame and corrects it.
     samples = meter_samples(sky, scene, view, celestial, altitude - scene.location.altitude, lights)
-    target, meter = display_metered_ev100(samples)
+    # the solve per exact samples: a view whose light does not flicker meters the same every frame
+    target, meter = SETUP.get("meter_target", samples.tobytes(), lambda: display_metered_ev100(samples))
     ev100 = provisional_ev100(scene, state, target)
     frame = FrameContext(ctx, scene, view, celestial, light, exposure_of_ev100(ev100), lights,
                          ev100=ev100, illuminance_lux=sky.horizontal_illuminance, meter_luminance=meter)
