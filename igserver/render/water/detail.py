@@ -72,8 +72,11 @@ def detail_tiles(sea: SeaSurface, t: float) -> list[tuple[float, np.ndarray]]:
         return [(1.0, np.zeros((0, 4)))] * DETAIL_MAPS
     tiles = []
     for size, fixed, omega, phase in _lattice_of(sea).tiles:
-        phase = np.mod(phase - np.mod(omega * t, 2.0 * math.pi), 2.0 * math.pi)
-        tiles.append((size, np.column_stack([fixed, phase])))
+        waves = np.empty((len(fixed), 4))
+        waves[:, 0:3] = fixed
+        turned = np.mod(omega * t, 2.0 * math.pi)
+        np.mod(np.subtract(phase, turned, out=turned), 2.0 * math.pi, out=waves[:, 3])
+        tiles.append((size, waves))
     return tiles
 
 

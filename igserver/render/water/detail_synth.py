@@ -38,17 +38,21 @@ class TilePairs:
         self.g = lattice[:, 2:3] * mn / np.linalg.norm(mn, axis=1, keepdims=True)
         same = np.all(mn[:, None] == mn[None], axis=2)
         opposite = np.all(mn[:, None] == -mn[None], axis=2)
-        self.i, self.j = np.nonzero(same | opposite)
-        self.sign = np.where(opposite[self.i, self.j], 1.0, -1.0)  # φ_i + φ_j opposite, φ_i − φ_j same
-        self.gg = np.stack([self.g[self.i, 0] * self.g[self.j, 0], self.g[self.i, 1] * self.g[self.j, 1]])
+        # Each wave with itself: w_ii = ½ whatever the phase; the other pairs' w follow the phases.
+        self.square = self.g * self.g
+        self.fixed = 0.5 * np.sum(self.square, axis=0)  # Σ ½ g_i² (sx², sy²)
+        i, j = np.nonzero((same | opposite) & ~np.eye(len(mn), dtype=bool))
+        self.i, self.j = i, j
+        self.sign = np.where(opposite[i, j], 1.0, -1.0)  # φ_i + φ_j opposite, φ_i − φ_j same
+        self.gg = np.stack([self.g[i, 0] * self.g[j, 0], self.g[i, 1] * self.g[j, 1]])
 
     def weights(self, phase: np.ndarray) -> np.ndarray:
-        """Per pair, w_ij = the tile average of cos θ_i cos θ_j."""
+        """Per pair of two waves (``i``, ``j``), w_ij = the tile average of cos θ_i cos θ_j."""
         return 0.5 * np.cos(phase[self.i] + self.sign * phase[self.j])
 
     def mean_square(self, phase: np.ndarray) -> np.ndarray:
         """The tile averages of (sx², sy²)."""
-        return np.sum(self.gg * self.weights(phase), axis=1)
+        return self.fixed + np.sum(self.gg * self.weights(phase), axis=1) if len(self.i) else self.fixed.copy()
 
 
 @functools.lru_cache(maxsize=8)
@@ -95,11 +99,17 @@ class DetailSynth:
         self.total = start
         # Per coefficient: its bin (an index of the distinct bins ``bins``), its phasor's column in
         # (e^{iφ}, e^{−iφ}) and c_±; summed per bin in this order by bincount (no BLAS call: its threads
-        # would wait for cores that llvmpipe's rasterizer holds).
-        self.bins, self.slot = np.unique(np.concatenate(bins), return_inverse=True)
+        # would wait for cores that llvmpipe's rasterizer holds) where two share a bin, else each put
+        # in its bin (a filled tile: every point once).
+        self.entry_bins = np.concatenate(bins)
+        self.bins, self.slot = np.unique(self.entry_bins, return_inverse=True)
+        self.shared_bins = len(self.bins) < len(self.entry_bins)
         self.columns, self.values = np.concatenate(columns), np.concatenate(values)
-        # Per level and pair: (1 − G_i G_j) g_i g_j for sx², then for sy² (levels × 2 rows).
-        lost = np.array([1.0 - gain[pairs.i] * gain[pairs.j] for gain in gains]).reshape(-1, len(pairs.i))
+        self.flat = np.zeros(self.total, np.complex64)  # the levels' row blocks: zero but on the bins
+        # Per level, the variance its gains removed (sx², sy²): each wave's own ½ (1 − G²) g² (fixed),
+        # and per pair of two waves (1 − G_i G_j) g_i g_j w_ij (levels × 2 rows, times w each frame).
+        self.removed_fixed = 0.5 * np.array([(1.0 - gain * gain) @ pairs.square for gain in gains]).T
+        lost = np.array([1.0 - gain[pairs.i] * gain[pairs.j] for gain in gains]).reshape(len(gains), len(pairs.i))
         self.removed = np.concatenate([lost * pairs.gg[0], lost * pairs.gg[1]])
 
     def levels(self, phase: np.ndarray, out: list[np.ndarray] | None = None) -> list[np.ndarray]:
@@ -110,11 +120,16 @@ class DetailSynth:
             out = [np.empty((size, size, 4), np.float32) for size in self.sizes]
         rotor = np.exp(1j * phase)
         terms = self.values * np.concatenate([rotor, rotor.conj()])[self.columns]
-        removed = np.sum(self.removed * self.pairs.weights(phase), axis=1).reshape(2, -1)  # (sx², sy²) per level
+        removed = self.removed_fixed  # (sx², sy²) per level
+        if len(self.pairs.i):
+            removed = removed + np.sum(self.removed * self.pairs.weights(phase), axis=1).reshape(2, -1)
         with _LOCK:
-            flat = _work(self.total)
-            flat.real[self.bins] = np.bincount(self.slot, terms.real, len(self.bins))
-            flat.imag[self.bins] = np.bincount(self.slot, terms.imag, len(self.bins))
+            flat = self.flat
+            if self.shared_bins:
+                flat.real[self.bins] = np.bincount(self.slot, terms.real, len(self.bins))
+                flat.imag[self.bins] = np.bincount(self.slot, terms.imag, len(self.bins))
+            else:
+                flat[self.entry_bins] = terms
             for level, (size, texels) in enumerate(zip(self.sizes, out)):
                 extra = removed[:, level]
                 if level >= len(self.spectral):  # no wave fits: zero slope, the tile's slope variance
@@ -138,16 +153,6 @@ class DetailSynth:
 # at 128²): their rounding, a few 1e-7 of the map's largest slope, is that of the float32 texels.
 _LOCK = threading.Lock()
 _WORK: dict = {}
-
-
-def _work(total: int) -> np.ndarray:
-    """The zeroed flat array of a map's bins (entries past the bins a map writes stay zero)."""
-    flat = _WORK.get("flat")
-    if flat is None or len(flat) < total:
-        flat = _WORK["flat"] = np.zeros(max(total, 4096), dtype=np.complex64)
-    else:
-        flat[:total] = 0.0
-    return flat[:total]
 
 
 def _grid(size: int, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
