@@ -92,3 +92,24 @@ def test_the_list_is_kept_with_its_batches_and_made_again_with_new_ones(demo_pas
     assert other is not batches
     assert surfaces._draw_list(other, "view", False, None) is not first
     assert isinstance(surfaces, SurfacesPass)
+
+
+def test_a_run_of_equal_values_or_textures_is_set_once(demo_pass, monkeypatch):
+    import igserver.render.surfaces.surfaces as surfaces_mod
+    renderer, scene, surfaces = demo_pass
+    batches = surfaces._instances(scene, surfaces_view(renderer, scene))
+    draws = surfaces._draw_list(batches, "view", False, None)
+    sets, binds, drawn = [], [], []
+    monkeypatch.setattr(surfaces_mod, "set_uniforms", lambda program, values: sets.append(values))
+    for _, mat, _, _ in draws:
+        monkeypatch.setattr(mat, "bind", lambda mat=mat: binds.append(mat.texture_set))
+    for prim, _, _, _ in draws:
+        monkeypatch.setattr(prim, "draw_rows", lambda *a, prim=prim: drawn.append(prim))
+    surfaces._draw_batches(object(), batches, "view", blended=False)
+
+    def runs(values):
+        return [v for i, v in enumerate(values) if i == 0 or values[i - 1] != v]
+    assert [p for p, _, _, _ in draws] == drawn
+    assert [tuple(sorted(v.items())) for v in sets] == runs([m.uniform_state for _, m, _, _ in draws])
+    assert binds == runs([m.texture_set for _, m, _, _ in draws])
+    assert len(sets) < len(draws) and len(binds) < len(draws)

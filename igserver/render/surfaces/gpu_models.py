@@ -90,9 +90,9 @@ class GpuMaterial:
             "u_alpha_cutoff": mat.alpha_cutoff,
             "u_has_normal_tex": int(self.has_normal),
         }
-        # What a draw of this material sets: two materials with equal states draw alike, so a run
-        # of draws sets it once.
-        self.state = (self.texture_set, tuple(sorted(self.uniforms.items())))
+        # What a draw of this material sets, its uniforms' values and its textures: a run of draws
+        # whose materials have equal values sets them once (most materials differ only in textures).
+        self.uniform_state = tuple(sorted(self.uniforms.items()))
 
     def bind(self) -> None:
         use_textures(self.textures, PASS_UNITS["BASE_TEX"])

@@ -280,14 +280,17 @@ class SurfacesPass(RenderPass):
     def _draw_batches(self, program, batches: dict[str, Batch], use: str, blended: bool | None = None,
                       alpha_tested: bool | None = None) -> None:
         """Draw the ``use`` instances of every primitive; ``blended`` / ``alpha_tested`` select
-        primitives by alpha mode (BLEND; MASK or BLEND) when not None. A material's uniforms and
-        textures are set once for its run of draws (draw_list)."""
-        state = None
+        primitives by alpha mode (BLEND; MASK or BLEND) when not None. A material's uniforms are
+        set once for a run of draws with the same values, its textures once for a run with the same
+        textures (draw_list groups them)."""
+        values = textures = None
         for prim, mat, rows, count in self._draw_list(batches, use, blended, alpha_tested):
-            if mat.state != state:
+            if mat.uniform_state != values:
                 set_uniforms(program, mat.uniforms)
+                values = mat.uniform_state
+            if mat.texture_set != textures:
                 mat.bind()
-                state = mat.state
+                textures = mat.texture_set
             prim.draw_rows(program, use, rows, count)
 
     def _draw_list(self, batches: dict[str, Batch], use: str, blended, alpha_tested) -> list:
