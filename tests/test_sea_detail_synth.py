@@ -186,3 +186,20 @@ def test_unchanged_small_levels_are_not_uploaded_again(renderer, monkeypatch):
     assert 0 < len(writes) < water._maps_written * chain
     assert all(level == 0 or resolution >> level > 1 for level in writes)  # the 1x1 moments kept
     assert writes.count(0) == water._maps_written
+
+
+def test_pairs_are_those_of_every_two_waves():
+    # The table of lattice points finds the same pairs as comparing every two waves (same point:
+    # w follows φ_i − φ_j, opposite points: φ_i + φ_j), in the same order.
+    from igserver.render.water.detail_synth import _pairs
+
+    rng = np.random.default_rng(5)
+    tiles = [_shared_points_tile()[:, :2], rng.integers(-4, 5, (300, 2)).astype(float), _tiles()[0][:, :2]]
+    for mn in tiles:
+        same = np.all(mn[:, None] == mn[None], axis=2)
+        opposite = np.all(mn[:, None] == -mn[None], axis=2)
+        i, j = np.nonzero((same | opposite) & ~np.eye(len(mn), dtype=bool))
+        got = _pairs(mn)
+        assert np.array_equal(got[0], i) and np.array_equal(got[1], j)
+        assert np.array_equal(got[2], np.where(opposite[i, j], 1.0, -1.0))
+    assert len(_pairs(tiles[1])[0]) > 300  # a tile of many shared points

@@ -36,14 +36,11 @@ class TilePairs:
         mn = lattice[:, 0:2]
         self.mn = mn
         self.g = lattice[:, 2:3] * mn / np.linalg.norm(mn, axis=1, keepdims=True)
-        same = np.all(mn[:, None] == mn[None], axis=2)
-        opposite = np.all(mn[:, None] == -mn[None], axis=2)
         # Each wave with itself: w_ii = ½ whatever the phase; the other pairs' w follow the phases.
         self.square = self.g * self.g
         self.fixed = 0.5 * np.sum(self.square, axis=0)  # Σ ½ g_i² (sx², sy²)
-        i, j = np.nonzero((same | opposite) & ~np.eye(len(mn), dtype=bool))
+        i, j, self.sign = _pairs(mn)
         self.i, self.j = i, j
-        self.sign = np.where(opposite[i, j], 1.0, -1.0)  # φ_i + φ_j opposite, φ_i − φ_j same
         self.gg = np.stack([self.g[i, 0] * self.g[j, 0], self.g[i, 1] * self.g[j, 1]])
 
     def weights(self, phase: np.ndarray) -> np.ndarray:
@@ -53,6 +50,22 @@ class TilePairs:
     def mean_square(self, phase: np.ndarray) -> np.ndarray:
         """The tile averages of (sx², sy²)."""
         return self.fixed + np.sum(self.gg * self.weights(phase), axis=1) if len(self.i) else self.fixed.copy()
+
+
+def _pairs(mn: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The ordered pairs (i, j), i ≠ j, of waves on the same lattice point (sign −1: w follows φ_i − φ_j)
+    or on opposite ones (+1: φ_i + φ_j; the origin is its own opposite), sorted by i then j: found
+    through a table of the points (a filled tile's ~1,100 waves: comparing every two took 0.1 s)."""
+    points = list(map(tuple, mn.tolist()))
+    at: dict[tuple[float, float], list[int]] = {}
+    for index, point in enumerate(points):
+        at.setdefault(point, []).append(index)
+    pairs = {(i, j): -1.0 for i, point in enumerate(points) for j in at[point] if j != i}
+    pairs.update({(i, j): 1.0 for i, (m, n) in enumerate(points) for j in at.get((-m, -n), ()) if j != i})
+    if not pairs:
+        return np.zeros(0, int), np.zeros(0, int), np.zeros(0)
+    i, j, sign = zip(*((i, j, sign) for (i, j), sign in sorted(pairs.items())))
+    return np.array(i), np.array(j), np.array(sign)
 
 
 @functools.lru_cache(maxsize=8)
