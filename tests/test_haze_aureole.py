@@ -10,9 +10,10 @@ up, under the brightest sky in view. Photographs and measured sky scans of hazy 
 horizon toward the sun bright (the aureole reaching down to the horizon): the CIE standard general
 skies for turbid atmospheres (ISO 15469 / CIE S 011, types 11-15) have a gradation that brightens
 monotonically toward the horizon and an indicatrix peaking at the sun, so in the sun's vertical
-nothing darkens toward the horizon. common/atmosphere.glsl haze_sky_lobe() scatters the clear sky
+nothing darkens toward the horizon. sky/haze_lobe.glsl haze_sky_lobe() scatters the clear sky
 that reaches the layer through it (delta-scaled, as the two-stream's own direct part) by the
-layer's Henyey-Greenstein phase instead, and moves the same light out of the isotropic term.
+layer's Henyey-Greenstein phase instead, and moves the same light out of the isotropic term; over
+a sea, the sky the sea mirrors into the layer from below (Fresnel at its facets' incidence) likewise.
 """
 
 from __future__ import annotations
@@ -60,19 +61,20 @@ def strip(lum, elevation, azimuth, off_sun, lo, hi):
 
 
 def test_no_dark_band_on_the_horizon_under_a_low_sun_through_haze(renderer):
-    # The issue's view: sun 0.47 deg up, 30 km visibility, the camera 15 m over the sea. Strip just
-    # above the horizon (0.1-0.9 deg) against 5.5-6.5 deg up. Before: 0.07 (132 against 1860
-    # cd/m^2); now 0.22, the horizon lit by the sky around the sun (the lobe's 160-tap quadrature
-    # within 4 % of a 512-tap one there). Bound 0.15: the 0.22 less the quadrature, the tables'
-    # interpolation and llvmpipe's float; the darkening that is left is the layer's: looking
+    # The issue's view: sun 0.47 deg up, 30 km visibility, the camera 15 m over a calm sea (1 m/s).
+    # Strip just above the horizon (0.1-0.9 deg) against 5.5-6.5 deg up. Before: 0.08 (132 against
+    # 1860 cd/m^2); now 0.32, the horizon's haze lit by the sky around the sun from above and by the
+    # sea mirroring it from below (0.23 with the sky alone; the lobe's 160-tap quadrature within 4 %
+    # of a 512-tap one there). Bound 0.25: the 0.32 less 20 % for the quadrature, the tables'
+    # interpolation and the platform's float. The darkening that is left is the layer's: looking
     # horizontally the eye sees the haze of the lowest tens of metres (optical depth 13 along the
-    # horizon), lit through the 1-5 air masses of haze above it, where 6 deg up it sees the sky
-    # through 1.3. Upper bound 1.2: the horizon never outshines the aureole above it (the
-    # prototype that spread the whole sky's light by the phase washed the scenes out).
+    # horizon), lit through 1-5 air masses of haze, where 6 deg up it sees the sky through 1.3.
+    # Upper bound 1.2: the horizon never outshines the aureole above it (the prototype that spread
+    # the whole sky's light by the phase washed the scenes out).
     s = apply_patch(load_scene("sea_calm_dawn"), ISSUE)
     lum, el, az, off = luminance_and_angles(renderer, s)
     ratio = strip(lum, el, az, off, 0.1, 0.9) / strip(lum, el, az, off, 5.5, 6.5)
-    assert 0.15 < ratio < 1.2, ratio
+    assert 0.25 < ratio < 1.2, ratio
 
 
 def test_the_ground_below_the_horizon_shows_the_same_haze_as_the_sky_above(renderer):
@@ -81,8 +83,9 @@ def test_the_ground_below_the_horizon_shows_the_same_haze_as_the_sky_above(rende
     # over a black ground plane (no sea) the ground 0.1-0.5 deg under the horizon (dip 0.56 deg) lies
     # 17-30 km away, behind haze of optical depth 2-3.5: it shows 0.86-0.97 of the haze's saturated
     # light, plus the clear air in front of it; the sky 0.1-0.5 deg above the horizon shows the haze
-    # along the limb (optical depth > 10). Measured 1.07; a surface pass without the lobe: 0.40 (a
-    # seam at the horizon). Bounds 0.85-1.25.
+    # along the limb (optical depth > 10). Measured 1.04; a surface pass without the lobe: 0.40 (a
+    # seam at the horizon); before the lobe 1.64 (the sky's dark band over the ground's haze). Bounds
+    # 0.85-1.25.
     s = apply_patch(load_scene("sea_calm_dawn"), {
         **ISSUE, "ocean": {"enabled": False}, "camera": {**ISSUE["camera"], "position": [0.0, 0.0, 300.0], "pitch": 0.0},
         "ground": {"enabled": True, "color": [0.0, 0.0, 0.0], "level": 0.0}})

@@ -322,81 +322,12 @@ void haze_source_terms(float h, float dir_z, out vec3 sun, out vec3 moon, out ve
     // round w_down to 1/256: |up - down| / 512 at most).
     diffuse = u_haze_omega / ATMO_PI * texture(u_haze_table, vec2(u, 0.375 - 0.25 * w_down)).rgb;
 }
-// The clear sky's light that reaches height h straight through the layer, scattered toward the
-// eye by the layer's phase function instead of isotropically (cd/m^2, before omega):
-//     A(h, v) = integral L_c(w) T(h, w) p_HG(w . v) dw  -  w_down(v) / pi  integral L_c(w) T(h, w) w_z dw,
-// L_c the clear sky (the sky-view table), T(h, w) = exp(-(1 - g^2) haze_tau_up(h, w_z)) the layer
-// above h along w, delta-scaled as the two-stream's own direct part (its forward peak stays in the
-// beam). The two-stream's diffuse rows (haze_source_terms) hold this light as isotropic flux (the
-// second integral, in the weight w_down / pi they give any downward flux); A moves it to where the
-// phase function sends it, so it adds nothing for an isotropic sky. Where the clear sky is
-// anisotropic and the layer lets it through, the haze takes the light of the sky it looks toward:
-// a low sun's aureole, crossing a few air masses of the layer from 2-20 deg up, lights the haze on
-// the horizon below it (the direct sun crosses 60-90 there and is gone). In a thick fog T ~ 0 and
-// A ~ 0. Directions below the horizon carry no sky (the upwelling light stays in its own row).
-// Quadratures: the first by importance sampling of p_HG, HAZE_LOBE_RINGS rings stratified in its
-// inverse CDF x HAZE_LOBE_AZIMUTHS azimuths spent on each ring's arc above the horizon; the second
-// cosine-weighted over the half hemisphere from the sun's azimuth. 16 x 8 and 4 x 8: within 4 % of
-// 32 x 16 and 12 x 16 on the horizon under a sun 0.47 deg up (the issue's view in
-// tests/test_haze_aureole.py). 160 taps: tabulated once per change (sky/haze_lobe.glsl), read with
-// haze_lobe().
-const int HAZE_LOBE_RINGS = 16;
-const int HAZE_LOBE_AZIMUTHS = 8;
-const int HAZE_FLUX_RINGS = 4;
-const int HAZE_FLUX_AZIMUTHS = 8;
-vec3 haze_clear_sky_through(float h, vec3 w, vec2 size) {
-    if (w.z <= 0.0) return vec3(0.0);
-    return texture(u_sky_view_radiance, sky_view_uv_sized(w, size)).rgb
-         * exp(-min((1.0 - u_haze_g * u_haze_g) * haze_tau_up(h, w.z), vec3(80.0)));
-}
 // Weight of the lobe for the camera's height: the sky-view table is the clear sky seen from the
 // camera, which stands for the sky seen from the layer while the camera is in it: 1 up to the
 // layer's top plus one edge, fading to 0 two edges higher (sky/haze_lobe.py lobe_weight mirrors it;
 // from higher up the layer is seen from above, its light the two-stream's flux).
 float haze_lobe_weight() {
     return 1.0 - smoothstep(u_haze_top + u_haze_edge, u_haze_top + 3.0 * u_haze_edge, haze_height());
-}
-vec3 haze_sky_lobe(float h, vec3 v) {
-    vec2 size = vec2(textureSize(u_sky_view_radiance, 0));
-    float g = u_haze_g;
-    vec3 t1 = abs(v.z) < 0.999 ? normalize(vec3(-v.y, v.x, 0.0)) : vec3(1.0, 0.0, 0.0);
-    vec3 t2 = cross(v, t1);
-    vec3 lobe = vec3(0.0);
-    for (int i = 0; i < HAZE_LOBE_RINGS; ++i) {
-        float xi = (float(i) + 0.5) / float(HAZE_LOBE_RINGS);
-        float q = (1.0 - g * g) / (1.0 - g + 2.0 * g * xi);
-        float c = clamp((1.0 + g * g - q * q) / (2.0 * g), -1.0, 1.0);
-        float s = sqrt(max(1.0 - c * c, 0.0));
-        // The ring's taps above the horizon: z = c v_z + s t2_z sin(phi) > 0 (t1 is level), the arc
-        // phi in (asin k, pi - asin k), k = -c v_z / (s t2_z); the azimuths share out that arc only
-        // (the sky's light ends at the horizon: spent on the arc, every tap counts).
-        float a_z = s * t2.z;
-        float k = a_z > 1e-6 ? -c * v.z / a_z : (c * v.z > 0.0 ? -2.0 : 2.0);
-        if (k >= 1.0) continue;
-        float phi0 = k <= -1.0 ? 0.0 : asin(k);
-        float arc = k <= -1.0 ? 2.0 * ATMO_PI : ATMO_PI - 2.0 * phi0;
-        vec3 ring = vec3(0.0);
-        for (int j = 0; j < HAZE_LOBE_AZIMUTHS; ++j) {
-            float phi = phi0 + (float(j) + 0.5) * arc / float(HAZE_LOBE_AZIMUTHS);
-            ring += haze_clear_sky_through(h, c * v + s * (cos(phi) * t1 + sin(phi) * t2), size);
-        }
-        lobe += ring * (arc / (2.0 * ATMO_PI));
-    }
-    lobe /= float(HAZE_LOBE_RINGS * HAZE_LOBE_AZIMUTHS);
-    // The flux: the sky is symmetric about the sun's vertical (the sky-view map's azimuth runs from
-    // the sun, 0 to pi), so half the circle, from the sun's azimuth, holds it.
-    vec3 flux = vec3(0.0);
-    vec2 sun_h = u_sky_view_sun_h, side = vec2(-sun_h.y, sun_h.x);
-    for (int i = 0; i < HAZE_FLUX_RINGS; ++i) {
-        float mu = sqrt(1.0 - (float(i) + 0.5) / float(HAZE_FLUX_RINGS));  // cosine-weighted rings
-        float s = sqrt(1.0 - mu * mu);
-        for (int j = 0; j < HAZE_FLUX_AZIMUTHS; ++j) {
-            float phi = (float(j) + 0.5) * ATMO_PI / float(HAZE_FLUX_AZIMUTHS);
-            flux += haze_clear_sky_through(h, vec3(s * (cos(phi) * sun_h + sin(phi) * side), mu), size);
-        }
-    }
-    flux *= ATMO_PI / float(HAZE_FLUX_RINGS * HAZE_FLUX_AZIMUTHS);
-    return lobe - (0.5 + 0.5 * v.z) / ATMO_PI * flux;
 }
 // The lobe term of direction dir at its ray's source height, times omega and the camera's weight,
 // from the per-change table on the sky-view map (sky/haze_lobe.glsl).

@@ -15,6 +15,7 @@ import numpy as np
 from ...photometry import LUMA
 from ...astro.ephemeris import direction_enu, refraction_deg
 from ...scene.model import Scene
+from ...water.spectrum import cox_munk_mss
 from ...weather import effective_visibility, wind_heading
 from ..bindings import FRAME_UNITS, use_texture
 from ..memo import Memo
@@ -107,7 +108,7 @@ def scene_visibility(scene: Scene) -> float:
 def scene_haze(scene: Scene, params: AtmosphereParameters) -> HazeLayer:
     a = scene.atmosphere
     return haze_layer(scene_visibility(scene), a.turbidity, a.fog_top, _ground_extinction(params),
-                      scene_ground_albedo(scene))
+                      scene_ground_albedo(scene), cox_munk_mss(scene.weather.wind_speed) if scene.ocean.enabled else -1.0)
 
 
 def scene_ground_albedo(scene: Scene) -> float:
@@ -180,8 +181,9 @@ def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
         tables = AtmosphereTables.get(ctx, params)
         tables.bind()
         # scene_haze's inputs: visibility (with the precipitation's), turbidity, fog top, the
-        # atmosphere's parameters (from the atmosphere record), the ground's albedo
-        haze = SKY_PARTS.get("haze", (atm, scene.weather.precipitation, scene.ground, scene.ocean.enabled),
+        # atmosphere's parameters (from the atmosphere record), the ground's albedo, the sea's wind
+        haze = SKY_PARTS.get("haze", (atm, scene.weather.precipitation, scene.ground, scene.ocean.enabled,
+                                      scene.weather.wind_speed),
                              lambda: scene_haze(scene, params))
         if transition is not None:
             beta = transition.apply(haze.beta, atm.visibility_transition, scene.time.sim_time)

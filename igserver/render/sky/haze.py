@@ -32,9 +32,10 @@ The in-scattered radiance toward the eye is the source
 (a viewer looking down sees light going up), taken at an effective height along the ray, and
 L_in = S (1 - exp(-tau_ray)). The shaders add omega A(h, v), the lobe: the clear sky's light that
 reaches h straight through the layer, scattered by p_HG instead of isotropically, less the same light
-as the isotropic term holds it (common/atmosphere.glsl haze_sky_lobe, tabulated by haze_lobe.py; zero
-for an isotropic sky). It needs the clear sky's radiance per direction, which this module does not
-have: source() here is the isotropic model (the CPU exposure estimate's).
+as the isotropic term holds it (sky/haze_lobe.glsl haze_sky_lobe, tabulated by haze_lobe.py; zero
+for an isotropic sky; over a sea, sea_mss >= 0, also the sky the sea mirrors into the layer). It
+needs the clear sky's radiance per direction, which this module does not have: source() here is the
+isotropic model (the CPU exposure estimate's).
 """
 
 from __future__ import annotations
@@ -72,6 +73,10 @@ class HazeLayer:
     # under a snowfall (0.8) fills the layer with nearly as much light going up as down, so the
     # whiteout's horizon is as bright as its zenith; over 0.1 it was 0.55x as bright (a dark band).
     albedo: float = GROUND_ALBEDO
+    # Mean-square slope of a sea under the layer (Cox & Munk), -1 over land: a sea mirrors the
+    # sky's light into the layer from below (the lobe, sky/haze_lobe.glsl haze_sky_lobe), a land
+    # surface's reflection stays the two-stream's isotropic upwelling.
+    sea_mss: float = -1.0
 
     @property
     def key(self) -> tuple:
@@ -216,11 +221,13 @@ class HazeLayer:
             "u_haze_omega": float(self.omega),
             "u_haze_ground_albedo": float(self.albedo),
             "u_haze_table_top": float(self.table_top()),
+            "u_haze_sea_mss": float(self.sea_mss),
         }
 
 
 def haze_layer(visibility_m: float, turbidity: float, fog_top: float | None,
-               clear_ground_extinction_per_m: float, ground_albedo: float = GROUND_ALBEDO) -> HazeLayer:
+               clear_ground_extinction_per_m: float, ground_albedo: float = GROUND_ALBEDO,
+               sea_mss: float = -1.0) -> HazeLayer:
     fog = _fog_fraction(visibility_m)
     alpha = 1.3 * (1.0 - fog)
     beta_550 = max(KOSCHMIEDER / visibility_m - clear_ground_extinction_per_m, 0.0)
@@ -230,7 +237,7 @@ def haze_layer(visibility_m: float, turbidity: float, fog_top: float | None,
     else:
         top, edge = 0.0, 1200.0 * turbidity / 2.0
     return HazeLayer(beta=beta, top=top, edge=edge, g=0.7 + 0.15 * fog, omega=0.9 + 0.1 * fog,
-                     albedo=float(ground_albedo))
+                     albedo=float(ground_albedo), sea_mss=float(sea_mss))
 
 
 def hg_phase(g: float, nu) -> np.ndarray:

@@ -1,6 +1,6 @@
 """The fog/haze layer's lobe table (sky/haze_lobe.glsl): the clear sky's light that reaches the layer
 straight through it, scattered toward the eye by the layer's phase function rather than
-isotropically (common/atmosphere.glsl haze_sky_lobe, the maths), for every view direction on the
+isotropically (sky/haze_lobe.glsl haze_sky_lobe, the maths), for every view direction on the
 sky-view map. The sky, the sea's tables and the surfaces' aerial table read it with one lookup
 (haze_lobe) where evaluating the lobe's 82 taps in every texel of their own tables would cost
 ~100 ms per change on llvmpipe. Bound on the frame-wide unit HAZE_LOBE.
