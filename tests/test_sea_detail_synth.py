@@ -99,6 +99,25 @@ def test_the_synthesis_is_built_once_per_lattice_and_resolution():
     assert info().misses == 4
 
 
+def test_the_pairs_are_found_once_per_lattice():
+    # detail_means and every resolution's synthesis share a lattice's pairs; only the lattice's
+    # (m, n, A k) build them anew, not the phases.
+    detail_synth.tile_pairs.cache_clear()
+    detail_synth.detail_synth.cache_clear()
+    waves = _tiles()[-1]
+    for phase_shift in (0.0, 0.7):
+        shifted = waves.copy()
+        shifted[:, 3] += phase_shift
+        detail_means([(1.0, shifted)])
+        detail_map_levels(shifted, 32)
+        detail_map_levels(shifted, 64)
+    assert detail_synth.tile_pairs.cache_info().misses == 1
+    stronger = waves.copy()
+    stronger[:, 2] *= 2.0
+    assert np.allclose(detail_means([(1.0, stronger)])[0], 4.0 * detail_means([(1.0, waves)])[0])
+    assert detail_synth.tile_pairs.cache_info().misses == 2
+
+
 def test_the_box_chain_has_its_own_synthesis(monkeypatch):
     detail_synth.detail_synth.cache_clear()
     waves = _tiles()[0]
