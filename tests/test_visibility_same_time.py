@@ -109,3 +109,24 @@ def test_visibility_change_while_time_moves_eases_over_the_transition(renderer):
     end = frame(renderer, scene(FOG_M, t3, transition))
     assert renderer.frame_state.haze.settled
     assert max_diff(end, fog_ref) <= 1
+
+
+def test_settled_haze_is_not_eased_again(monkeypatch):
+    """A stream whose visibility does not change: once the transition has settled, each frame returns
+    the settled value without easing again (counted); a new value eases from it as before."""
+    import numpy as np
+
+    from igserver.render.sky.haze import HazeTransition
+
+    steps = []
+    original = HazeTransition._step
+    monkeypatch.setattr(HazeTransition, "_step", lambda self, *a: steps.append(a) or original(self, *a))
+    haze = HazeTransition()
+    first = haze.apply(np.array([1e-4, 2e-4, 3e-4]), 10.0, 0.0)
+    for i in range(1, 6):
+        assert np.array_equal(haze.apply(np.array([1e-4, 2e-4, 3e-4]), 10.0, i / 30), first)
+    assert len(steps) == 1
+    start = haze.apply(np.array([1e-3, 2e-3, 3e-3]), 10.0, 6 / 30)  # a new target: the ease starts here
+    assert len(steps) == 2 and np.allclose(start, first)
+    moving = haze.apply(np.array([1e-3, 2e-3, 3e-3]), 10.0, 7 / 30)
+    assert len(steps) == 3 and np.all(moving > first) and np.all(moving < [1e-3, 2e-3, 3e-3])  # easing

@@ -260,9 +260,21 @@ class HazeTransition:
         self._to: np.ndarray | None = None
         self._progress = 1.0
         self._last_sim: float | None = None
+        self._settled: tuple[np.ndarray, np.ndarray] | None = None  # (host's value, applied value) once settled
 
     def apply(self, target_beta: np.ndarray, duration: float, sim_time: float) -> np.ndarray:
-        target = np.log(np.maximum(np.asarray(target_beta, float), 1e-12))
+        raw = np.asarray(target_beta, float)
+        if self._settled is not None and self._progress >= 1.0 and np.array_equal(raw, self._settled[0]):
+            # Settled on the same value (a stream whose haze does not change): the value it gave; from
+            # a settled state every branch of _step gives it again.
+            self._last_sim = sim_time
+            return self._settled[1].copy()
+        beta = self._step(raw, duration, sim_time)
+        self._settled = (raw.copy(), beta) if self._progress >= 1.0 else None
+        return beta
+
+    def _step(self, raw: np.ndarray, duration: float, sim_time: float) -> np.ndarray:
+        target = np.log(np.maximum(raw, 1e-12))
         if self._to is None or duration <= 0.0:
             self._from = self._to = target
             self._progress = 1.0
