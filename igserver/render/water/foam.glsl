@@ -30,15 +30,6 @@ float foam_mean_ramp(float f, float w) {
 }
 float foam_mean(float f) { return foam_mean_ramp(f, FOAM_SOFT); }
 
-// The opacity f whose dither mean through a ramp of width w is m (piecewise quadratic, linear, quadratic).
-float foam_mean_inverse(float m, float w) {
-    float c = clamp(m, 0.0, 1.0) * (1.0 - w);  // the covered part
-    float lo = 0.5 * w;                           // covered at f = w
-    if (c < lo) return sqrt(2.0 * w * c);
-    if (c <= 1.0 - 1.5 * w) return c + 0.5 * w;
-    return 1.0 - sqrt(max(2.0 * w * (1.0 - w - c), 0.0));
-}
-
 // The foam at a vertex where the LOD faded some waves out of the mesh: J is then about normal about
 // the mesh's J with the faded waves' variance (lost_jvar), widening the J edge to width2. The share r
 // of the width the faded waves make blends two means. Resolved (r = 0): the foam of opacity d p, p
@@ -69,7 +60,7 @@ vec3 foam_vertex(float j, vec2 j_past, float lost_jvar, float breaking, float he
     float x = (mix(u_foam_unresolved.x, u_foam_decay.z + shift, surf) - j) * inversesqrt(width2);
     float unresolved = 0.5 + 0.5 * sign(x) * sqrt(1.0 - exp(-3.08 * x * x));
     float r = 1.0 - edge2 / width2;
-    float m = mix(resolved, unresolved, r);
+    float m = mix(resolved, max(unresolved, foam_mean(u_foam_decay.w)), r);  // the wind rows either way
     float fresh = mix(now, u_foam_unresolved.y * unresolved, r);
     return vec3(m, m > 1e-6 ? fresh / m : 1.0, smoothstep(0.25, 0.75, height * u_spray.y));
 }

@@ -81,6 +81,25 @@ def streak_opacity(wind: float) -> float:
     return 0.25 * x * x * (3.0 - 2.0 * x)
 
 
+def streak_octave_weights(wind: float) -> tuple[float, float, float]:
+    """Per octave of the streak noise (FOAM_OCTAVE_SCALE) its weight in the dither's noise, the
+    squares summing to 1: the thin streaks alone up to Beaufort 6 (10.8 m/s), bunched into wind rows
+    6 and 24 m wide from Beaufort 8 (17.2 m/s, "well-marked streaks"), the rows as strong as the
+    streaks in them (0.75, 0.5, 0.433). An octave of weight 0 is not read."""
+    x = min(max((wind - 10.8) / (17.2 - 10.8), 0.0), 1.0)
+    x = x * x * (3.0 - 2.0 * x)
+    rows = (0.5 * x, 0.433 * x)
+    return (math.sqrt(1.0 - rows[0] ** 2 - rows[1] ** 2), *rows)
+
+
+def streak_variant(streaks: bool, values: dict) -> int:
+    """The water program's WATER_FOAM_STREAKS for a block: 0 without the streak noise (faded there),
+    1 with the thin streaks and the patches, 2 with the wind rows too (their weight in this frame's
+    ``values``, foam_frame's u_foam_octaves, is not 0): the rows' lookups cost the water pass 10 % on
+    llvmpipe even where they are not read, so a calm sea's program leaves them out."""
+    return 0 if not streaks else 2 if values.get("u_foam_octaves", (1.0, 0.0, 0.0))[1] > 0.0 else 1
+
+
 def spray_strength(wind: float) -> float:
     """0..1: spindrift blown off the crests, from Beaufort 8 (17.2 m/s: "edges of crests begin to
     break into spindrift") to full at Beaufort 11 (28.5 m/s: "edges of crests blown into froth")."""
@@ -88,16 +107,22 @@ def spray_strength(wind: float) -> float:
     return x * x * (3.0 - 2.0 * x)
 
 
-FOAM_STREAK_WIDTH = 1.5  # m across the wind: a cell of the old foam's streak noise (its length: streak_size)
+FOAM_STREAK_WIDTH = 1.5  # m across the wind: a cell of the old foam's finest streak noise (its length: streak_size)
+# Per octave of the streak noise (foam_streaks.glsl FOAM_OCTAVE_SCALE_1, _2): its cell's length and width
+# over the finest's. Wind rows: thin streaks bunched into bands 6 and 24 m wide (Langmuir rows are
+# spaced 2 to 50 m apart, Thorpe 2004), which stay visible where the thin ones are below a pixel.
+FOAM_OCTAVE_SCALE = ((1.0, 1.0), (2.0, 4.0), (4.0, 16.0))
+# Per octave a shift in cells, so that the octaves read unrelated parts of the one tabulated noise.
+FOAM_OCTAVE_SHIFT = ((0.0, 0.0), (17.37, 29.71), (41.13, 7.89))
 # m along and across the wind: a cell of the fresh foam's noise (whitecaps drawn out downwind)
 FOAM_PATCH_SIZE = (10.0, 3.0)
 # The noise cells' size the foam's pattern fades by (detail.foam_streaks_needed): each lookup fades by
-# its own least side, the last to fade is the patch noise's.
-FOAM_FADE_CELL = max(FOAM_STREAK_WIDTH, min(FOAM_PATCH_SIZE))
-FOAM_STREAK_FADE = 0.75  # cells a pixel spans where the streaks have faded to their mean (water.frag.glsl)
+# its own least side, the last to fade is the coarsest streak octave's.
+FOAM_FADE_CELL = max(FOAM_STREAK_WIDTH * FOAM_OCTAVE_SCALE[-1][1], min(FOAM_PATCH_SIZE))
+FOAM_STREAK_FADE = 0.75  # cells a pixel spans where the streaks have faded to their mean (foam_streaks.glsl)
 FOAM_DRIFT = 0.03  # × wind speed: the surface drift that carries the streaks downwind
 FOAM_PERIOD = 64.0  # noise cells per side of the tabulated noise: 1.5 km along the wind, 192 m across
-FOAM_NOISE_SIZE = 256  # texels per side: 4 per noise cell (bilinear; the shader fades the streaks before it minifies)
+FOAM_NOISE_SIZE = 512  # texels per side: 8 per noise cell (see foam_noise.frag.glsl)
 FOAM_NOISE_UNIT = FRAME_UNITS["FOAM_NOISE"]
 
 
@@ -114,8 +139,8 @@ def wave_lags(sea: SeaSurface, max_waves: int) -> bytes:
 
 
 def foam_frame(scene: Scene, view: CameraView, sea: SeaSurface, wind: float, max_waves: int) -> dict:
-    """The foam's per-frame uniforms: the streak noise's frame (water.frag.glsl foam_cover) — downwind
-    axis and cell sizes, and the camera's noise coordinates, drifted downwind by the time, reduced mod
+    """The foam's per-frame uniforms: the streak noise's frame (foam_streaks.glsl foam_cover) — downwind
+    axis and cell sizes, and the camera's noise coordinates per octave, drifted downwind by the time, reduced mod
     the period in float64 so the streaks stay put on the sea at any distance from the origin and any
     sim_time — the lags' decay and the spray's strength."""
     to = math.radians(scene.weather.wind_direction + 180.0)  # the wind blows from wind_direction
@@ -126,12 +151,13 @@ def foam_frame(scene: Scene, view: CameraView, sea: SeaSurface, wind: float, max
     t = scene.time.sim_time
     along, side = float(cam @ axis), float(cam @ across)
     drifted = along - FOAM_DRIFT * wind * t
-    offset = np.mod([drifted / size[0], side / size[1]], FOAM_PERIOD)
+    offset = np.array([np.mod([drifted / (size[0] * sx) + dx, side / (size[1] * sy) + dy], FOAM_PERIOD)
+                       for (sx, sy), (dx, dy) in zip(FOAM_OCTAVE_SCALE, FOAM_OCTAVE_SHIFT)], dtype=np.float32)
     patch = np.mod([drifted / FOAM_PATCH_SIZE[0], side / FOAM_PATCH_SIZE[1]], FOAM_PERIOD)
     hs = 4.0 * math.sqrt(float(np.sum(sea.waves.amplitude ** 2)) / 2.0)
     return {"u_foam_frame": (*axis, 1.0 / size[0], 1.0 / size[1]),
-            "u_foam_offset": tuple(float(x) for x in offset), "u_foam_period": FOAM_PERIOD,
-            "u_foam_patch": (1.0 / FOAM_PATCH_SIZE[0], 1.0 / FOAM_PATCH_SIZE[1], *(float(x) for x in patch)),
+            "u_foam_offset": offset.tobytes(), "u_foam_period": FOAM_PERIOD,
+            "u_foam_octaves": streak_octave_weights(wind), "u_foam_patch": (1.0 / FOAM_PATCH_SIZE[0], 1.0 / FOAM_PATCH_SIZE[1], *(float(x) for x in patch)),
             "u_foam_noise": FOAM_NOISE_UNIT, "u_foam_decay": (*foam_decay(), SURF_FOAM_JACOBIAN, streak_opacity(wind)),
             "u_spray": (spray_strength(wind), 1.0 / max(hs, 1e-3)),
             "u_wave_lag": wave_lags(sea, max_waves)}

@@ -13,6 +13,7 @@
 #endif
 #include "common/fog_relief.glsl"
 #include "water/foam.glsl"
+#include "water/foam_streaks.glsl"
 #ifdef WATER_FIELD
 #include "water/shore.glsl"
 #endif
@@ -55,71 +56,6 @@ layout(location = 1) out float out_distance;
 const float WATER_R0 = 0.02037;                    // Fresnel reflectance air-water, normal incidence
 const vec3 ABSORPTION = vec3(0.35, 0.07, 0.045);    // 1/m, coastal water (red first)
 const vec3 BOTTOM_ALBEDO = vec3(0.35, 0.30, 0.22);  // sand
-uniform vec4 u_foam_frame;      // xy: unit downwind direction; zw: 1 / streak length, 1 / width (1/m)
-uniform vec2 u_foam_offset;     // noise coordinates of the camera, drifted downwind, mod FOAM_PERIOD (CPU)
-uniform vec4 u_foam_patch;      // the fresh foam's noise: 1 / cell length, 1 / width (1/m), camera's coordinates
-uniform float u_foam_period;    // noise cells per side of the tabulated noise
-layout(binding = UNIT_FOAM_NOISE) uniform sampler2D u_foam_noise; // the streak noise, about uniform on [0, 1] (water/foam_noise.frag.glsl)
-
-// Foam: the vertex's mean cover m (foam.glsl foam_vertex) is dithered by a noise u about uniform on
-// [0, 1]: the opacity f = foam_mean_inverse(m, w), white where f exceeds (1 - w) u, through a ramp
-// of width w — the mean over u is m again. Two lookups of the tabulated noise, anchored to
-// the world and drifting downwind with the surface: streaks stretched along the wind (cells longer
-// the stronger the wind: foam.py streak_size) for the old foam, and patches (foam.py FOAM_PATCH_SIZE)
-// for fresh whitecaps, blended by the foam's freshness w and mapped back to uniform through the CDF of
-// (1 - w) a + w b. Where a pixel spans 3/4 of a noise cell the pattern would alias: the mean m itself.
-// Spindrift: where the streak noise is low (between the streaks) a white veil over the crests.
-// A lookup's noise coordinates and its contrast, from the rest point's screen derivatives (taken
-// once, outside any branch on the pixel: q is linear in the rest point).
-vec2 foam_noise_coords(vec2 rest, vec2 dx, vec2 dy, vec4 frame, out float contrast, out float cells) {
-    mat2 to_cells = mat2(u_foam_frame.x * frame.x, -u_foam_frame.y * frame.y,
-                         u_foam_frame.y * frame.x, u_foam_frame.x * frame.y);  // columns: x, y of the rest point
-    vec2 width = abs(to_cells * dx) + abs(to_cells * dy);  // fwidth(q)
-    cells = length(width);  // noise cells a pixel spans
-    contrast = clamp(1.5 - 2.0 * cells, 0.0, 1.0);  // none past 3 texels a pixel
-    return to_cells * rest + frame.zw;
-}
-float foam_noise(vec2 q) {
-    return textureLod(u_foam_noise, q / u_foam_period, 0.0).r;  // no mipmaps: no implicit LOD
-}
-// The CDF of s = (1 - w) a + w b, a and b independent and uniform on [0, 1] (a trapezoid density).
-float blend_cdf(float s, float w) {
-    float lo = min(w, 1.0 - w), hi = max(w, 1.0 - w);
-    if (lo < 1e-3) return s;
-    if (s < lo) return s * s / (2.0 * lo * hi);
-    if (s <= hi) return (s - 0.5 * lo) / hi;
-    return 1.0 - (1.0 - s) * (1.0 - s) / (2.0 * lo * hi);
-}
-const float SPRAY_MEAN = 0.375;  // mean of smoothstep(0.35, 0.9, u), u uniform on [0, 1]
-#if WATER_FOAM_STREAKS
-// The lookups only where there is foam (or spray) with a pattern that has not faded, the patches'
-// only where some of it is fresh: a branch per pixel, which llvmpipe skips where a whole block of
-// pixels agrees.
-float foam_cover(float m, float fresh, vec2 rest, out float spray) {
-    vec2 dx = dFdx(rest), dy = dFdy(rest);
-    float c_streak, n_streak, c_patch, n_patch;
-    vec2 q_streak = foam_noise_coords(rest, dx, dy, vec4(u_foam_frame.zw, u_foam_offset), c_streak, n_streak);
-    vec2 q_patch = foam_noise_coords(rest, dx, dy, u_foam_patch, c_patch, n_patch);
-    float contrast = mix(c_streak, c_patch, fresh);
-    // the normal tail is never quite 0: below 1e-4, or where the pattern has faded, the foam is its mean
-    bool foamy = m > 1e-4 && contrast > 0.0;
-    spray = SPRAY_MEAN;
-    if (!foamy && (u_spray.x <= 0.0 || c_streak <= 0.0)) return m;
-    float a = foam_noise(q_streak);
-    spray = mix(SPRAY_MEAN, smoothstep(0.35, 0.9, 1.0 - a), c_streak);
-    if (!foamy) return m;
-    float b = fresh > 0.0 ? foam_noise(q_patch) : 0.5;
-    float u = blend_cdf(mix(a, b, fresh), fresh);
-    // The ramp: about a pixel of the noise's change (its gradient is about 2 a cell), so fresh
-    // whitecaps are crisp, anti-aliased white even where sparse; old foam's at least FOAM_SOFT (soft
-    // streak ends). Any ramp keeps the mean: f is the inverse of the dither's mean through it.
-    float w = clamp(max(3.0 * mix(n_streak, n_patch, fresh), mix(FOAM_SOFT, 0.0, fresh)), 0.05, FOAM_SOFT);
-    float dithered = clamp((foam_mean_inverse(m, w) - (1.0 - w) * u) / w, 0.0, 1.0);
-    return mix(m, dithered, contrast);
-}
-#else  // a block where every pixel spans 3/4 of every noise cell (water.py foam_streaks_needed): the mean
-float foam_cover(float m, float fresh, vec2 rest, out float spray) { spray = SPRAY_MEAN; return m; }
-#endif
 
 vec4 detail(sampler2D tex, vec3 map) {
 #if WATER_DETAIL_FADE  // the mean slope faded by the pixel's footprint (water/detail_filter.glsl)

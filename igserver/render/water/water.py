@@ -32,7 +32,8 @@ from ..shaders import assemble, set_uniforms
 from . import lod
 from .detail import (DETAIL_MAPS, detail_map_levels, detail_means, detail_tiles, detail_unresolved_var,
                      foam_streaks_needed, minified_maps_from)
-from .foam import FOAM_EDGE, FOAM_NOISE_SIZE, FOAM_NOISE_UNIT, FOAM_PERIOD, foam_calibration, foam_frame
+from .foam import (FOAM_EDGE, FOAM_NOISE_SIZE, FOAM_NOISE_UNIT, FOAM_PERIOD, foam_calibration, foam_frame,
+                   streak_variant)
 from .hulls import MAX_HULLS, blocks_near_hulls, hull_boxes
 from .shore import shore_uniforms
 from .sea_tables import SeaTables
@@ -121,7 +122,7 @@ class WaterPass(UnderwaterDraws, RenderPass):
 
     # ---- resources ------------------------------------------------------------------------------
     def _program(self, field: bool, hulls: bool = False, detail_maps: int = DETAIL_MAPS,
-                 lights: dict | None = None, foam_streaks: bool = True) -> moderngl.Program:
+                 lights: dict | None = None, foam_streaks: int = 2) -> moderngl.Program:
         """``lights``: frame.local_light_defines (None: every light term compiled)."""
         defines = {"MAX_WAVES": MAX_WAVES, "MAX_HULLS": MAX_HULLS, "WATER_DETAIL_MAPS": detail_maps,
                    **(lights or {}), "WATER_FOAM_STREAKS": int(foam_streaks), **self._atmosphere_define()}
@@ -443,7 +444,8 @@ class WaterPass(UnderwaterDraws, RenderPass):
         maps and the tile means of the others, with or without the foam's streak noise, the frame's
         local lights ``lights``: frame.local_light_defines) with this frame's uniforms
         (``_frame_uniforms``) set."""
-        program = self._program(sea.field is not None, with_hulls, read_maps, lights, foam_streaks)
+        program = self._program(sea.field is not None, with_hulls, read_maps, lights,
+                                streak_variant(foam_streaks, shared["values"]))
         set_uniforms(program, shared["values"])
         set_uniforms(program, {"u_detail_map": shared["detail_map"][: max(read_maps, 1)].tobytes()})
         mean = program.get("u_detail_mean", None)

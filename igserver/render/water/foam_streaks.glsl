@@ -1,0 +1,135 @@
+// The foam's pattern per pixel (docs/water.md#shading, Whitecaps): the vertex's mean cover m
+// (foam.glsl foam_vertex) dithered into streaks and patches with the same mean. Needs
+// generated/bindings.glsl and foam.glsl (u_spray).
+//
+// The dither is a threshold on a standard normal noise Z: foam where Z < t = Phi^-1(m), so the
+// mean over the noise is m. Z is a sum of independent lookups of the tabulated noise (z about
+// N(0, 1): water/foam_noise.frag.glsl), anchored to the world and drifting downwind with the surface:
+// - streaks (the old foam): FOAM_OCTAVES octaves, cells along x across the wind of the finest
+//   (foam.py streak_size: longer the stronger the wind) times FOAM_OCTAVE_SCALE — thin streaks
+//   bunched, from Beaufort 7, into wider and longer wind rows (foam.py streak_octave_weights), so
+//   the pattern is still streaks where the finest octave is below a pixel;
+// - patches (fresh whitecaps drawn out downwind, foam.py FOAM_PATCH_SIZE);
+// weighted by the foam's freshness. An octave fades as a pixel spans more of its cells (contrast 1
+// up to 1/4 cell, 0 from 3/4: past that it would alias); what has faded is unknown noise of the
+// same variance, so the pixel draws the foam's expected cover given the octaves it shows:
+// Phi((t s - z_v) / sigma), sigma^2 the faded variance plus the ramp's e^2 (the pixel's own
+// spread of z_v: anti-aliasing; for old foam at least FOAM_RAMP_OLD, so streaks end softly) and
+// s = sqrt(1 + e^2), which keeps the mean m for every fade. With every octave faded it is m itself.
+
+#define FOAM_OCTAVES 3
+uniform vec4 u_foam_frame;      // xy: unit downwind direction; zw: 1 / length, 1 / width of the finest streak cell (1/m)
+uniform vec2 u_foam_offset[FOAM_OCTAVES];  // per streak octave: the camera's noise coordinates, drifted downwind, mod FOAM_PERIOD (CPU)
+uniform vec4 u_foam_patch;      // the fresh foam's noise: 1 / cell length, 1 / width (1/m), camera's coordinates
+uniform float u_foam_period;    // noise cells per side of the tabulated noise
+layout(binding = UNIT_FOAM_NOISE) uniform sampler2D u_foam_noise; // 0.5 + z / 8, z about N(0, 1) (water/foam_noise.frag.glsl)
+
+uniform vec3 u_foam_octaves;    // per streak octave its weight in Z, the squares summing to 1 (foam.py streak_octave_weights)
+// Per coarser octave its cell's length and width over the finest's (foam.py FOAM_OCTAVE_SCALE).
+const vec2 FOAM_OCTAVE_SCALE_1 = vec2(2.0, 4.0), FOAM_OCTAVE_SCALE_2 = vec2(4.0, 16.0);
+const float FOAM_NOISE_SLOPE = 4.8;  // z per noise cell: the tabulated noise's rms gradient along x or y (measured)
+const float FOAM_RAMP_OLD = 0.1;     // the old foam's least ramp in z (soft streak ends); fresh foam's 0.05
+const float SPRAY_MEAN = 0.375;      // mean of smoothstep(0.35, 0.9, u), u uniform on [0, 1]
+
+// Bilinear filtering between texels 1/8 cell apart (correlated 0.82: the noise's gradient) lowers
+// the noise's standard deviation between them, to 0.92 on average (measured): FOAM_Z_GAIN restores it.
+const float FOAM_Z_GAIN = 1.087;
+float foam_z(vec2 q) {
+    // no mipmaps (a trilinear fetch costs 2x): the pattern has faded before a pixel spans 6 texels
+    return FOAM_Z_GAIN * (8.0 * textureLod(u_foam_noise, q / u_foam_period, 0.0).r - 4.0);
+}
+// The standard normal CDF: erfc by Abramowitz & Stegun 7.1.26 (absolute error 1.5e-7, the relative
+// error small in the tails too: a polynomial times exp(-x^2)).
+float foam_phi(float x) {
+    float a = abs(x) * 0.70710678;
+    float t = 1.0 / (1.0 + 0.3275911 * a);
+    float tail = 0.5 * t * (0.254829592 + t * (-0.284496736 + t * (1.421413741 + t * (-1.453152027
+                 + t * 1.061405429)))) * exp(-a * a);  // Phi(-|x|)
+    return x < 0.0 ? tail : 1.0 - tail;
+}
+// Its inverse: sqrt(2) erfinv(2p - 1), erfinv by Giles (2010, single precision: relative error 4e-7).
+float foam_phi_inverse(float p) {
+    float x = 2.0 * clamp(p, 1e-6, 1.0 - 1e-6) - 1.0;
+    float w = -log((1.0 - x) * (1.0 + x)), q;
+    if (w < 5.0) {
+        w -= 2.5;
+        q = 2.81022636e-08;
+        q = 3.43273939e-07 + q * w; q = -3.5233877e-06 + q * w; q = -4.39150654e-06 + q * w;
+        q = 0.00021858087 + q * w; q = -0.00125372503 + q * w; q = -0.00417768164 + q * w;
+        q = 0.246640727 + q * w; q = 1.50140941 + q * w;
+    } else {
+        w = sqrt(w) - 3.0;
+        q = -0.000200214257;
+        q = 0.000100950558 + q * w; q = 0.00134934322 + q * w; q = -0.00367342844 + q * w;
+        q = 0.00573950773 + q * w; q = -0.0076224613 + q * w; q = 0.00943887047 + q * w;
+        q = 1.00167406 + q * w; q = 2.83297682 + q * w;
+    }
+    return 1.41421356 * q * x;
+}
+// An octave's contrast at `cells`, the noise cells a pixel spans.
+float foam_fade(float cells) { return clamp(1.5 - 2.0 * cells, 0.0, 1.0); }
+
+// The rest point in noise cells along and across the wind (inv_size: 1 / cell length, 1 / width)
+// and the cells a pixel spans (|fwidth|, from the rest point's screen derivatives dx, dy: q is
+// linear in the rest point).
+vec2 foam_cells(vec2 rest, vec2 dx, vec2 dy, vec2 inv_size, out vec2 width) {
+    mat2 to_cells = mat2(u_foam_frame.x * inv_size.x, -u_foam_frame.y * inv_size.y,
+                         u_foam_frame.y * inv_size.x, u_foam_frame.x * inv_size.y);  // columns: x, y of the rest point
+    width = abs(to_cells * dx) + abs(to_cells * dy);
+    return to_cells * rest;
+}
+
+#if WATER_FOAM_STREAKS
+// The lookups only where there is foam (or spray) with a pattern that has not faded, the coarser
+// octaves' and the patches' only where they show: a branch per pixel, which llvmpipe skips where a
+// whole block of pixels agrees. The derivatives are taken once, outside any branch.
+float foam_cover(float m, float fresh, vec2 rest, out float spray) {
+    vec2 dx = dFdx(rest), dy = dFdy(rest);
+    vec2 w_streak, w_patch;
+    vec2 q_streak = foam_cells(rest, dx, dy, u_foam_frame.zw, w_streak);
+    vec2 q_patch = foam_cells(rest, dx, dy, u_foam_patch.xy, w_patch) + u_foam_patch.zw;
+    float old = 1.0 - fresh;
+    float norm = inversesqrt(old * old + fresh * fresh);  // Z's parts (1 - fresh) streaks + fresh patches, variance 1
+    // per lookup (the streak octaves, the patches): the cells a pixel spans, the weight in Z it shows
+    vec4 cells = vec4(length(w_streak), length(w_streak / FOAM_OCTAVE_SCALE_1), length(w_streak / FOAM_OCTAVE_SCALE_2),
+                      length(w_patch));
+#if WATER_FOAM_STREAKS >= 2
+    vec3 octaves = u_foam_octaves;
+#else  // no wind rows this frame (foam.py streak_variant): the coarser octaves' code left out
+    vec3 octaves = vec3(1.0, 0.0, 0.0);
+#endif
+    vec4 weight = vec4(old * norm * octaves, fresh * norm) * clamp(1.5 - 2.0 * cells, 0.0, 1.0);
+    float shown = dot(weight, weight);  // variance of the shown lookups in Z
+    float c_streak = foam_fade(cells.x);
+    // the normal tail is never quite 0: below 1e-4, or where the pattern has faded, the foam is its mean
+    bool foamy = m > 1e-4 && shown > 0.0;
+    // if-blocks, not early returns: llvmpipe runs the code after a return with the returned pixels
+    // masked off, but skips an if-block whose pixels all fail the test
+    float cover = m;
+    spray = SPRAY_MEAN;
+    if (foamy || (u_spray.x > 0.0 && c_streak > 0.0)) {
+        // the finest octave where it shows (where it has faded, so have the spindrift's streaks)
+        float z0 = 0.0;
+        if (c_streak > 0.0) z0 = foam_z(q_streak + u_foam_offset[0]);
+        // spindrift between the streaks: the finest octave as a uniform variable (its normal CDF)
+        spray = mix(SPRAY_MEAN, smoothstep(0.35, 0.9, 1.0 - smoothstep(-2.2, 2.2, z0)), c_streak);
+        if (foamy) {
+            vec4 z = vec4(z0, 0.0, 0.0, 0.0);
+#if WATER_FOAM_STREAKS >= 2
+            if (weight.y > 0.0) z.y = foam_z(q_streak / FOAM_OCTAVE_SCALE_1 + u_foam_offset[1]);
+            if (weight.z > 0.0) z.z = foam_z(q_streak / FOAM_OCTAVE_SCALE_2 + u_foam_offset[2]);
+#endif
+            if (weight.w > 0.0) z.w = foam_z(q_patch);
+            // the ramp: half the pixel's spread of z (its rms change over a pixel), at least the least ramp
+            vec4 spread = weight * cells;
+            float e2 = max(0.25 * FOAM_NOISE_SLOPE * FOAM_NOISE_SLOPE * dot(spread, spread),
+                           pow(mix(FOAM_RAMP_OLD, 0.05, fresh), 2.0));
+            float sigma = sqrt(max(1.0 - shown, 0.0) + e2);
+            cover = foam_phi((foam_phi_inverse(m) * sqrt(1.0 + e2) - dot(weight, z)) / sigma);
+        }
+    }
+    return cover;
+}
+#else  // a block where every pixel spans 3/4 of every noise cell (water.py foam_streaks_needed): the mean
+float foam_cover(float m, float fresh, vec2 rest, out float spray) { spray = SPRAY_MEAN; return m; }
+#endif
