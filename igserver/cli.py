@@ -9,8 +9,7 @@ from pathlib import Path
 
 from pydantic import ValidationError
 
-
-PRESET_CHOICES = ["low", "medium", "high", "auto"]
+from .scene.model import PRESET_NAMES as PRESET_CHOICES
 
 
 def resolutions(text: str) -> list[tuple[int, int]]:

@@ -107,3 +107,16 @@ def test_example_scene_pass_lists_unchanged_at_every_preset(renderer, name, expe
         scene = apply_patch(load_scene(name), {"quality": {"preset": preset}})
         assert [p for p in plan_passes(scene) if p in known] == expected
         assert [p for p in renderer.graph.plan(scene) if p in known] == expected
+
+
+def test_service_bench_starts_its_server_with_the_preset():
+    """``igserver bench --service --preset auto``: the server it starts runs the scene at that preset (the
+    README's stream table holds targets with the auto preset); the choices are the scene model's."""
+    from igserver.cli import PRESET_CHOICES
+    from igserver.protocol.bench import server_command
+    from igserver.scene.model import PRESET_NAMES
+
+    command = server_command(640, 360, "demo", 8123, "auto")
+    assert command[command.index("--preset") + 1] == "auto" and command[command.index("--scene") + 1] == "demo"
+    assert "--preset" not in server_command(640, 360, None, 8123)
+    assert tuple(PRESET_CHOICES) == PRESET_NAMES == ("low", "medium", "high", "auto")

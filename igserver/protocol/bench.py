@@ -23,6 +23,8 @@ import time
 
 import numpy as np
 
+from ..scene.model import PRESET_NAMES
+
 
 def free_port() -> int:
     with contextlib.closing(socket.socket(socket.AF_INET, socket.SOCK_STREAM)) as s:
@@ -30,17 +32,25 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-@contextlib.contextmanager
-def server_process(width: int, height: int, scene: str | None = None, port: int | None = None,
-                   target_fps: float = 0.0):
-    """A real igserver on loopback in a child process; yields its URL once /v1/ready says so."""
-    from igserver.client import IGClient
-
-    port = port or free_port()
+def server_command(width: int, height: int, scene: str | None, port: int, preset: str | None = None) -> list[str]:
+    """The command line of the benched server (``igserver serve`` on loopback)."""
     command = [sys.executable, "-m", "igserver.protocol", "--port", str(port), "--width", str(width),
                "--height", str(height)]
     if scene:
         command += ["--scene", scene]
+    if preset:
+        command += ["--preset", preset]
+    return command
+
+
+@contextlib.contextmanager
+def server_process(width: int, height: int, scene: str | None = None, port: int | None = None,
+                   target_fps: float = 0.0, preset: str | None = None):
+    """A real igserver on loopback in a child process; yields its URL once /v1/ready says so."""
+    from igserver.client import IGClient
+
+    port = port or free_port()
+    command = server_command(width, height, scene, port, preset)
     env = os.environ.copy()
     if target_fps:  # the server's setting for the scene's quality.target_fps
         env["IGSERVER_TARGET_FPS"] = str(target_fps)
@@ -84,6 +94,8 @@ def run_service_bench(argv: list[str] | None = None) -> int:
                         help="comma-separated: ws, http, ws-stream, mjpeg (the stream's rate and operating points)")
     parser.add_argument("--target-fps", type=float, default=0.0,
                         help="the frame rate the started server holds (quality.target_fps; 0 = off)")
+    parser.add_argument("--preset", choices=PRESET_NAMES, default=None,
+                        help="the started server's quality preset for its scene (auto: the controller's rungs too)")
     parser.add_argument("--rate", type=float, default=60.0, help="ws-stream: states sent per second")
     parser.add_argument("--url", default=None, help="bench a running server instead of starting one")
     parser.add_argument("--json", action="store_true", help="print the summaries as JSON")
@@ -91,7 +103,7 @@ def run_service_bench(argv: list[str] | None = None) -> int:
 
     with contextlib.ExitStack() as stack:
         url = args.url or stack.enter_context(
-            server_process(args.width, args.height, args.scene, target_fps=args.target_fps))
+            server_process(args.width, args.height, args.scene, target_fps=args.target_fps, preset=args.preset))
         with IGClient(url) as ig:
             ready = ig.wait_ready()
             raw = ig.get_frame("raw")

@@ -12,7 +12,7 @@ roll right-wing-down); ``time.utc`` drives sun/moon/stars, ``time.sim_time`` dri
 from __future__ import annotations
 
 from datetime import datetime, timezone
-from typing import Annotated, Literal
+from typing import Annotated, Literal, get_args
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 from pydantic_core import InitErrorDetails, PydanticCustomError
@@ -427,11 +427,15 @@ def _target_fps(v: float) -> float:
 TargetFps = Annotated[float, AfterValidator(_target_fps)]
 
 
+PresetName = Literal["low", "medium", "high", "auto"]
+PRESET_NAMES: tuple[str, ...] = get_args(PresetName)  # the command lines' choices
+
+
 class Quality(Strict):
     """Quality presets (igserver/render/presets.py): every pipeline's knobs per level, chosen from the
     error-vs-time curves of ``igserver quality``."""
 
-    preset: Literal["low", "medium", "high", "auto"] = Field(
+    preset: PresetName = Field(
         "medium", description="knob set of every pipeline; auto = the overload controller chooses the knobs and the "
         "render scale per frame (render/overload.py) to hold target_fps (or, when that is 0, target_ms)")
     target_ms: float = Field(
