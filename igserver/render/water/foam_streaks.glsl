@@ -27,6 +27,8 @@ layout(binding = UNIT_FOAM_NOISE) uniform sampler2D u_foam_noise; // 0.5 + z / 8
 uniform vec3 u_foam_octaves;    // per streak octave its weight in Z, the squares summing to 1 (foam.py streak_octave_weights)
 // Per coarser octave its cell's length and width over the finest's (foam.py FOAM_OCTAVE_SCALE).
 const vec2 FOAM_OCTAVE_SCALE_1 = vec2(2.0, 4.0), FOAM_OCTAVE_SCALE_2 = vec2(4.0, 16.0);
+const vec2 FOAM_MEANDER_SCALE = vec2(3.0, 64.0);  // the meander's cell over the finest's: 3x longer, 64x wider
+const float FOAM_MEANDER = 4.0;  // finest cells the streaks wander per unit of the meander noise (rows at full weight: x 0.5)
 const float FOAM_NOISE_SLOPE = 4.8;  // z per noise cell: the tabulated noise's rms gradient along x or y (measured)
 const float FOAM_RAMP_OLD = 0.1;     // the old foam's least ramp in z (soft streak ends); fresh foam's 0.05
 const float SPRAY_MEAN = 0.375;      // mean of smoothstep(0.35, 0.9, u), u uniform on [0, 1]
@@ -103,14 +105,21 @@ float foam_cover(float m, float fresh, vec2 rest, out float spray) {
     float c_streak = foam_fade(cells.x);
     // the normal tail is never quite 0: below 1e-4, or where the pattern has faded, the foam is its mean
     bool foamy = m > 1e-4 && shown > 0.0;
-    // if-blocks, not early returns: llvmpipe runs the code after a return with the returned pixels
-    // masked off, but skips an if-block whose pixels all fail the test
+    // the lookups in if-blocks, which llvmpipe skips where all of a block's pixels fail the test
     float cover = m;
     spray = SPRAY_MEAN;
     if (foamy || (u_spray.x > 0.0 && c_streak > 0.0)) {
         // the finest octave where it shows (where it has faded, so have the spindrift's streaks)
         float z0 = 0.0;
-        if (c_streak > 0.0) z0 = foam_z(q_streak + u_foam_offset[0]);
+        if (c_streak > 0.0) {
+            vec2 q0 = q_streak + u_foam_offset[0];
+#if WATER_FOAM_STREAKS >= 2
+            // storm streaks meander: the finest octave's across-wind coordinate shifted by a noise of
+            // cells FOAM_MEANDER_SCALE the finest's (the streaks wander FOAM_MEANDER cells a unit of it)
+            q0.y += FOAM_MEANDER * u_foam_octaves.y * foam_z(q_streak / FOAM_MEANDER_SCALE + u_foam_offset[1].yx);
+#endif
+            z0 = foam_z(q0);
+        }
         // spindrift between the streaks: the finest octave as a uniform variable (its normal CDF)
         spray = mix(SPRAY_MEAN, smoothstep(0.35, 0.9, 1.0 - smoothstep(-2.2, 2.2, z0)), c_streak);
         if (foamy) {
