@@ -19,6 +19,7 @@ from igserver.scene.files import load_scene
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
 BRIDGE = {"camera": {"position": [0.0, 0.0, 15.0], "pitch": -3.0}, "time": {"sim_time": 100.0}}
+BRIDGE_ACROSS = {"camera": {"position": [0.0, 0.0, 15.0], "heading": 30.0, "pitch": -3.0}, "time": {"sim_time": 100.0}}
 AIR = {"camera": {"position": [0.0, 0.0, 300.0], "pitch": -20.0}, "time": {"sim_time": 100.0}}
 SHORE = {"camera": {"position": [405.0, -200.0, 6.0], "heading": 350.0, "pitch": -8.0}, "time": {"sim_time": 100.0}}
 
@@ -35,6 +36,7 @@ PICTURES = {
     "water_beaufort9.jpg": ("sea_beaufort9", 640, 360),
     "water_beach.jpg": ("sea_beach", 640, 360),
     "water_beaufort9_bridge.jpg": ("sea_beaufort9", 640, 360, BRIDGE),
+    "water_beaufort9_bridge_across.jpg": ("sea_beaufort9", 640, 360, BRIDGE_ACROSS),
     "water_beaufort9_300m.jpg": ("sea_beaufort9", 640, 360, AIR),
     "water_beaufort5_bridge.jpg": ("sea_beaufort5", 640, 360, BRIDGE),
     "water_beach_shore.jpg": ("sea_beach", 640, 360, SHORE),
