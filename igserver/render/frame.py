@@ -19,6 +19,7 @@ from .lights import PointLight, gather_lights, light_uniforms
 from .memo import Memo
 from .post.exposure import (GROUND_REFLECTANCE, EyeAdaptation, display_metered_ev100, exposure_of_ev100,
                             frustum_directions)
+from .post.meter_lag import MeterLag
 from .sky.daylight import SUN_ANGULAR_RADIUS, Daylight
 from .sky.frame_sky import SkyFrame, sky_frame
 from .sky.haze import HazeTransition
@@ -74,11 +75,13 @@ def _sun_and_moon(scene: Scene) -> SunMoon:
 
 class FrameState:
     """What the renderer keeps between frames for the atmosphere and the eye: the eased fog/haze
-    density and the exposure adaptation (both driven by sim_time deltas)."""
+    density, the exposure adaptation (both driven by sim_time deltas) and the last frame's meter
+    cells, which a stream's next frame meters (post/meter_lag.py)."""
 
     def __init__(self):
         self.haze = HazeTransition()
         self.eye = EyeAdaptation()
+        self.meter = MeterLag()
 
 
 @dataclass
@@ -93,7 +96,9 @@ class FrameContext:
     uniforms: dict = field(default_factory=dict)
     ev100: float = 0.0  # exposure used (EV100)
     illuminance_lux: float = 0.0  # natural horizontal illuminance at the camera
-    meter_luminance: float = 0.0  # cd/m^2, mean luminance of the view the exposure adapts to
+    # cd/m^2, mean luminance of the view the exposure adapts to (in a stream: the previous frame's view,
+    # post/meter_lag.py)
+    meter_luminance: float = 0.0
     # Shared resources the passes hand each other (e.g. "scene_distance": the copied distance texture).
     resources: dict = field(default_factory=dict)
     # Quality level in force (presets.knobs(pipeline, frame.quality)): a level name or an auto rung.

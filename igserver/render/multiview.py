@@ -33,6 +33,7 @@ from .common.aerial_table import AerialTable
 from .frame import build_frame, provisional_ev100, set_exposure
 from .frame_block import FrameBlock
 from .memo import Memo
+from .post import meter_lag
 from .post.exposure import display_metered_ev100, exposure_of_ev100
 from .scaling import scaled_scene
 
@@ -126,6 +127,7 @@ class _OncePerFrame:
     def __init__(self, state):
         self.eye = state.eye
         self.haze = _HazeOnce(state.haze)
+        self.meter = state.meter
 
 
 def release_view_state(state: dict) -> None:
@@ -203,6 +205,12 @@ def _draw_views(renderer, scene, timed: bool):
         ctx.finish()
         pass_ms["setup"] = (time.perf_counter() - start) * 1e3
     meters, own_meter = {}, getattr(post, "_meter_tex", None)
+    # A stream of these channels meters the last frame's union of cells (post/meter_lag.py): read
+    # now, when that frame is long done; this frame's cells are copied out while it is drawn.
+    lag, key = renderer.frame_state.meter, tuple(v.id for v in views)
+    if not auto or shared is not None:
+        lag.clear()
+    lagged = lag.take() if auto and shared is None and lag.continues(key, scene, renderer.frame_state.eye) else None
     state = {"single": None, "current": None}  # the passes' state of single-view frames; the view in them
 
     def enter(v: ChannelView) -> None:
@@ -248,7 +256,20 @@ def _draw_views(renderer, scene, timed: bool):
     t0 = time.perf_counter()
     correction = 1.0
     if auto:
-        cells = renderer.meter_cells = np.concatenate([post.meter_cells(v.frame, meters[v.id]) for v in views])
+        if lagged is not None:
+            parts = []
+            for v in views:
+                copy = renderer.channel_meter_copies[v.id] = meter_lag.copy_for(
+                    renderer.channel_meter_copies.get(v.id), ctx, meters[v.id])
+                parts.append((copy, copy.queue(), v.frame.exposure))
+            ticket, cells = meter_lag.MeterTicket(parts=parts), lagged
+            renderer.meter_cells = None  # this frame's: when it is read (Renderer._finished)
+        else:
+            cells = renderer.meter_cells = np.concatenate([post.meter_cells(v.frame, meters[v.id]) for v in views])
+            ticket = meter_lag.MeterTicket(cells)
+        views[0].frame.resources["meter_ticket"] = ticket
+        if shared is None:
+            lag.hold(ticket, key, scene.time.sim_time)
         if len(cells):
             if shared is not None:  # the front meters the union of every renderer's cells
                 ev, meter = shared

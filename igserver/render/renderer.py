@@ -62,6 +62,7 @@ class _Drawn:
     timed: bool
     queue_ms: float = 0.0  # ms to queue the readback (frames in flight)
     views: list | None = None  # a frame of channels: its multiview.ChannelView list (targets per channel)
+    meter: object = None  # its meter cells (post/meter_lag.MeterTicket): read with its pixels at the latest
 
 
 class Renderer:
@@ -79,6 +80,7 @@ class Renderer:
         self._targets: Targets | None = None
         self._channel_targets: dict[str, Targets] = {}
         self.channel_meters: dict = {}  # the post pass's meter texture of each channel (render/multiview.py)
+        self.channel_meter_copies: dict = {}  # and its asynchronous copy (post/meter_lag.py MeterCopy)
         self.view_states: dict = {}  # each channel's per-view pass state (multiview.swap_view_state)
         self._channel_upscalers: dict[str, Upscaler] = {}  # below scale 1: each channel's upscale and output
         self.frames_rendered = 0
@@ -90,8 +92,8 @@ class Renderer:
         self.frame_state = FrameState()  # eased fog, eye adaptation: carried between frames
         # Channels rendered by several renderers (igserver/cluster): the one (EV100, metered luminance cd/m^2)
         # every renderer applies, decided by their front from the union of their meters (None: this
-        # renderer's own meter and eye), and the meter cells of the last frame with channels (linear RGB,
-        # cd/m^2), which the front unites
+        # renderer's own meter and eye), and the meter cells of the last frame with channels returned (linear
+        # RGB, cd/m^2), which the front unites
         self.exposure_override: tuple[float, float] | None = None
         self.meter_cells: np.ndarray | None = None
         # submit(): frames drawn whose pixels are still being copied out (pixel buffers of the ring)
@@ -148,6 +150,9 @@ class Renderer:
             meter = self.channel_meters.pop(cid, None)
             if meter is not None:
                 meter.release()
+            copy = self.channel_meter_copies.pop(cid, None)
+            if copy is not None:
+                copy.release()
             release_view_state(self.view_states.pop(cid, {}))
 
     def render_channels(self, scene: Scene, timed: bool = False) -> dict[str, RenderResult]:
@@ -225,6 +230,11 @@ class Renderer:
 
     def _finished(self, drawn: "_Drawn", rgba: np.ndarray, end: float) -> RenderResult:
         result = drawn.result
+        # Its meter cells, copied out with its pixels in a stream (done now: no wait), if its
+        # successor's post pass has not read them already.
+        cells = drawn.meter.cells() if drawn.meter is not None else None
+        if drawn.views is not None and cells is not None:
+            self.meter_cells = cells
         result.rgba = rgba
         result.total_ms = (end - drawn.start) * 1e3
         if drawn.views is not None:  # each channel's pixels, cut from the mosaic
@@ -237,7 +247,8 @@ class Renderer:
         """Every pass of ``scene`` queued into the LDR target; the frame's result without its pixels."""
         if scene.channels:
             result, views, start = draw_channels(self, scene, timed)
-            return _Drawn(result, ChannelGroup(views), start, time.perf_counter(), timed, views=views)
+            return _Drawn(result, ChannelGroup(views), start, time.perf_counter(), timed, views=views,
+                          meter=views[0].frame.resources.get("meter_ticket"))
         Memo.slots = 1
         if self._channel_targets:  # the channels are gone: their targets and tables with them
             self.release_channel_targets(keep=set())
@@ -290,7 +301,7 @@ class Renderer:
                               illuminance_lux=frame.illuminance_lux, pass_cpu_ms=pass_cpu,
                               host_frame=scene.host_frame, sim_time=scene.time.sim_time,
                               overload=decision.fields())
-        return _Drawn(result, output, start, time.perf_counter(), timed)
+        return _Drawn(result, output, start, time.perf_counter(), timed, meter=frame.resources.get("meter_ticket"))
 
     def read_hdr(self) -> np.ndarray:
         """The last frame's pre-exposed linear HDR colour (float32, top row first), for quality tools."""

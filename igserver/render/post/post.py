@@ -24,6 +24,7 @@ from ..passes import RenderPass
 from ..shaders import set_uniforms
 from .exposure import display_metered_ev100, displayed, exposure_of_ev100
 from .halos import HaloTable, halo_radius, table_uniforms
+from .meter_lag import MeterTicket, copy_for, finite_cells
 
 METER_CELLS = 32  # the meter works on at most this many cells across (32 x 18 at 16:9)
 MAX_HALOS = 8
@@ -165,15 +166,29 @@ class PostPass(RenderPass):
 
     def _meter(self, frame, targets) -> float:
         """Meter the frame; set frame.ev100 (and the adaptation state); return the correction of
-        the provisional exposure the passes used."""
+        the provisional exposure the passes used. In a stream the meter is the last frame's cells,
+        copied out while it was drawn (post/meter_lag.py): this frame does not wait for its own."""
         scene = frame.scene
+        state = frame.resources.get("frame_state")
+        lag = getattr(state, "meter", None)
         if scene.camera.exposure_ev is not None:
+            if lag is not None:
+                lag.clear()
             return 1.0
-        cells = self.meter_cells(frame, self.meter_dispatch(targets))
+        cells = lag.take() if lag is not None and lag.continues(None, scene, state.eye) else None
+        tex = self.meter_dispatch(targets)
+        if cells is not None:
+            copy = self._meter_copy = copy_for(getattr(self, "_meter_copy", None), self.ctx, tex)
+            ticket = MeterTicket(parts=[(copy, copy.queue(), frame.exposure)])
+        else:
+            cells = self.meter_cells(frame, tex)
+            ticket = MeterTicket(cells)
+        frame.resources["meter_ticket"] = ticket
+        if lag is not None:
+            lag.hold(ticket, None, scene.time.sim_time)
         if len(cells) == 0:
             return 1.0
         target, meter = display_metered_ev100(cells)
-        state = frame.resources.get("frame_state")
         ev = state.eye.update(target, scene.time.sim_time, scene.camera.adaptation) if state else target
         frame.ev100 = ev
         frame.meter_luminance = meter
@@ -207,7 +222,6 @@ class PostPass(RenderPass):
 
     @staticmethod
     def meter_cells(frame, tex) -> np.ndarray:
-        """The finite cells of a dispatched meter texture, in linear RGB before pre-exposure."""
-        cells = np.frombuffer(tex.read(), dtype=np.float32).reshape(-1, 4)[:, :3].astype(np.float64)
-        cells = cells[np.all(np.isfinite(cells), axis=1)] / max(frame.exposure, 1e-30)
-        return cells
+        """The finite cells of a dispatched meter texture, in linear RGB before pre-exposure: read
+        at once (waits for the frame so far)."""
+        return finite_cells(tex.read(), frame.exposure)
