@@ -12,10 +12,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from igserver.photometry import LUMA
-from igserver.render.camera import make_view
-from igserver.render.water.shore import dominant_waves, runup_r2
-from igserver.water import sea_surface
+from igserver.quality.water_surf import beach_frame, dominant_waves_of, swash_reach
+from igserver.render.water.shore import runup_r2
 from igserver.scene import apply_patch
 from igserver.scene.files import load_scene
 
@@ -30,22 +28,7 @@ def beach(patch: dict, t: float):
     return apply_patch(scene, {**patch, "time": {"sim_time": t}})
 
 
-def frame(renderer, scene) -> tuple[np.ndarray, np.ndarray]:
-    """(linear luminance, world xy per pixel, NaN past 150 m) of the frame."""
-    renderer.render(scene)
-    lum = renderer.read_hdr()[..., :3].astype(np.float64) @ np.asarray(LUMA, dtype=np.float64)
-    world = make_view(scene.camera).pixel_world(renderer.read_distance(), 150.0)  # the sky, and past 150 m
-    return lum, world[..., :2]
-
-
-def _dominant() -> tuple[float, float]:
-    """(H0 m, Tp s) of sea_beach's waves (shore.dominant_waves)."""
-    scene = load_scene("sea_beach")
-    h0, tp, _ = dominant_waves(scene, sea_surface(scene.ocean, scene.weather))
-    return h0, tp
-
-
-H0, TP = _dominant()
+H0, TP = dominant_waves_of(load_scene("sea_beach"))  # (H0 m, Tp s) of its waves
 
 
 def elevation(xy: np.ndarray) -> np.ndarray:
@@ -55,7 +38,7 @@ def elevation(xy: np.ndarray) -> np.ndarray:
 @pytest.fixture(scope="module")
 def swash_frames(renderer):
     """Six frames over one swash period from a camera on the beach looking along the shore."""
-    out = [frame(renderer, beach(SHORE_VIEW, 100.0 + k * TP / 6.0)) for k in range(6)]
+    out = [beach_frame(renderer, beach(SHORE_VIEW, 100.0 + k * TP / 6.0)) for k in range(6)]
     return np.stack([lum for lum, _ in out]), out[0][1]
 
 
@@ -74,20 +57,12 @@ def test_swash_runs_up_the_sand_and_the_shoreline_follows_it(swash_frames):
     z = elevation(xy)
     r2 = _r2()
     assert 0.4 < r2 < 1.2
-    median = np.median(lum, axis=0)
-    changed = np.max(np.abs(lum - median), axis=0) > 0.05 * median
+    changed, reach = swash_reach(lum, z)  # the pixels the swash moves; per column, the highest sand it reaches
     low = (z > 0.03) & (z < 0.5 * r2)
     high = z > 1.3 * r2
     assert low.sum() > 500 and high.sum() > 500
     assert changed[low].mean() > 0.3, changed[low].mean()
     assert changed[high].mean() < 0.02, changed[high].mean()
-    reach = []
-    for col in range(lum.shape[2]):
-        on_land = (z[:, col] > 0.03) & np.isfinite(z[:, col])
-        hit = on_land & changed[:, col]
-        if on_land.sum() > 10 and hit.any():
-            reach.append(float(z[hit, col].max()))
-    reach = np.asarray(reach)
     assert len(reach) > 100
     assert 0.4 * r2 < reach.mean() < 1.2 * r2, (reach.mean(), r2)
     assert reach.std() > 0.03 * r2, reach.std()
@@ -114,7 +89,7 @@ def test_breaking_crests_are_white_lines_that_move(renderer):
     the white pixels half a period later overlap the first ones on under half of their union."""
     masks = []
     for t in (100.0, 100.0 + TP / 2.0):
-        lum, xy = frame(renderer, beach(SURF_VIEW, t))
+        lum, xy = beach_frame(renderer, beach(SURF_VIEW, t))
         depth = -elevation(xy)
         surf = (depth > 0.3) & (depth < 2.5)
         assert surf.sum() > 500

@@ -10,39 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from igserver.photometry import LUMA
-from igserver.scene import apply_patch
-from igserver.scene.model import Scene
+from igserver.quality.water_surf import foam_fraction, foam_scene, hdr_luminance, whitecap_coverage_seen
 from igserver.water.surface import whitecap_coverage
-
-
-def foam_scene(wind: float, height: float, pitch: float, heading: float = 30.0, t: float = 100.0,
-               size=(240, 135)) -> Scene:
-    return apply_patch(Scene(), {
-        "camera": {"position": [0.0, 0.0, height], "heading": heading, "pitch": pitch, "fov_y": 55.0,
-                   "width": size[0], "height": size[1], "exposure_ev": 13.0},
-        "time": {"utc": "2026-06-21T10:00:00Z", "sim_time": t}, "location": {"lat": 43.0, "lon": 5.0},
-        "weather": {"wind_speed": wind, "wind_direction": 250.0}, "ocean": {"enabled": True}})
-
-
-def hdr_luminance(renderer, scene: Scene) -> np.ndarray:
-    renderer.render(scene)
-    return renderer.read_hdr()[..., :3].astype(np.float64) @ np.asarray(LUMA, dtype=np.float64)
-
-
-def foam_fraction(renderer, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
-    """Per pixel foam fraction and the sea mask (where all-white differs from bare)."""
-    water = renderer.graph.passes["water"]
-    frames = {}
-    try:
-        for name, threshold in (("drawn", None), ("bare", -1.0), ("white", 10.0)):
-            water.foam_threshold = threshold
-            frames[name] = hdr_luminance(renderer, scene)
-    finally:
-        water.foam_threshold = None
-    span = frames["white"] - frames["bare"]
-    sea = span > 0.05 * np.median(span[span > 0])
-    return np.clip((frames["drawn"] - frames["bare"]) / np.where(sea, span, 1.0), 0.0, 1.0), sea
 
 
 @pytest.mark.parametrize("wind, height, pitch", [(9.4, 15.0, -3.0), (9.4, 300.0, -20.0), (22.6, 15.0, -3.0),
@@ -54,12 +23,7 @@ def test_whitecap_coverage_from_the_bridge_and_the_air(renderer, wind, height, p
     its short waves faded: the foam used to be thresholded on the interpolated J there and the
     distant whitecaps vanished (0.27 % of the sea at Beaufort 5 from the bridge, measured); the mean
     foam cover is now interpolated and the faded waves' chance of foam kept (foam.glsl)."""
-    covered, area = 0.0, 0
-    for heading in (0.0, 90.0, 180.0, 270.0):
-        c, sea = foam_fraction(renderer, foam_scene(wind, height, pitch, heading))
-        covered += float(c[sea].sum())
-        area += int(sea.sum())
-    coverage = covered / area
+    coverage = whitecap_coverage_seen(renderer, wind, height, pitch)  # over four headings
     want = whitecap_coverage(wind)
     assert want / 1.5 < coverage < 1.5 * want, (coverage, want)
 

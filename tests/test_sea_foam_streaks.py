@@ -14,7 +14,8 @@ import math
 
 import numpy as np
 import pytest
-from test_sea_foam import foam_scene, hdr_luminance
+
+from igserver.quality.water_surf import foam_scene, hdr_luminance
 
 
 def wind_rows(renderer, scene, monkeypatch) -> tuple[np.ndarray, np.ndarray]:
