@@ -114,6 +114,11 @@ FOAM_STREAK_WIDTH = 1.5  # m across the wind: a cell of the old foam's finest st
 FOAM_OCTAVE_SCALE = ((1.0, 1.0), (2.0, 4.0), (4.0, 16.0))
 # Per octave a shift in cells, so that the octaves read unrelated parts of the one tabulated noise.
 FOAM_OCTAVE_SHIFT = ((0.0, 0.0), (17.37, 29.71), (41.13, 7.89))
+# The storm streaks' meander (foam_streaks.glsl): a noise of cells this many times the finest's (3x
+# longer, 64x wider), anchored to the sea like the octaves (its own camera coordinates), and shifted
+# into another part of the tabulated noise.
+FOAM_MEANDER_SCALE = (3.0, 64.0)
+FOAM_MEANDER_SHIFT = (29.71, 17.37)
 # m along and across the wind: a cell of the fresh foam's noise (whitecaps drawn out downwind)
 FOAM_PATCH_SIZE = (10.0, 3.0)
 # The noise cells' size the foam's pattern fades by (detail.foam_streaks_needed): each lookup fades by
@@ -153,10 +158,13 @@ def foam_frame(scene: Scene, view: CameraView, sea: SeaSurface, wind: float, max
     drifted = along - FOAM_DRIFT * wind * t
     offset = np.array([np.mod([drifted / (size[0] * sx) + dx, side / (size[1] * sy) + dy], FOAM_PERIOD)
                        for (sx, sy), (dx, dy) in zip(FOAM_OCTAVE_SCALE, FOAM_OCTAVE_SHIFT)], dtype=np.float32)
+    meander = np.mod([drifted / (size[0] * FOAM_MEANDER_SCALE[0]) + FOAM_MEANDER_SHIFT[0],
+                      side / (size[1] * FOAM_MEANDER_SCALE[1]) + FOAM_MEANDER_SHIFT[1]], FOAM_PERIOD)
     patch = np.mod([drifted / FOAM_PATCH_SIZE[0], side / FOAM_PATCH_SIZE[1]], FOAM_PERIOD)
     hs = 4.0 * math.sqrt(float(np.sum(sea.waves.amplitude ** 2)) / 2.0)
     return {"u_foam_frame": (*axis, 1.0 / size[0], 1.0 / size[1]),
             "u_foam_offset": offset.tobytes(), "u_foam_period": FOAM_PERIOD,
+            "u_foam_meander": (*(float(x) for x in meander), 1.0 / FOAM_MEANDER_SCALE[0], 1.0 / FOAM_MEANDER_SCALE[1]),
             "u_foam_octaves": streak_octave_weights(wind), "u_foam_patch": (1.0 / FOAM_PATCH_SIZE[0], 1.0 / FOAM_PATCH_SIZE[1], *(float(x) for x in patch)),
             "u_foam_noise": FOAM_NOISE_UNIT, "u_foam_decay": (*foam_decay(), SURF_FOAM_JACOBIAN, streak_opacity(wind)),
             "u_spray": (spray_strength(wind), 1.0 / max(hs, 1e-3)),

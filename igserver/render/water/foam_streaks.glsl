@@ -25,9 +25,10 @@ uniform float u_foam_period;    // noise cells per side of the tabulated noise
 layout(binding = UNIT_FOAM_NOISE) uniform sampler2D u_foam_noise; // 0.5 + z / 8, z about N(0, 1) (water/foam_noise.frag.glsl)
 
 uniform vec3 u_foam_octaves;    // per streak octave its weight in Z, the squares summing to 1 (foam.py streak_octave_weights)
+uniform vec4 u_foam_meander;    // the meander's noise: xy the camera's coordinates in it (mod the period, CPU), zw 1 / its
+                                // cell over the finest's (foam.py FOAM_MEANDER_SCALE)
 // Per coarser octave its cell's length and width over the finest's (foam.py FOAM_OCTAVE_SCALE).
 const vec2 FOAM_OCTAVE_SCALE_1 = vec2(2.0, 4.0), FOAM_OCTAVE_SCALE_2 = vec2(4.0, 16.0);
-const vec2 FOAM_MEANDER_SCALE = vec2(3.0, 64.0);  // the meander's cell over the finest's: 3x longer, 64x wider
 const float FOAM_MEANDER = 4.0;  // finest cells the streaks wander per unit of the meander noise (rows at full weight: x 0.5)
 const float FOAM_NOISE_SLOPE = 4.8;  // z per noise cell: the tabulated noise's rms gradient along x or y (measured)
 const float FOAM_RAMP_OLD = 0.1;     // the old foam's least ramp in z (soft streak ends); fresh foam's 0.05
@@ -115,8 +116,8 @@ float foam_cover(float m, float fresh, vec2 rest, out float spray) {
             vec2 q0 = q_streak + u_foam_offset[0];
 #if WATER_FOAM_STREAKS >= 2
             // storm streaks meander: the finest octave's across-wind coordinate shifted by a noise of
-            // cells FOAM_MEANDER_SCALE the finest's (the streaks wander FOAM_MEANDER cells a unit of it)
-            q0.y += FOAM_MEANDER * u_foam_octaves.y * foam_z(q_streak / FOAM_MEANDER_SCALE + u_foam_offset[1].yx);
+            // larger cells, fixed on the sea like the octaves (the streaks wander FOAM_MEANDER cells a unit of it)
+            q0.y += FOAM_MEANDER * u_foam_octaves.y * foam_z(q_streak * u_foam_meander.zw + u_foam_meander.xy);
 #endif
             z0 = foam_z(q0);
         }
