@@ -119,3 +119,17 @@ def test_storm_streaks_stay_on_the_sea_when_the_eye_moves(renderer):
     for a, b in ((still[:, k:], east[:, :-k]), (still[:-k, :], north[k:, :])):
         assert a[inner].mean() > 0.01
         assert np.abs(a[inner] - b[inner]).mean() < 0.5 * a[inner].mean(), (np.abs(a - b).mean(), a.mean())
+
+
+def test_octave_scales_agree_between_python_and_glsl():
+    """foam.py FOAM_OCTAVE_SCALE (the camera's noise coordinates per octave) and foam_streaks.glsl's
+    FOAM_OCTAVE_SCALE_1, _2 (the lookups) are one table written twice: they must agree."""
+    import re
+    from importlib.resources import files
+
+    from igserver.render.water.foam import FOAM_OCTAVE_SCALE
+
+    glsl = (files("igserver.render.water") / "foam_streaks.glsl").read_text()
+    for i in (1, 2):
+        x, y = re.search(rf"FOAM_OCTAVE_SCALE_{i} = vec2\(([\d.]+), ([\d.]+)\)", glsl).groups()
+        assert (float(x), float(y)) == FOAM_OCTAVE_SCALE[i]

@@ -66,10 +66,12 @@ def foam_cover_and_freshness(threshold: float, j_now: np.ndarray, j_past: tuple[
 
 
 def streak_size(wind: float) -> tuple[float, float]:
-    """m along and across the wind: a noise cell of the streaks. Wind-row foam streaks lengthen with
-    the wind (Beaufort 7-9: "foam blown in streaks along the wind", denser and longer as it rises):
-    2.5 m per m/s along (57 m at Beaufort 9), 10 to 75 m; FOAM_STREAK_WIDTH across."""
-    return min(max(2.5 * wind, 10.0), 75.0), FOAM_STREAK_WIDTH
+    """m along and across the wind: a cell of the finest streak noise. Wind-row foam streaks lengthen
+    with the wind (Beaufort 7-9: "foam blown in streaks along the wind", denser and longer as it
+    rises): 0.625 m per m/s along (14 m at Beaufort 9), 2.5 to 19 m; FOAM_STREAK_WIDTH across. The
+    wind rows (FOAM_OCTAVE_SCALE) are 8 and 16 times longer: cells 4 times longer than these drew each
+    thin streak as one unbroken band, which seen downwind from a bridge converged like speed lines."""
+    return 0.625 * min(max(wind, 4.0), 30.0), FOAM_STREAK_WIDTH
 
 
 def streak_opacity(wind: float) -> float:
@@ -111,13 +113,13 @@ FOAM_STREAK_WIDTH = 1.5  # m across the wind: a cell of the old foam's finest st
 # Per octave of the streak noise (foam_streaks.glsl FOAM_OCTAVE_SCALE_1, _2): its cell's length and width
 # over the finest's. Wind rows: thin streaks bunched into bands 6 and 24 m wide (Langmuir rows are
 # spaced 2 to 50 m apart, Thorpe 2004), which stay visible where the thin ones are below a pixel.
-FOAM_OCTAVE_SCALE = ((1.0, 1.0), (2.0, 4.0), (4.0, 16.0))
+FOAM_OCTAVE_SCALE = ((1.0, 1.0), (8.0, 4.0), (16.0, 16.0))
 # Per octave a shift in cells, so that the octaves read unrelated parts of the one tabulated noise.
 FOAM_OCTAVE_SHIFT = ((0.0, 0.0), (17.37, 29.71), (41.13, 7.89))
-# The storm streaks' meander (foam_streaks.glsl): a noise of cells this many times the finest's (3x
+# The storm streaks' meander (foam_streaks.glsl): a noise of cells this many times the finest's (12x
 # longer, 64x wider), anchored to the sea like the octaves (its own camera coordinates), and shifted
 # into another part of the tabulated noise.
-FOAM_MEANDER_SCALE = (3.0, 64.0)
+FOAM_MEANDER_SCALE = (12.0, 64.0)
 FOAM_MEANDER_SHIFT = (29.71, 17.37)
 # m along and across the wind: a cell of the fresh foam's noise (whitecaps drawn out downwind)
 FOAM_PATCH_SIZE = (10.0, 3.0)
@@ -126,7 +128,7 @@ FOAM_PATCH_SIZE = (10.0, 3.0)
 FOAM_FADE_CELL = max(FOAM_STREAK_WIDTH * FOAM_OCTAVE_SCALE[-1][1], min(FOAM_PATCH_SIZE))
 FOAM_STREAK_FADE = 0.75  # cells a pixel spans where the streaks have faded to their mean (foam_streaks.glsl)
 FOAM_DRIFT = 0.03  # × wind speed: the surface drift that carries the streaks downwind
-FOAM_PERIOD = 64.0  # noise cells per side of the tabulated noise: 1.5 km along the wind, 192 m across
+FOAM_PERIOD = 64.0  # noise cells per side of the tabulated noise: 0.9 km along the wind, 96 m across (finest octave)
 FOAM_NOISE_SIZE = 512  # texels per side: 8 per noise cell (see foam_noise.frag.glsl)
 FOAM_NOISE_UNIT = FRAME_UNITS["FOAM_NOISE"]
 

@@ -28,7 +28,7 @@ uniform vec3 u_foam_octaves;    // per streak octave its weight in Z, the square
 uniform vec4 u_foam_meander;    // the meander's noise: xy the camera's coordinates in it (mod the period, CPU), zw 1 / its
                                 // cell over the finest's (foam.py FOAM_MEANDER_SCALE)
 // Per coarser octave its cell's length and width over the finest's (foam.py FOAM_OCTAVE_SCALE).
-const vec2 FOAM_OCTAVE_SCALE_1 = vec2(2.0, 4.0), FOAM_OCTAVE_SCALE_2 = vec2(4.0, 16.0);
+const vec2 FOAM_OCTAVE_SCALE_1 = vec2(8.0, 4.0), FOAM_OCTAVE_SCALE_2 = vec2(16.0, 16.0);
 const float FOAM_MEANDER = 4.0;  // finest cells the streaks wander per unit of the meander noise (rows at full weight: x 0.5)
 const float FOAM_NOISE_SLOPE = 4.8;  // z per noise cell: the tabulated noise's rms gradient along x or y (measured)
 const float FOAM_RAMP_OLD = 0.1;     // the old foam's least ramp in z (soft streak ends); fresh foam's 0.05
