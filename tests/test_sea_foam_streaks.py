@@ -133,3 +133,13 @@ def test_octave_scales_agree_between_python_and_glsl():
     for i in (1, 2):
         x, y = re.search(rf"FOAM_OCTAVE_SCALE_{i} = vec2\(([\d.]+), ([\d.]+)\)", glsl).groups()
         assert (float(x), float(y)) == FOAM_OCTAVE_SCALE[i]
+
+
+def test_whitecap_patches_scale_with_the_waves():
+    """A whitecap spans part of its breaking crest: its noise cell is FOAM_PATCH_SIZE from Hs 6 m, in
+    proportion below, at least a fifth of it (the beach's 1.7 m surf drew blobs 10 m long)."""
+    from igserver.render.water.foam import FOAM_PATCH_SIZE, whitecap_patch_size
+
+    assert whitecap_patch_size(8.0) == FOAM_PATCH_SIZE == whitecap_patch_size(6.0)
+    assert whitecap_patch_size(3.0) == pytest.approx((5.0, 1.5))
+    assert whitecap_patch_size(0.1) == pytest.approx((2.0, 0.6))

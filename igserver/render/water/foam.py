@@ -123,6 +123,15 @@ FOAM_MEANDER_SCALE = (12.0, 64.0)
 FOAM_MEANDER_SHIFT = (29.71, 17.37)
 # m along and across the wind: a cell of the fresh foam's noise (whitecaps drawn out downwind)
 FOAM_PATCH_SIZE = (10.0, 3.0)
+FOAM_PATCH_HS = 6.0  # m: the sea's Hs at which a whitecap's patch is FOAM_PATCH_SIZE
+
+
+def whitecap_patch_size(hs: float) -> tuple[float, float]:
+    """m along and across the wind: a cell of the fresh foam's noise for a sea of significant height
+    ``hs``. A whitecap spans a part of its breaking crest, so its size goes with the waves' (whitecap
+    areas scale with the breaking waves' size, Mironov & Dulov 2008): FOAM_PATCH_SIZE at FOAM_PATCH_HS,
+    in proportion below, at least a fifth of it (the surf of a 1 m swell broke into blobs 10 m long)."""
+    return tuple(x * min(max(hs / FOAM_PATCH_HS, 0.2), 1.0) for x in FOAM_PATCH_SIZE)
 # The noise cells' size the foam's pattern fades by (detail.foam_streaks_needed): each lookup fades by
 # its own least side, the last to fade is the coarsest streak octave's.
 FOAM_FADE_CELL = max(FOAM_STREAK_WIDTH * FOAM_OCTAVE_SCALE[-1][1], min(FOAM_PATCH_SIZE))
@@ -162,12 +171,13 @@ def foam_frame(scene: Scene, view: CameraView, sea: SeaSurface, wind: float, max
                        for (sx, sy), (dx, dy) in zip(FOAM_OCTAVE_SCALE, FOAM_OCTAVE_SHIFT)], dtype=np.float32)
     meander = np.mod([drifted / (size[0] * FOAM_MEANDER_SCALE[0]) + FOAM_MEANDER_SHIFT[0],
                       side / (size[1] * FOAM_MEANDER_SCALE[1]) + FOAM_MEANDER_SHIFT[1]], FOAM_PERIOD)
-    patch = np.mod([drifted / FOAM_PATCH_SIZE[0], side / FOAM_PATCH_SIZE[1]], FOAM_PERIOD)
     hs = 4.0 * math.sqrt(float(np.sum(sea.waves.amplitude ** 2)) / 2.0)
+    patch_size = whitecap_patch_size(hs)
+    patch = np.mod([drifted / patch_size[0], side / patch_size[1]], FOAM_PERIOD)
     return {"u_foam_frame": (*axis, 1.0 / size[0], 1.0 / size[1]),
             "u_foam_offset": offset.tobytes(), "u_foam_period": FOAM_PERIOD,
             "u_foam_meander": (*(float(x) for x in meander), 1.0 / FOAM_MEANDER_SCALE[0], 1.0 / FOAM_MEANDER_SCALE[1]),
-            "u_foam_octaves": streak_octave_weights(wind), "u_foam_patch": (1.0 / FOAM_PATCH_SIZE[0], 1.0 / FOAM_PATCH_SIZE[1], *(float(x) for x in patch)),
+            "u_foam_octaves": streak_octave_weights(wind), "u_foam_patch": (1.0 / patch_size[0], 1.0 / patch_size[1], *(float(x) for x in patch)),
             "u_foam_noise": FOAM_NOISE_UNIT, "u_foam_decay": (*foam_decay(), SURF_FOAM_JACOBIAN, streak_opacity(wind)),
             "u_spray": (spray_strength(wind), 1.0 / max(hs, 1e-3)),
             "u_wave_lag": wave_lags(sea, max_waves)}
