@@ -60,10 +60,11 @@ const vec3 BOTTOM_ALBEDO = vec3(0.35, 0.30, 0.22);  // sand
 vec4 detail(sampler2D tex, vec3 map) {
 #if WATER_DETAIL_FADE  // the mean slope faded by the pixel's footprint (water/detail_filter.glsl)
     vec2 uv = v_rest * map.x + map.yz;
-    if (u_detail_motion == vec2(0.0)) {  // a still eye (uniform control flow: implicit derivatives)
-        vec4 d = texture(tex, uv);
-        return vec4(d.xy * detail_fade(uv), d.zw);
-    }
+#if !WATER_DETAIL_MOTION  // a still eye (water.py compiles the motion's variant only for a moving one:
+                          // llvmpipe runs both sides of a branch, even on a uniform)
+    vec4 d = texture(tex, uv);
+    return vec4(d.xy * detail_fade(uv), d.zw);
+#else
     // blurred over the eye's motion: the sampler's footprint grown to it, the fade with it
     vec2 dx = dFdx(uv), dy = dFdy(uv);
     float pixel = sqrt(max(dot(dx, dx), dot(dy, dy)));
@@ -71,6 +72,7 @@ vec4 detail(sampler2D tex, vec3 map) {
     float grow = footprint / max(pixel, 1e-12);
     vec4 d = textureGrad(tex, uv, dx * grow, dy * grow);
     return vec4(d.xy * detail_fade_of(footprint), d.zw);
+#endif
 #else
     return texture(tex, v_rest * map.x + map.yz);
 #endif

@@ -91,6 +91,7 @@ class WaterPass(UnderwaterDraws, RenderPass):
     view_counters = ("_selection_version",)
     _selection = None
     _last_eye = None
+    _detail_moving = False  # the last frame's eye moved (detail_motion): the programs' motion variant
 
     def __init__(self, ctx, programs):
         super().__init__(ctx, programs)
@@ -133,6 +134,7 @@ class WaterPass(UnderwaterDraws, RenderPass):
         if self._underwater is not None:  # the eye below the surface (water/underwater.glsl)
             defines["WATER_UNDERWATER"] = 1
         defines["WATER_DETAIL_FADE"] = int(self.detail_fade)
+        defines["WATER_DETAIL_MOTION"] = int(self._detail_moving)  # this frame's u_detail_motion is not 0
         return self.programs.program("water/water.vert.glsl", "water/water.frag.glsl", defines)
 
     def _atmosphere_define(self) -> dict:
@@ -423,6 +425,7 @@ class WaterPass(UnderwaterDraws, RenderPass):
             mats[: len(hulls)] = np.transpose(np.asarray(hulls), (0, 2, 1))
             values["u_hull_inv"] = mats.tobytes()
         values["u_detail_motion"] = self.detail_motion(scene, view)
+        self._detail_moving = values["u_detail_motion"] != (0.0, 0.0)
         return {"values": values, "detail_map": detail_map}
 
     def detail_motion(self, scene, view) -> tuple[float, float]:
