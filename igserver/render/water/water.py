@@ -92,6 +92,7 @@ class WaterPass(UnderwaterDraws, RenderPass):
     _selection = None
     _last_eye = None
     _detail_moving = False  # the last frame's eye moved (detail_motion): the programs' motion variant
+    _fog_relief = True  # the frame's fog top lies below the eye (u_fog_relief): the relief's variant
 
     def __init__(self, ctx, programs):
         super().__init__(ctx, programs)
@@ -135,6 +136,7 @@ class WaterPass(UnderwaterDraws, RenderPass):
             defines["WATER_UNDERWATER"] = 1
         defines["WATER_DETAIL_FADE"] = int(self.detail_fade)
         defines["WATER_DETAIL_MOTION"] = int(self._detail_moving)  # this frame's u_detail_motion is not 0
+        defines["FOG_RELIEF"] = int(self._fog_relief)  # common/fog_relief.glsl: a fog top below the eye
         return self.programs.program("water/water.vert.glsl", "water/water.frag.glsl", defines)
 
     def _atmosphere_define(self) -> dict:
@@ -426,6 +428,7 @@ class WaterPass(UnderwaterDraws, RenderPass):
             values["u_hull_inv"] = mats.tobytes()
         values["u_detail_motion"] = self.detail_motion(scene, view)
         self._detail_moving = values["u_detail_motion"] != (0.0, 0.0)
+        self._fog_relief = frame.uniforms.get("u_fog_relief", (0.0, 0.0, 0.0, 0.0))[2] > 0.0
         return {"values": values, "detail_map": detail_map}
 
     def detail_motion(self, scene, view) -> tuple[float, float]:
