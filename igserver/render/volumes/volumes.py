@@ -43,6 +43,7 @@ from .. import presets
 from ..camera import CameraView
 from ..memo import Memo, view_key
 from ..passes import RenderPass
+from ..post.exposure import MAX_STREAM_DT
 from ..texture_pool import TexturePool
 from ..shaders import set_uniforms
 from .effects import NOISE_PERIOD, NOISE_SCALE, Volume, fade_level, visible_volumes
@@ -56,7 +57,6 @@ MAX_PROFILE_TEXTURES = 32  # profile textures kept resident (LRU); each is small
 PUFF_AMPLITUDE = 0.25  # a puffing flame's necks and bulges: its radius x (1 +- 0.25)
 EVICT_AFTER_FRAMES = 120
 SCALE_FADE_FRAMES = 8  # frames over which a changed march resolution cross-fades (~0.27 s at 30 Hz)
-MAX_STREAM_DT = 1.0  # s: frames further apart in sim_time are not one continuous view (no fade)
 
 
 @dataclass(frozen=True)

@@ -91,8 +91,6 @@ class WaterPass(UnderwaterDraws, RenderPass):
     view_counters = ("_selection_version",)
     _selection = None
     _last_eye = None
-    _detail_moving = False  # the last frame's eye moved (detail_motion): the programs' motion variant
-    _fog_relief = True  # the frame's fog top lies below the eye (u_fog_relief): the relief's variant
 
     def __init__(self, ctx, programs):
         super().__init__(ctx, programs)
@@ -124,8 +122,10 @@ class WaterPass(UnderwaterDraws, RenderPass):
 
     # ---- resources ------------------------------------------------------------------------------
     def _program(self, field: bool, hulls: bool = False, detail_maps: int = DETAIL_MAPS,
-                 lights: dict | None = None, foam_streaks: int = 2) -> moderngl.Program:
-        """``lights``: frame.local_light_defines (None: every light term compiled)."""
+                 lights: dict | None = None, foam_streaks: int = 2, values: dict | None = None) -> moderngl.Program:
+        """``lights``: frame.local_light_defines (None: every light term compiled); ``values``: the
+        frame's uniform values (``_frame_uniforms``), which pick the variants of what is off this frame
+        (None: everything compiled in, no motion)."""
         defines = {"MAX_WAVES": MAX_WAVES, "MAX_HULLS": MAX_HULLS, "WATER_DETAIL_MAPS": detail_maps,
                    **(lights or {}), "WATER_FOAM_STREAKS": int(foam_streaks), **self._atmosphere_define()}
         if field:
@@ -135,8 +135,11 @@ class WaterPass(UnderwaterDraws, RenderPass):
         if self._underwater is not None:  # the eye below the surface (water/underwater.glsl)
             defines["WATER_UNDERWATER"] = 1
         defines["WATER_DETAIL_FADE"] = int(self.detail_fade)
-        defines["WATER_DETAIL_MOTION"] = int(self._detail_moving)  # this frame's u_detail_motion is not 0
-        defines["FOG_RELIEF"] = int(self._fog_relief)  # common/fog_relief.glsl: a fog top below the eye
+        # Variants instead of branches on uniforms (llvmpipe runs both sides of a branch): the detail
+        # maps' motion blur for a moving eye, the fog top's relief for a fog top below the eye.
+        values = values or {}
+        defines["WATER_DETAIL_MOTION"] = int(tuple(values.get("u_detail_motion", (0.0, 0.0))) != (0.0, 0.0))
+        defines["FOG_RELIEF"] = int(values.get("u_fog_relief", (0.0, 0.0, 1.0, 0.0))[2] > 0.0)
         return self.programs.program("water/water.vert.glsl", "water/water.frag.glsl", defines)
 
     def _atmosphere_define(self) -> dict:
@@ -427,8 +430,6 @@ class WaterPass(UnderwaterDraws, RenderPass):
             mats[: len(hulls)] = np.transpose(np.asarray(hulls), (0, 2, 1))
             values["u_hull_inv"] = mats.tobytes()
         values["u_detail_motion"] = self.detail_motion(scene, view)
-        self._detail_moving = values["u_detail_motion"] != (0.0, 0.0)
-        self._fog_relief = frame.uniforms.get("u_fog_relief", (0.0, 0.0, 0.0, 0.0))[2] > 0.0
         return {"values": values, "detail_map": detail_map}
 
     def detail_motion(self, scene, view) -> tuple[float, float]:
@@ -451,7 +452,7 @@ class WaterPass(UnderwaterDraws, RenderPass):
         local lights ``lights``: frame.local_light_defines) with this frame's uniforms
         (``_frame_uniforms``) set."""
         program = self._program(sea.field is not None, with_hulls, read_maps, lights,
-                                streak_variant(foam_streaks, shared["values"]))
+                                streak_variant(foam_streaks, shared["values"]), shared["values"])
         set_uniforms(program, shared["values"])
         set_uniforms(program, {"u_detail_map": shared["detail_map"][: max(read_maps, 1)].tobytes()})
         mean = program.get("u_detail_mean", None)
