@@ -171,7 +171,7 @@ def foam_frame(scene: Scene, view: CameraView, sea: SeaSurface, wind: float, max
                        for (sx, sy), (dx, dy) in zip(FOAM_OCTAVE_SCALE, FOAM_OCTAVE_SHIFT)], dtype=np.float32)
     meander = np.mod([drifted / (size[0] * FOAM_MEANDER_SCALE[0]) + FOAM_MEANDER_SHIFT[0],
                       side / (size[1] * FOAM_MEANDER_SCALE[1]) + FOAM_MEANDER_SHIFT[1]], FOAM_PERIOD)
-    hs = 4.0 * math.sqrt(float(np.sum(sea.waves.amplitude ** 2)) / 2.0)
+    hs = sea.waves.hs
     patch_size = whitecap_patch_size(hs)
     patch = np.mod([drifted / patch_size[0], side / patch_size[1]], FOAM_PERIOD)
     return {"u_foam_frame": (*axis, 1.0 / size[0], 1.0 / size[1]),
