@@ -153,6 +153,15 @@ def _input_names(program) -> tuple:
 
 def _frozen(value):
     """A uniform's value as a hashable, exactly comparable key part."""
+    kind = type(value)
+    if kind is float or kind is int or kind is bytes:
+        return value
+    if kind is tuple:  # a tuple of numbers (most vectors) is its own key
+        try:
+            hash(value)
+            return value
+        except TypeError:  # it holds a list or an array
+            return tuple(_frozen(v) for v in value)
     if isinstance(value, np.ndarray):
         return (value.dtype.str, value.shape, value.tobytes())
     if isinstance(value, (list, tuple)):

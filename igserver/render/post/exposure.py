@@ -104,6 +104,20 @@ def _to_white(t, stops, hue_weight=0.0):
     return t + w * (np.max(t, axis=-1, keepdims=True) - t)
 
 
+# Up to this many cells past the path to white are moved one by one in Python floats (the same
+# IEEE operations in the same order as _to_white, so the same values): cheaper than numpy's calls.
+FEW_HOT_CELLS = 8
+
+
+def _to_white_cell(t: list, stops: float) -> tuple:
+    """_to_white of one colour ``t`` (3 floats) whose brightest channel is ``stops`` over the
+    threshold (no hue weight)."""
+    s = min(max(stops / WHITE_STOPS, 0.0), 1.0)
+    w = s * s * (3.0 - 2.0 * s) * (1.0 - 0.0)
+    top = max(t)
+    return tuple(c + w * (top - c) for c in t)
+
+
 def displayed(x):
     """Displayed value (0..1) of a display-linear GREY value (any shape), as the post pass shows it:
     the path to white leaves grey unchanged. Colours (..., 3): displayed_rgb."""
@@ -127,12 +141,18 @@ def display_metered_ev100(samples: np.ndarray) -> tuple[float, float]:
     samples = np.maximum(np.asarray(samples, dtype=np.float64), 0.0)
     lum = samples @ LUMA if samples.ndim == 2 else samples
     # Colours (N, 3) are shown with the path to white; their stops over its threshold at e = 0 once
-    # (at exposure 2^e they are e more), and only the cells past it are moved.
-    stops = _stops_over(np.max(samples, axis=1, keepdims=True)) if samples.ndim == 2 else None
+    # (at exposure 2^e they are e more), and only the cells past it are moved: of the cells that can
+    # pass it at the highest exposure tried (hot_cells), those past it at e.
+    stops = (_stops_over(np.maximum(np.maximum(samples[:, :1], samples[:, 1:2]), samples[:, 2:3]))
+             if samples.ndim == 2 else None)
     hottest = float(np.max(stops)) if stops is not None and stops.size else -math.inf
     m = max(float(np.mean(lum)), 1e-9)
     key = key_of(m)
     target = float(displayed(key))
+    e0 = math.log2(key / m)
+    lo_limit, hi_limit = e0 - 12.0, e0 + MAX_OVER_MEAN_EV
+    hot_cells = np.flatnonzero(stops[:, 0] + hi_limit > 0.0) if hottest + hi_limit > 0.0 else None
+    hot_stops = None if hot_cells is None else stops[hot_cells, 0]
 
     n = samples.size
 
@@ -150,8 +170,11 @@ def display_metered_ev100(samples: np.ndarray) -> tuple[float, float]:
         shown /= den
         np.minimum(shown, 1.0, out=shown)
         if hottest + e > 0.0:
-            hot = stops[:, 0] + e > 0.0
-            if hot.any():
+            hot = hot_cells[hot_stops + e > 0.0]
+            if len(hot) <= FEW_HOT_CELLS:
+                for i in hot.tolist():
+                    shown[i] = _to_white_cell(shown[i].tolist(), float(stops[i, 0]) + e)
+            else:
                 shown[hot] = _to_white(shown[hot], stops[hot] + e)
         low = shown <= 0.0031308
         srgb = np.maximum(shown, 0.0031308, out=x)
@@ -168,8 +191,6 @@ def display_metered_ev100(samples: np.ndarray) -> tuple[float, float]:
     # the last two points, each overshot by a quarter, at least 0.02 EV, at most 8x the last step,
     # clamped to the limits), then found by false position (Illinois) to SOLVE_TOLERANCE_EV: ~4
     # evaluations (the meter runs on the CPU twice a frame).
-    e0 = math.log2(key / m)
-    lo_limit, hi_limit = e0 - 12.0, e0 + MAX_OVER_MEAN_EV
     f0 = excess(e0)
     root = None
     if f0 == 0.0:

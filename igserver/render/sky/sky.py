@@ -4,6 +4,7 @@ the bright stars as points (only when they could show: sun below -2 deg)."""
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import moderngl
 import numpy as np
@@ -91,14 +92,24 @@ def cirrus_polygon(frame, table_size: tuple[int, int]) -> np.ndarray | None:
     uv and |d| <= d_max (its largest value over the frame, at a corner), so the half-plane
     d.z(u, v) >= mu_h d_max (mu_h <= 0) holds every such ray: outside it the layer is zero. From
     above the layer (or on it) the whole frame is returned."""
-    uniforms = frame.uniforms
-    bottom = float(uniforms["u_bottom_radius_km"])
-    r_cam = bottom + max(float(uniforms["u_camera_altitude"]) * 1e-3, 1e-3)
-    r_layer = bottom + float(uniforms["u_cirrus_altitude_km"])
+    u = frame.uniforms
+    view = frame.view
+    return _cirrus_polygon(np.asarray(view.rotation, dtype=np.float64).tobytes(), tuple(float(t) for t in view.tangents),
+                           float(u["u_bottom_radius_km"]), float(u["u_camera_altitude"]),
+                           float(u["u_cirrus_altitude_km"]), tuple(table_size))
+
+
+# Per exact view basis, frustum, radii and table size (all its inputs): a still camera finds its
+# polygon once. The array is shared, so read-only.
+@lru_cache(maxsize=16)
+def _cirrus_polygon(rotation: bytes, tangents: tuple, bottom: float, camera_altitude_m: float,
+                    cirrus_altitude_km: float, table_size: tuple) -> np.ndarray | None:
+    r_cam = bottom + max(camera_altitude_m * 1e-3, 1e-3)
+    r_layer = bottom + cirrus_altitude_km
     corners = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
-    rot = np.asarray(frame.view.rotation, dtype=np.float64)
+    rot = np.frombuffer(rotation, dtype=np.float64).reshape(3, 3)
     right, forward, up = rot[:, 0], rot[:, 1], rot[:, 2]
-    left_t, right_t, bottom_t, top_t = (float(t) for t in frame.view.tangents)
+    left_t, right_t, bottom_t, top_t = tangents
 
     def ray(uv):
         tx = left_t + uv[..., :1] * (right_t - left_t)
@@ -127,8 +138,9 @@ def cirrus_polygon(frame, table_size: tuple[int, int]) -> np.ndarray | None:
         if len(kept) < 3:
             return None
         poly = np.array(kept)
-    tris = np.array([[poly[0], poly[i], poly[i + 1]] for i in range(1, len(poly) - 1)]).reshape(-1, 2)
-    return tris.astype("f4")
+    tris = np.array([[poly[0], poly[i], poly[i + 1]] for i in range(1, len(poly) - 1)]).reshape(-1, 2).astype("f4")
+    tris.flags.writeable = False
+    return tris
 
 
 def cirrus_drift_px(frame, offset_a, offset_b) -> float:
@@ -153,7 +165,7 @@ def cirrus_drift_px(frame, offset_a, offset_b) -> float:
     t_min = max(abs(r_layer - r_cam), 1e-3)  # km; a camera in the layer: any drift redraws
     left_t, right_t, bottom_t, top_t = (float(t) for t in frame.view.tangents)
     if r_cam < r_layer:
-        z = _highest_ray_z(np.asarray(frame.view.rotation, dtype=np.float64), left_t, right_t, bottom_t, top_t)
+        z = _highest_ray_z(np.asarray(frame.view.rotation, dtype=np.float64).tobytes(), left_t, right_t, bottom_t, top_t)
         b = r_cam * z
         t_min = max(t_min, -b + math.sqrt(max(b * b - (r_cam - r_layer) * (r_cam + r_layer), 0.0)))
     tan2 = max(left_t * left_t, right_t * right_t) + max(bottom_t * bottom_t, top_t * top_t)
@@ -161,9 +173,12 @@ def cirrus_drift_px(frame, offset_a, offset_b) -> float:
     return s_km / t_min * (1.0 + tan2) * px_per_tan
 
 
-def _highest_ray_z(rot: np.ndarray, left_t: float, right_t: float, bottom_t: float, top_t: float) -> float:
-    """The largest z of a normalised view ray over the frame: 1 when the zenith is in view, else the
-    largest over its four edges (on an edge a + s b, z/|d| has one stationary point, in closed form)."""
+@lru_cache(maxsize=16)  # per exact view basis and frustum: a still camera finds it once
+def _highest_ray_z(rotation: bytes, left_t: float, right_t: float, bottom_t: float, top_t: float) -> float:
+    """The largest z of a normalised view ray over the frame (``rotation``: the view's float64
+    basis, columns right, forward, up): 1 when the zenith is in view, else the largest over its four
+    edges (on an edge a + s b, z/|d| has one stationary point, in closed form)."""
+    rot = np.frombuffer(rotation, dtype=np.float64).reshape(3, 3)
     right, forward, up = rot[:, 0], rot[:, 1], rot[:, 2]
     zf = float(forward[2])
     if zf > 0.0:

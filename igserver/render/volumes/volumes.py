@@ -214,7 +214,18 @@ class VolumesPass(RenderPass):
         self._block_align = int(ctx.info.get("GL_UNIFORM_BUFFER_OFFSET_ALIGNMENT", 256) or 256)
 
     def needed(self, scene: Scene, view: CameraView) -> bool:
-        return volumes_needed(scene, view)
+        if not hasattr(self, "memo"):  # graph.plan_passes asks an instance made without a context
+            return volumes_needed(scene, view)
+        return bool(scene.effects) and bool(self._visible(scene, view)[1])
+
+    def _visible(self, scene: Scene, view: CameraView) -> tuple[tuple, list]:
+        """(key, visible_volumes): the volumes follow the effects, their fade levels now, the wind
+        that bends them and the view; kept while those are the same (the frame graph asks before the
+        pass draws)."""
+        t = scene.time.sim_time
+        key = (tuple(scene.effects), tuple(fade_level(e, t) for e in scene.effects), scene.weather.wind_speed,
+               scene.weather.wind_direction, view_key(view))
+        return key, self.memo.get("visible_volumes", key, lambda: visible_volumes(scene, view))
 
     # -- modelling ---------------------------------------------------------------------------
 
@@ -457,12 +468,8 @@ class VolumesPass(RenderPass):
         self.stats = {"modelled": 0, "drawn": 0, "voxels": 0}
         if frame.resources.get("eye_under_water"):  # the water pass put the eye below the surface: fire and
             return  # smoke are in the air, the water hides them (docs/water.md#under-water)
-        # The volumes follow the effects, their fade levels now, the wind that bends them and the view;
-        # the march's plan (texture sizes, boxes, constants) those and the knobs.
-        t = scene.time.sim_time
-        key = (tuple(scene.effects), tuple(fade_level(e, t) for e in scene.effects), scene.weather.wind_speed,
-               scene.weather.wind_direction, view_key(view))
-        volumes = self.memo.get("visible_volumes", key, lambda: visible_volumes(scene, view))
+        # The march's plan (texture sizes, boxes, constants) follows the visible volumes and the knobs.
+        key, volumes = self._visible(scene, view)
         plan = self.memo.get("march_plan", (key, settings), lambda: MarchPlan(volumes, scene, view, settings).pack(
             scene, view, settings, self._block_align))
         textures = [self._models_for(plan, i, frame, settings) for i in range(len(volumes))]

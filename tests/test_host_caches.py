@@ -1,0 +1,84 @@
+"""Host work the passes keep between frames (each item keyed on all of its inputs, recomputations
+counted) and the exposure meter's shortcuts, which must give the values of the plain computation
+bit for bit: frames stay identical."""
+
+import numpy as np
+import pytest
+
+from igserver.render import shaders
+from igserver.render.post import exposure
+from igserver.render.renderer import Renderer
+from igserver.render.sky import sky
+from igserver.render.volumes import volumes
+from igserver.scene import apply_patch, load_scene
+
+
+@pytest.fixture(scope="module")
+def renderer():
+    r = Renderer()
+    yield r
+    r.release()
+
+
+def _demo(width=64, height=36, **camera):
+    return apply_patch(load_scene("demo"), {"camera": {"width": width, "height": height, **camera}})
+
+
+def _stream(renderer, scene, frames, t0=None):
+    t0 = scene.time.sim_time if t0 is None else t0
+    for i in range(frames):
+        renderer.render(apply_patch(scene, {"time": {"sim_time": t0 + i / 30.0}}))
+
+
+def test_frame_graph_and_volumes_pass_share_the_visible_volumes(renderer, monkeypatch):
+    # The frame graph asks the volumes pass whether it is needed before it draws: both read one
+    # memo item, so a stream finds the visible volumes never, a turned camera once.
+    calls = []
+    real = volumes.visible_volumes
+    monkeypatch.setattr(volumes, "visible_volumes", lambda scene, view: calls.append(1) or real(scene, view))
+    scene = _demo()
+    _stream(renderer, scene, 2)
+    calls.clear()
+    _stream(renderer, scene, 4, t0=scene.time.sim_time + 1.0)
+    assert calls == []
+    _stream(renderer, _demo(heading=291.0), 1)
+    assert len(calls) == 1
+
+
+def test_cirrus_polygon_and_drift_bound_found_once_per_view(renderer):
+    # 640 px wide: the cirrus table (not the per-pixel layer) is drawn, from its polygon.
+    scene = _demo(640, 360)
+    _stream(renderer, scene, 2)
+    poly, ray = sky._cirrus_polygon.cache_info().misses, sky._highest_ray_z.cache_info().misses
+    _stream(renderer, scene, 3, t0=scene.time.sim_time + 1.0)
+    assert (sky._cirrus_polygon.cache_info().misses, sky._highest_ray_z.cache_info().misses) == (poly, ray)
+    _stream(renderer, _demo(640, 360, heading=291.0), 3)  # (the drift is bounded from its second frame)
+    assert sky._cirrus_polygon.cache_info().misses == poly + 1
+    assert sky._highest_ray_z.cache_info().misses == ray + 1
+
+
+def test_kept_cirrus_polygon_is_the_computed_one():
+    args = (np.eye(3)[:, [0, 2, 1]].copy().tobytes(), (-0.8, 0.8, -0.45, 0.45), 6360.0, 6.0, 8.0, (320, 180))
+    kept = sky._cirrus_polygon(*args)
+    np.testing.assert_array_equal(kept, sky._cirrus_polygon.__wrapped__(*args))
+    assert not kept.flags.writeable  # shared between frames
+
+
+@pytest.mark.parametrize("hot", [0, 1, 2, 8, 9, 40])
+def test_meter_moves_few_hot_cells_one_by_one_to_the_same_root(monkeypatch, hot):
+    # Cells past the path to white are moved in Python floats when few: the same operations in the
+    # same order as the numpy path, so the same EV100 to the last bit.
+    rng = np.random.default_rng(hot)
+    cells = rng.uniform(0.0, 300.0, (576, 3))
+    cells[:hot] *= rng.uniform(30.0, 3000.0, (hot, 1))  # sun-lit cloud edges, the sun's disk
+    fast = exposure.display_metered_ev100(cells)
+    monkeypatch.setattr(exposure, "FEW_HOT_CELLS", -1)
+    assert fast == exposure.display_metered_ev100(cells)
+
+
+def test_uniform_key_of_a_vector_is_the_vector_and_arrays_are_frozen():
+    assert shaders._frozen((1.0, 2.0, 3.0)) == (1.0, 2.0, 3.0)
+    a = np.arange(3, dtype=np.float32)
+    assert shaders._frozen((a, 1.0)) == (shaders._frozen(a), 1.0)
+    assert shaders._frozen([1.0, [2.0]]) == (1.0, (2.0,))
+    hash(shaders._frozen((a, [1.0])))
