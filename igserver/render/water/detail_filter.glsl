@@ -24,13 +24,7 @@ float detail_fade_of(float footprint) {
 // displacement wherever that is longer, and the fade and the roughness follow it as for a far pixel.
 uniform vec2 u_detail_motion;  // m (world x, y): the eye's displacement since the previous frame; 0: still
 
-// Footprint (tile widths, the longer axis) of a pixel at tile coordinates with derivatives dx, dy,
-// grown to the motion's length (``scale``: 1 / tile side, 1/m).
-float detail_footprint(vec2 dx, vec2 dy, float scale) {
-    return max(sqrt(max(dot(dx, dx), dot(dy, dy))), length(u_detail_motion) * scale);
-}
-
-float detail_fade(vec2 uv) {
-    vec2 dx = dFdx(uv), dy = dFdy(uv);
-    return detail_fade_of(sqrt(max(dot(dx, dx), dot(dy, dy))));  // tile widths a pixel spans, the longer axis
-}
+// The pixel's footprint on the sea's rest plane (m, the longer axis) from the rest point's screen
+// derivatives dx, dy. Every map reads the rest point over its tile side L, so its footprint in tile
+// widths is this over L: one footprint serves the three maps.
+float rest_footprint(vec2 dx, vec2 dy) { return sqrt(max(dot(dx, dx), dot(dy, dy))); }

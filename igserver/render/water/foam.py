@@ -114,13 +114,26 @@ FOAM_STREAK_WIDTH = 1.5  # m across the wind: a cell of the old foam's finest st
 # over the finest's. Wind rows: thin streaks bunched into bands 6 and 24 m wide (Langmuir rows are
 # spaced 2 to 50 m apart, Thorpe 2004), which stay visible where the thin ones are below a pixel.
 FOAM_OCTAVE_SCALE = ((1.0, 1.0), (8.0, 4.0), (16.0, 16.0))
-# Per octave a shift in cells, so that the octaves read unrelated parts of the one tabulated noise.
-FOAM_OCTAVE_SHIFT = ((0.0, 0.0), (17.37, 29.71), (41.13, 7.89))
-# The storm streaks' meander (foam_streaks.glsl): a noise of cells this many times the finest's (12x
-# longer, 64x wider), anchored to the sea like the octaves (its own camera coordinates), and shifted
-# into another part of the tabulated noise.
-FOAM_MEANDER_SCALE = (12.0, 64.0)
-FOAM_MEANDER_SHIFT = (29.71, 17.37)
+# Per lookup of the noise's first channel, the finest octave's and the coarser octaves' (foam_rows), a
+# shift in cells, so that the two read unrelated parts of it.
+FOAM_OCTAVE_SHIFT = ((0.0, 0.0), (17.37, 29.71))
+# The storm streaks' meander (foam_streaks.glsl): a noise of cells this many times the finest's (16x
+# longer, 64x wider: 96 m across), anchored to the sea like the octaves.
+FOAM_MEANDER_SCALE = (16.0, 64.0)
+
+
+def rows_channel_cells() -> tuple[tuple[float, float], tuple[float, float]]:
+    """The cells (along, across the wind) of the tabulated noise's second and third channels, in cells
+    of its first: the coarsest streak octave's and the meander's over the first coarse octave's. The
+    wind rows' three noises are then one lookup at that octave's coordinates (foam_streaks.glsl
+    foam_rows: llvmpipe pays for every lookup in the shader on every pixel). Whole divisors of
+    FOAM_PERIOD, so each channel tiles with the table."""
+    base = FOAM_OCTAVE_SCALE[1]
+    cells = tuple(tuple(a / b for a, b in zip(scale, base)) for scale in (FOAM_OCTAVE_SCALE[2], FOAM_MEANDER_SCALE))
+    assert all(FOAM_PERIOD % c == 0.0 for pair in cells for c in pair), cells
+    return cells
+
+
 # m along and across the wind: a cell of the fresh foam's noise (whitecaps drawn out downwind)
 FOAM_PATCH_SIZE = (10.0, 3.0)
 FOAM_PATCH_HS = 6.0  # m: the sea's Hs at which a whitecap's patch is FOAM_PATCH_SIZE
@@ -156,7 +169,8 @@ def wave_lags(sea: SeaSurface, max_waves: int) -> bytes:
 
 def foam_frame(scene: Scene, view: CameraView, sea: SeaSurface, wind: float, max_waves: int) -> dict:
     """The foam's per-frame uniforms: the streak noise's frame (foam_streaks.glsl foam_cover) — downwind
-    axis and cell sizes, and the camera's noise coordinates per octave, drifted downwind by the time, reduced mod
+    axis and cell sizes, and the camera's noise coordinates per lookup (the finest octave's, the
+    rows'), drifted downwind by the time, reduced mod
     the period in float64 so the streaks stay put on the sea at any distance from the origin and any
     sim_time — the lags' decay and the spray's strength."""
     to = math.radians(scene.weather.wind_direction + 180.0)  # the wind blows from wind_direction
@@ -169,14 +183,11 @@ def foam_frame(scene: Scene, view: CameraView, sea: SeaSurface, wind: float, max
     drifted = along - FOAM_DRIFT * wind * t
     offset = np.array([np.mod([drifted / (size[0] * sx) + dx, side / (size[1] * sy) + dy], FOAM_PERIOD)
                        for (sx, sy), (dx, dy) in zip(FOAM_OCTAVE_SCALE, FOAM_OCTAVE_SHIFT)], dtype=np.float32)
-    meander = np.mod([drifted / (size[0] * FOAM_MEANDER_SCALE[0]) + FOAM_MEANDER_SHIFT[0],
-                      side / (size[1] * FOAM_MEANDER_SCALE[1]) + FOAM_MEANDER_SHIFT[1]], FOAM_PERIOD)
     hs = sea.waves.hs
     patch_size = whitecap_patch_size(hs)
     patch = np.mod([drifted / patch_size[0], side / patch_size[1]], FOAM_PERIOD)
     return {"u_foam_frame": (*axis, 1.0 / size[0], 1.0 / size[1]),
             "u_foam_offset": offset.tobytes(), "u_foam_period": FOAM_PERIOD,
-            "u_foam_meander": (*(float(x) for x in meander), 1.0 / FOAM_MEANDER_SCALE[0], 1.0 / FOAM_MEANDER_SCALE[1]),
             "u_foam_octaves": streak_octave_weights(wind), "u_foam_patch": (1.0 / patch_size[0], 1.0 / patch_size[1], *(float(x) for x in patch)),
             "u_foam_noise": FOAM_NOISE_UNIT, "u_foam_decay": (*foam_decay(), SURF_FOAM_JACOBIAN, streak_opacity(wind)),
             "u_spray": (spray_strength(wind), 1.0 / max(hs, 1e-3)),

@@ -5,7 +5,7 @@
 // The dither is a threshold on a standard normal noise Z: foam where Z < t = Phi^-1(m), so the
 // mean over the noise is m. Z is a sum of independent lookups of the tabulated noise (z about
 // N(0, 1): water/foam_noise.frag.glsl), anchored to the world and drifting downwind with the surface:
-// - streaks (the old foam): FOAM_OCTAVES octaves, cells along x across the wind of the finest
+// - streaks (the old foam): three octaves, cells along x across the wind of the finest
 //   (foam.py streak_size: longer the stronger the wind) times FOAM_OCTAVE_SCALE — thin streaks
 //   bunched, from Beaufort 7, into wider and longer wind rows (foam.py streak_octave_weights), so
 //   the pattern is still streaks where the finest octave is below a pixel;
@@ -17,16 +17,16 @@
 // spread of z_v: anti-aliasing; for old foam at least FOAM_RAMP_OLD, so streaks end softly) and
 // s = sqrt(1 + e^2), which keeps the mean m for every fade. With every octave faded it is m itself.
 
-#define FOAM_OCTAVES 3
 uniform vec4 u_foam_frame;      // xy: unit downwind direction; zw: 1 / length, 1 / width of the finest streak cell (1/m)
-uniform vec2 u_foam_offset[FOAM_OCTAVES];  // per streak octave: the camera's noise coordinates, drifted downwind, mod FOAM_PERIOD (CPU)
+uniform vec2 u_foam_offset[2];  // the camera's noise coordinates, drifted downwind, mod FOAM_PERIOD (CPU): the finest
+                                // octave's lookup, the rows' (in the first coarse octave's cells)
 uniform vec4 u_foam_patch;      // the fresh foam's noise: 1 / cell length, 1 / width (1/m), camera's coordinates
 uniform float u_foam_period;    // noise cells per side of the tabulated noise
-layout(binding = UNIT_FOAM_NOISE) uniform sampler2D u_foam_noise; // 0.5 + z / 8, z about N(0, 1) (water/foam_noise.frag.glsl)
+// 0.5 + z / 8 per channel, z about N(0, 1) (water/foam_noise.frag.glsl): r in the table's cells, g and b
+// in cells of FOAM_OCTAVE_SCALE_2 / FOAM_OCTAVE_SCALE_1 and of the meander's (foam.py rows_channel_cells)
+layout(binding = UNIT_FOAM_NOISE) uniform sampler2D u_foam_noise;
 
 uniform vec3 u_foam_octaves;    // per streak octave its weight in Z, the squares summing to 1 (foam.py streak_octave_weights)
-uniform vec4 u_foam_meander;    // the meander's noise: xy the camera's coordinates in it (mod the period, CPU), zw 1 / its
-                                // cell over the finest's (foam.py FOAM_MEANDER_SCALE)
 // Per coarser octave its cell's length and width over the finest's (foam.py FOAM_OCTAVE_SCALE).
 const vec2 FOAM_OCTAVE_SCALE_1 = vec2(8.0, 4.0), FOAM_OCTAVE_SCALE_2 = vec2(16.0, 16.0);
 const float FOAM_MEANDER = 4.0;  // finest cells the streaks wander per unit of the meander noise (rows at full weight: x 0.5)
@@ -36,10 +36,18 @@ const float SPRAY_MEAN = 0.375;      // mean of smoothstep(0.35, 0.9, u), u unif
 
 // Bilinear filtering between texels 1/8 cell apart (correlated 0.82: the noise's gradient) lowers
 // the noise's standard deviation between them, to 0.92 on average (measured): FOAM_Z_GAIN restores it.
+// The second and third channels' cells span 16 x 32 and 16 x 128 texels: their bilinear samples keep
+// 0.98 of it (measured), FOAM_ROWS_GAIN.
 const float FOAM_Z_GAIN = 1.087;
+const vec3 FOAM_ROWS_GAIN = vec3(FOAM_Z_GAIN, 1.02, 1.02);
 float foam_z(vec2 q) {
     // no mipmaps (a trilinear fetch costs 2x): the pattern has faded before a pixel spans 6 texels
     return FOAM_Z_GAIN * (8.0 * textureLod(u_foam_noise, q / u_foam_period, 0.0).r - 4.0);
+}
+// The wind rows' noises at q, the first coarse octave's cells: that octave's z, the coarsest's z and
+// the meander's, from one lookup of the three channels.
+vec3 foam_rows(vec2 q) {
+    return FOAM_ROWS_GAIN * (8.0 * textureLod(u_foam_noise, q / u_foam_period, 0.0).rgb - 4.0);
 }
 // The standard normal CDF: erfc by Abramowitz & Stegun 7.1.26 (absolute error 1.5e-7, the relative
 // error small in the tails too: a polynomial times exp(-x^2)).
@@ -83,11 +91,13 @@ vec2 foam_cells(vec2 rest, vec2 dx, vec2 dy, vec2 inv_size, out vec2 width) {
 }
 
 #if WATER_FOAM_STREAKS
-// The lookups only where there is foam (or spray) with a pattern that has not faded, the coarser
-// octaves' and the patches' only where they show: a branch per pixel, which llvmpipe skips where a
-// whole block of pixels agrees. The derivatives are taken once, outside any branch.
-float foam_cover(float m, float fresh, vec2 rest, out float spray) {
-    vec2 dx = dFdx(rest), dy = dFdy(rest);
+// The lookups only where there is foam (or spray) with a pattern that has not faded, in branches a GPU
+// skips where all of a group of pixels agrees; llvmpipe runs a fragment shader's branches masked, every
+// lookup compiled in on every pixel, so for it the program variants (WATER_FOAM_STREAKS) and the rows'
+// one lookup of three channels are what keep the cost down. The derivatives come from main (the detail
+// maps' too), outside any branch.
+// rest: the rest point (m), dx and dy its screen derivatives.
+float foam_cover(float m, float fresh, vec2 rest, vec2 dx, vec2 dy, out float spray) {
     vec2 w_streak, w_patch;
     vec2 q_streak = foam_cells(rest, dx, dy, u_foam_frame.zw, w_streak);
     vec2 q_patch = foam_cells(rest, dx, dy, u_foam_patch.xy, w_patch) + u_foam_patch.zw;
@@ -106,29 +116,25 @@ float foam_cover(float m, float fresh, vec2 rest, out float spray) {
     float c_streak = foam_fade(cells.x);
     // the normal tail is never quite 0: below 1e-4, or where the pattern has faded, the foam is its mean
     bool foamy = m > 1e-4 && shown > 0.0;
-    // the lookups in if-blocks, which llvmpipe skips where all of a block's pixels fail the test
     float cover = m;
     spray = SPRAY_MEAN;
     if (foamy || (u_spray.x > 0.0 && c_streak > 0.0)) {
+        vec4 z = vec4(0.0);
+#if WATER_FOAM_STREAKS >= 2
+        // the rows (coarse octaves) and the meander: storm streaks wander, the finest octave's
+        // across-wind coordinate shifted by a noise of larger cells fixed on the sea like the octaves
+        // (FOAM_MEANDER finest cells a unit of it)
+        vec3 rows = foam_rows(q_streak / FOAM_OCTAVE_SCALE_1 + u_foam_offset[1]);
+        z.yz = rows.xy;
+        vec2 q0 = q_streak + u_foam_offset[0] + vec2(0.0, FOAM_MEANDER * u_foam_octaves.y * rows.z);
+#else
+        vec2 q0 = q_streak + u_foam_offset[0];
+#endif
         // the finest octave where it shows (where it has faded, so have the spindrift's streaks)
-        float z0 = 0.0;
-        if (c_streak > 0.0) {
-            vec2 q0 = q_streak + u_foam_offset[0];
-#if WATER_FOAM_STREAKS >= 2
-            // storm streaks meander: the finest octave's across-wind coordinate shifted by a noise of
-            // larger cells, fixed on the sea like the octaves (the streaks wander FOAM_MEANDER cells a unit of it)
-            q0.y += FOAM_MEANDER * u_foam_octaves.y * foam_z(q_streak * u_foam_meander.zw + u_foam_meander.xy);
-#endif
-            z0 = foam_z(q0);
-        }
+        if (c_streak > 0.0) z.x = foam_z(q0);
         // spindrift between the streaks: the finest octave as a uniform variable (its normal CDF)
-        spray = mix(SPRAY_MEAN, smoothstep(0.35, 0.9, 1.0 - smoothstep(-2.2, 2.2, z0)), c_streak);
+        spray = mix(SPRAY_MEAN, smoothstep(0.35, 0.9, 1.0 - smoothstep(-2.2, 2.2, z.x)), c_streak);
         if (foamy) {
-            vec4 z = vec4(z0, 0.0, 0.0, 0.0);
-#if WATER_FOAM_STREAKS >= 2
-            if (weight.y > 0.0) z.y = foam_z(q_streak / FOAM_OCTAVE_SCALE_1 + u_foam_offset[1]);
-            if (weight.z > 0.0) z.z = foam_z(q_streak / FOAM_OCTAVE_SCALE_2 + u_foam_offset[2]);
-#endif
             if (weight.w > 0.0) z.w = foam_z(q_patch);
             // the ramp: half the pixel's spread of z (its rms change over a pixel), at least the least ramp
             vec4 spread = weight * cells;
@@ -141,5 +147,5 @@ float foam_cover(float m, float fresh, vec2 rest, out float spray) {
     return cover;
 }
 #else  // a block where every pixel spans 3/4 of every noise cell (water.py foam_streaks_needed): the mean
-float foam_cover(float m, float fresh, vec2 rest, out float spray) { spray = SPRAY_MEAN; return m; }
+float foam_cover(float m, float fresh, vec2 rest, vec2 dx, vec2 dy, out float spray) { spray = SPRAY_MEAN; return m; }
 #endif

@@ -57,24 +57,23 @@ const float WATER_R0 = 0.02037;                    // Fresnel reflectance air-wa
 const vec3 ABSORPTION = vec3(0.35, 0.07, 0.045);    // 1/m, coastal water (red first)
 const vec3 BOTTOM_ALBEDO = vec3(0.35, 0.30, 0.22);  // sand
 
-vec4 detail(sampler2D tex, vec3 map) {
-#if WATER_DETAIL_FADE  // the mean slope faded by the pixel's footprint (water/detail_filter.glsl)
+// One detail map (1 / L, offset: u_detail_map) at the rest point; ``rest_dx``, ``rest_dy``: the rest
+// point's screen derivatives, ``footprint``: the pixel's on the rest plane (m; detail_filter.glsl).
+vec4 detail(sampler2D tex, vec3 map, vec2 rest_dx, vec2 rest_dy, float footprint) {
     vec2 uv = v_rest * map.x + map.yz;
+#if WATER_DETAIL_FADE  // the mean slope faded by the pixel's footprint (water/detail_filter.glsl)
 #if !WATER_DETAIL_MOTION  // a still eye (water.py compiles the motion's variant only for a moving one:
                           // llvmpipe runs both sides of a branch, even on a uniform)
     vec4 d = texture(tex, uv);
-    return vec4(d.xy * detail_fade(uv), d.zw);
 #else
-    // blurred over the eye's motion: the sampler's footprint grown to it, the fade with it
-    vec2 dx = dFdx(uv), dy = dFdy(uv);
-    float pixel = sqrt(max(dot(dx, dx), dot(dy, dy)));
-    float footprint = detail_footprint(dx, dy, map.x);
-    float grow = footprint / max(pixel, 1e-12);
-    vec4 d = textureGrad(tex, uv, dx * grow, dy * grow);
-    return vec4(d.xy * detail_fade_of(footprint), d.zw);
+    // blurred over the eye's motion: the sampler's footprint grown to it (footprint: main's, grown),
+    // the fade with it
+    float grow = footprint / max(rest_footprint(rest_dx, rest_dy), 1e-12);
+    vec4 d = textureGrad(tex, uv, rest_dx * (map.x * grow), rest_dy * (map.x * grow));
 #endif
+    return vec4(d.xy * detail_fade_of(footprint * map.x), d.zw);
 #else
-    return texture(tex, v_rest * map.x + map.yz);
+    return texture(tex, uv);
 #endif
 }
 
@@ -123,18 +122,25 @@ void main() {
     // Only the first WATER_DETAIL_MAPS maps are read (a prefix, coarse tiles first); each other one is
     // either empty (the spectrum's detail band ends above it: mean 0) or fully minified on this block
     // (the sampler would return its 1x1 mip level): its tile average, u_detail_mean.
+    // the rest point's screen derivatives, once for the detail maps and the foam (each reads the rest
+    // point scaled), and the pixel's footprint on the rest plane, grown to a moving eye's motion
+    vec2 rest_dx = dFdx(v_rest), rest_dy = dFdy(v_rest);
+    float footprint = rest_footprint(rest_dx, rest_dy);
+#if WATER_DETAIL_MOTION
+    footprint = max(footprint, length(u_detail_motion));
+#endif
 #if WATER_DETAIL_MAPS > 0
-    vec4 d0 = detail(u_detail0, u_detail_map[0]);
+    vec4 d0 = detail(u_detail0, u_detail_map[0], rest_dx, rest_dy, footprint);
 #else
     vec4 d0 = u_detail_mean[0];
 #endif
 #if WATER_DETAIL_MAPS > 1
-    vec4 d1 = detail(u_detail1, u_detail_map[1]);
+    vec4 d1 = detail(u_detail1, u_detail_map[1], rest_dx, rest_dy, footprint);
 #else
     vec4 d1 = u_detail_mean[1 - WATER_DETAIL_MAPS];
 #endif
 #if WATER_DETAIL_MAPS > 2
-    vec4 d2 = detail(u_detail2, u_detail_map[2]);
+    vec4 d2 = detail(u_detail2, u_detail_map[2], rest_dx, rest_dy, footprint);
 #else
     vec4 d2 = u_detail_mean[2 - WATER_DETAIL_MAPS];
 #endif
@@ -189,7 +195,7 @@ void main() {
     // older grey-green and thinner), torn into streaks by the wind (foam.glsl); spindrift off crests.
     float spray;
     float fresh = clamp(v_foam.y, 0.0, 1.0);
-    float foam = foam_cover(v_foam.x, fresh, v_rest, spray) * mix(FOAM_OLD, 1.0, fresh);
+    float foam = foam_cover(v_foam.x, fresh, v_rest, rest_dx, rest_dy, spray) * mix(FOAM_OLD, 1.0, fresh);
     spray *= u_spray.x * v_foam.z;
     // Foam is a rough white surface on the facet n: the sun and the moon by n.l, the sky by the part
     // of the dome the facet sees ((1 + n_z) / 2), local lights as on a level surface — so the foam on a

@@ -33,7 +33,7 @@ from . import lod
 from .detail import (DETAIL_MAPS, detail_map_levels, detail_means, detail_tiles, detail_unresolved_var,
                      foam_streaks_needed, minified_maps_from)
 from .foam import (FOAM_EDGE, FOAM_NOISE_SIZE, FOAM_NOISE_UNIT, FOAM_PERIOD, foam_calibration, foam_frame,
-                   streak_variant)
+                   rows_channel_cells, streak_variant)
 from .hulls import MAX_HULLS, blocks_near_hulls, hull_boxes
 from .shore import shore_uniforms
 from .sea_tables import SeaTables
@@ -195,10 +195,11 @@ class WaterPass(UnderwaterDraws, RenderPass):
     def _foam_noise(self) -> moderngl.Texture:
         """The foam's streak noise (water/foam_noise.frag.glsl), tabulated once per context."""
         if self._foam_noise_tex is None:
-            tex = self.ctx.texture((FOAM_NOISE_SIZE, FOAM_NOISE_SIZE), 1, dtype="f1")
+            tex = self.ctx.texture((FOAM_NOISE_SIZE, FOAM_NOISE_SIZE), 4, dtype="f1")
             fbo = self.ctx.framebuffer(color_attachments=[tex])
             program = self.programs.program("common/fullscreen.vert.glsl", "water/foam_noise.frag.glsl")
-            set_uniforms(program, {"u_period": FOAM_PERIOD})
+            cells_g, cells_b = rows_channel_cells()
+            set_uniforms(program, {"u_period": FOAM_PERIOD, "u_cells_g": cells_g, "u_cells_b": cells_b})
             fbo.use()
             self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
             self.fullscreen(program)
