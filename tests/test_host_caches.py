@@ -82,3 +82,48 @@ def test_uniform_key_of_a_vector_is_the_vector_and_arrays_are_frozen():
     assert shaders._frozen((a, 1.0)) == (shaders._frozen(a), 1.0)
     assert shaders._frozen([1.0, [2.0]]) == (1.0, (2.0,))
     hash(shaders._frozen((a, [1.0])))
+
+
+def _frame_like(**changes) -> dict:
+    """A dict as large as a frame's values (set_uniforms compares such a dict whole first)."""
+    values = {f"u_unused_{i}": float(i) for i in range(shaders.WHOLE_MIN_VALUES)}
+    return {**values, "u_hdr": 0, "u_exposure_correction": 1.5, "u_rod_fraction": 0.25, **changes}
+
+
+def test_a_large_dict_given_again_is_compared_whole_and_writes_nothing(renderer, monkeypatch):
+    from igserver.render.gl_count import GLCallCounter
+    program = shaders.ProgramCache(renderer.ctx).program("common/fullscreen.vert.glsl", "post/tonemap.glsl", {"MESOPIC": 1, "HALOS": 1})
+    by_name = []
+    real = shaders._write
+    monkeypatch.setattr(shaders, "_write", lambda p, m, names, v: by_name.append(1) or real(p, m, names, v))
+    values = _frame_like()
+    shaders.set_uniforms(program, values)
+    with GLCallCounter() as calls:
+        for _ in range(3):
+            shaders.set_uniforms(program, dict(values))  # equal values: one tuple comparison each
+    assert calls.total == 0 and len(by_name) == 1
+    # a value written by another dict in between: the large dict's value is written back
+    shaders.set_uniforms(program, {"u_exposure_correction": 3.0})
+    with GLCallCounter() as calls:
+        shaders.set_uniforms(program, values)
+    assert calls.by_name["Uniform[u_exposure_correction].write"] == 1
+    assert program["u_exposure_correction"].value == pytest.approx(1.5)
+    # a changed value among them: only it is written
+    with GLCallCounter() as calls:
+        shaders.set_uniforms(program, _frame_like(u_rod_fraction=0.5))
+    assert dict(calls.by_name) == {"Uniform[u_rod_fraction].write": 1}
+    # another set of names (one more uniform of the program in the dict): its own record
+    with GLCallCounter() as calls:
+        shaders.set_uniforms(program, _frame_like(u_rod_fraction=0.5, u_halo_far=7.0))
+    assert dict(calls.by_name) == {"Uniform[u_halo_far].write": 1}
+    assert len(shaders._givens(program)) == 2
+
+
+def test_an_array_changed_in_place_is_written_though_the_dict_is_the_same(renderer):
+    program = shaders.ProgramCache(renderer.ctx).program("common/fullscreen.vert.glsl", "post/tonemap.glsl", {"MESOPIC": 1, "HALOS": 1})
+    value = np.array(1.5, dtype=np.float32)
+    values = _frame_like(u_exposure_correction=value)
+    shaders.set_uniforms(program, values)
+    value[...] = 2.5  # the same object, new content
+    shaders.set_uniforms(program, values)
+    assert program["u_exposure_correction"].value == pytest.approx(2.5)

@@ -6,6 +6,7 @@ Shader variants are compiled with only the features in use: the defines are part
 
 from __future__ import annotations
 
+import operator
 import re
 from functools import lru_cache
 from importlib import resources
@@ -177,11 +178,73 @@ def set_uniforms(program, values: dict[str, object]) -> None:
     again, so what does not change between frames (texture units, the sea's tables, materials, the
     sun while the clock runs) costs a dict look-up and a comparison instead of a driver call. Every
     write to a program's uniforms goes through here, or the memory would be stale.
+
+    A large dict (the frame's values) is first compared whole: the program keeps, per set of its
+    uniforms that such a dict gave it, those values as one tuple (``_Given``), held while no other
+    value is written to one of them. The same set and the same values (compared in C): every one of
+    those uniforms already holds its value, and nothing is compared name by name.
     """
-    written = _written(program)
     members = _settable(program)
-    # Walk the shorter of the two: a program reads a few dozen of the frame's hundred values.
-    names = members.keys() & values.keys() if len(values) > len(members) else values
+    if len(values) < WHOLE_MIN_VALUES:
+        _write(program, members, values.keys() & members.keys() if len(values) > len(members) else values, values)
+        return
+    givens = _givens(program)
+    for given in givens:
+        if not values.keys().isdisjoint(given.others):
+            continue
+        try:
+            current = given.getter(values)
+        except KeyError:
+            continue
+        # the names this dict gives the program are exactly given.names
+        if given.held and set(map(type, current)).isdisjoint(_MUTABLE):
+            try:
+                if current == given.values:
+                    return
+            except ValueError:  # a sequence holding arrays: compare name by name
+                pass
+        _write(program, members, given.names, values)
+        given.values, given.held = current, True
+        return
+    names = tuple(sorted(members.keys() & values.keys()))
+    _write(program, members, names, values)
+    if len(givens) >= MAX_GIVENS:
+        givens.pop(0)
+    givens.append(_Given(names, frozenset(members.keys()) - set(names), values))
+
+
+# Values whose content may change while the object stays the same: compared name by name (by bytes).
+_MUTABLE = frozenset((np.ndarray, list))
+# Dicts of at least this many values are compared whole first (set_uniforms); a program keeps the
+# last MAX_GIVENS sets of its uniforms that such dicts gave it.
+WHOLE_MIN_VALUES = 16
+MAX_GIVENS = 4
+
+
+class _Given:
+    """A set of ``names`` a large dict gave a program (and the program's other uniforms, which it did
+    not hold) and the values it gave them; ``held``: no other value written to one of them since."""
+
+    __slots__ = ("names", "others", "getter", "values", "held")
+
+    def __init__(self, names: tuple, others: frozenset, values: dict):
+        self.names, self.others, self.held = frozenset(names), others, True
+        getter = operator.itemgetter(*names) if names else (lambda values: ())
+        self.getter = getter if len(names) != 1 else (lambda values: (getter(values),))
+        self.values = self.getter(values)
+
+
+def _givens(program) -> list:
+    try:
+        return program._igserver_givens
+    except AttributeError:
+        program._igserver_givens = []
+        return program._igserver_givens
+
+
+def _write(program, members: dict, names, values: dict) -> None:
+    """Write those of ``names`` (all in ``values``) whose value differs from the one last written."""
+    written = _written(program)
     for name in names:
         member = members.get(name)
         if member is None:
@@ -199,6 +262,9 @@ def set_uniforms(program, values: dict[str, object]) -> None:
         else:
             member.value = value
         written[name] = key
+        for given in getattr(program, "_igserver_givens", ()):
+            if name in given.names:
+                given.held = False
 
 
 def _fitted(member, value):
