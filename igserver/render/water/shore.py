@@ -71,3 +71,33 @@ def shore_uniforms(scene: Scene, view: CameraView, sea: SeaSurface) -> dict:
             # the land behind a slope beach (water/land.py): its along-shore variation wraps on LAND_PERIOD
             "u_land": ((bathy.berm_height, bathy.dune_height, y_cam % LAND_PERIOD, 1.0) if bathy.type == "slope"
                        else (0.0, 0.0, 0.0, 0.0))}
+
+
+# m: water.frag.glsl draws the swash and the land where the rest point stands above this (shore_elevation).
+LAND_DRAWN_ABOVE = -0.05
+LAND_MARGIN = 0.05  # m: against float32's rounding of the shader's plane (metres to kilometres from the eye)
+
+
+def blocks_reaching_land(nodes: np.ndarray, scene: Scene, view: CameraView, sea: SeaSurface) -> np.ndarray:
+    """Per LOD block (rows x, y of its corner, side: camera-relative m), whether some rest point in it
+    stands above LAND_DRAWN_ABOVE, less LAND_MARGIN: only those blocks are drawn by the program with
+    the swash and the land (water.frag.glsl WATER_LAND), which costs a beach's water pass a quarter
+    on llvmpipe, where a fragment shader runs every branch on every pixel. Elsewhere those lines
+    leave the sea's colour as it is. A fragment's rest point lies in its block's square (vertices are
+    morphed within it), so the extreme corner bounds a slope beach's plane, and the corners' grid
+    cells bound a height map's depth (bilinear between nodes, clamped at the grid's edge)."""
+    bathy = scene.ocean.bathymetry
+    if sea.field is None or bathy.type == "uniform" or len(nodes) == 0:
+        return np.zeros(len(nodes), dtype=bool)
+    corners = nodes[:, None, 0:2] + nodes[:, None, 2:3] * np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    floor = LAND_DRAWN_ABOVE - LAND_MARGIN
+    if bathy.type == "slope":
+        plane = shore_uniforms(scene, view, sea)["u_shore_plane"]
+        reach = np.max(corners @ np.array(plane[0:2]), axis=1)
+        return plane[3] * (reach - plane[2]) > floor
+    grid, depth = sea.field.grid, sea.field.depth
+    gu, gv = grid.to_grid(corners + np.asarray(view.position[:2], dtype=np.float64))
+    lo_u, hi_u = np.floor(gu.min(axis=1)).astype(int), np.ceil(gu.max(axis=1)).astype(int)
+    lo_v, hi_v = np.floor(gv.min(axis=1)).astype(int), np.ceil(gv.max(axis=1)).astype(int)
+    return np.array([-float(depth[a:b + 1, c:d + 1].min()) > floor
+                     for a, b, c, d in zip(lo_u, hi_u, lo_v, hi_v)], dtype=bool)

@@ -90,9 +90,11 @@ vec3 glint(vec3 e, vec3 n, vec3 v, vec3 l, float alpha) {
 #ifdef WATER_FIELD
 // The land behind a slope beach (water/land.py): the sand's colour (``sand``: dry or wet, lit by the
 // level downwelling) turned to the profile's slope, mottled, and dune grass from the dune's rise on
-// in patches; world-fixed noise cells of LAND_CELL m, faded where a pixel spans a cell.
+// in patches. The mottle is the project's noise (two octaves, sigma 0.405) as the foam's table holds
+// it (foam_streaks.glsl foam_z: z of unit variance, one lookup instead of two octaves of simplex
+// noise), in world-fixed cells of LAND_CELL m, faded where a pixel spans a cell.
 const vec3 DUNE_GRASS_ALBEDO = vec3(0.09, 0.12, 0.055); // marram grass, grey-green (leaves: R 0.05-0.1, G 0.1-0.15)
-const float LAND_CELL = 8.0;                            // m; LAND_PERIOD / LAND_CELL is a whole number
+const float LAND_CELL = 7.8125;                         // m; LAND_PERIOD / LAND_CELL: 128 cells, twice the table's 64
 vec3 land_colour(vec3 sand, vec3 e_local) {
     vec2 sy = land_coordinates(v_rest);
     vec3 prof = land_profile(max(sy.x, 0.0), sy.y);
@@ -104,7 +106,7 @@ vec3 land_colour(vec3 sand, vec3 e_local) {
     vec3 e_slope = u_sun_illuminance * max(dot(n, u_sun_dir), 0.0) + u_moon_illuminance * max(dot(n, u_moon_dir), 0.0)
                  + PI * u_sky_ambient * (0.5 + 0.5 * n.z) + e_local;
     float fade = 1.0 - smoothstep(0.25, 1.0, fwidth(sy.x) / LAND_CELL);
-    float mottle = fade * turbulence3(vec3(sy / LAND_CELL, 0.0), vec3(0.0, LAND_PERIOD / LAND_CELL, 0.0), 2, 41u);
+    float mottle = fade * 0.405 * foam_z(sy / LAND_CELL);
     float grass = smoothstep(0.2, 0.9, dune_rise(sy.x, sy.y)) * clamp(0.8 + 0.5 * mottle, 0.0, 1.0);
     vec3 albedo = mix(vec3(1.0 + 0.08 * mottle), DUNE_GRASS_ALBEDO / BOTTOM_ALBEDO, grass);
     return sand * albedo * e_slope / max(e_level, vec3(1e-9));
@@ -207,7 +209,7 @@ void main() {
     // Dry land of the bathymetry (h <= 0): the bare beach at the water level (there is no terrain
     // pipeline yet), under the swash that runs up it and back with each wave (shore.glsl), its front
     // white, the sand it wets darker (wet sand reflects about 60 % of dry sand's light).
-#ifdef WATER_FIELD
+#if defined(WATER_FIELD) && WATER_LAND  // a block reaching above the water (shore.py blocks_reaching_land)
     float land = shore_elevation(v_rest, v_depth);
     float land_step = fwidth(land);
     vec3 sw = vec3(0.0);  // the sea: no swash to draw

@@ -35,7 +35,7 @@ from .detail import (DETAIL_MAPS, detail_map_levels, detail_means, detail_tiles,
 from .foam import (FOAM_EDGE, FOAM_NOISE_SIZE, FOAM_NOISE_UNIT, FOAM_PERIOD, foam_calibration, foam_frame,
                    rows_channel_cells, streak_variant)
 from .hulls import MAX_HULLS, blocks_near_hulls, hull_boxes
-from .shore import shore_uniforms
+from .shore import blocks_reaching_land, shore_uniforms
 from .sea_tables import SeaTables
 from .underwater import UnderwaterDraws, underwater_uniforms
 
@@ -109,6 +109,7 @@ class WaterPass(UnderwaterDraws, RenderPass):
         self.exact_atmosphere = False  # the atmosphere per pixel/vertex instead of the tables (quality study)
         self.skip_minified_maps = True  # False: every block reads every detail map (tests' reference)
         self.skip_faded_streaks = True  # False: every block reads the foam's streak noise (tests' reference)
+        self.skip_offshore_land = True  # False: every block over a field draws the swash and the land (tests' reference)
         self.coarse_flat_sides = True  # False: every fan keeps its G segments a side (tests' reference)
         self.foam_threshold: float | None = None  # tests: a J threshold instead of the calibrated one
         self.detail_fade = True  # False: the detail maps' slopes unfaded by the footprint (tests' reference)
@@ -122,14 +123,17 @@ class WaterPass(UnderwaterDraws, RenderPass):
 
     # ---- resources ------------------------------------------------------------------------------
     def _program(self, field: bool, hulls: bool = False, detail_maps: int = DETAIL_MAPS,
-                 lights: dict | None = None, foam_streaks: int = 2, values: dict | None = None) -> moderngl.Program:
+                 lights: dict | None = None, foam_streaks: int = 2, values: dict | None = None,
+                 land: bool = True) -> moderngl.Program:
         """``lights``: frame.local_light_defines (None: every light term compiled); ``values``: the
         frame's uniform values (``_frame_uniforms``), which pick the variants of what is off this frame
-        (None: everything compiled in, no motion)."""
+        (None: everything compiled in, no motion); ``land``: over a field, whether the swash and the
+        land are drawn (shore.py blocks_reaching_land)."""
         defines = {"MAX_WAVES": MAX_WAVES, "MAX_HULLS": MAX_HULLS, "WATER_DETAIL_MAPS": detail_maps,
                    **(lights or {}), "WATER_FOAM_STREAKS": int(foam_streaks), **self._atmosphere_define()}
         if field:
             defines["WATER_FIELD"] = 1
+            defines["WATER_LAND"] = int(land)
         if hulls:
             defines["WATER_HULLS"] = 1
         if self._underwater is not None:  # the eye below the surface (water/underwater.glsl)
@@ -299,8 +303,8 @@ class WaterPass(UnderwaterDraws, RenderPass):
         self._selection_version += 1
         return selection
 
-    def _draw_plan(self, sea, selection, hulls, tiles, view, level_z: float, used_maps: int):
-        """Per block: near a hull, detail maps read, foam streaks; the draw groups they make."""
+    def _draw_plan(self, sea, selection, hulls, tiles, scene, view, level_z: float, used_maps: int):
+        """Per block: near a hull, detail maps read, foam streaks, the shore's land; the draw groups they make."""
         # Blocks whose footprint (grown by the waves' reach) touches no hull are drawn by the program
         # without the per-fragment hull test (and its discard, which also turns off early depth tests).
         near_hull = blocks_near_hulls(selection.nodes, hulls, 2.0 * selection.error_sphere + 1.0)
@@ -311,23 +315,27 @@ class WaterPass(UnderwaterDraws, RenderPass):
         # The foam's streak noise only where a pixel is small enough to show it.
         streaks = (foam_streaks_needed(selection, sea, view, -level_z) if self.skip_faded_streaks
                    else np.ones(len(selection.nodes), dtype=bool))
-        # Draw groups: program (hull test, maps read, streaks) x index shape (the full patch, or a fan
-        # with its shared flat sides as one segment: lod.fan_indices), in the order hulls, shape (full
-        # patches first: the near blocks), maps, streaks; one instanced draw each.
+        # The swash and the land only where a block reaches above the water (over a field).
+        land = (blocks_reaching_land(selection.nodes, scene, view, sea) if self.skip_offshore_land
+                else np.full(len(selection.nodes), sea.field is not None))
+        # Draw groups: program (hull test, maps read, streaks, land) x index shape (the full patch, or a
+        # fan with its shared flat sides as one segment: lod.fan_indices), in the order hulls, shape
+        # (full patches first: the near blocks), maps, streaks, land; one instanced draw each.
         shape = np.where(flat, selection.coarse_sides.astype(int), -1) + 1  # 0: full patch, 1 + mask: fan
-        group = ((near_hull.astype(int) * (len(lod.SIDES) ** 2 + 1) + shape) * (used_maps + 1) + maps) * 2 + streaks
+        group = (((near_hull.astype(int) * (len(lod.SIDES) ** 2 + 1) + shape) * (used_maps + 1) + maps) * 2
+                 + streaks) * 2 + land
         groups = []  # (program key, fan mask or -1, blocks, slot: the group's id, so a slot keeps its shape,
         #            the blocks as the instance buffer's bytes)
         for g in np.unique(group):
             first = int(np.argmax(group == g))
-            key = (bool(near_hull[first]), int(maps[first]), bool(streaks[first]))
+            key = (bool(near_hull[first]), int(maps[first]), bool(streaks[first]), bool(land[first]))
             nodes = selection.nodes[group == g]
             data = np.ascontiguousarray(nodes, np.float32).tobytes()
             groups.append((key, int(shape[first]) - 1, nodes, int(g), data))
         stats = {"hull_blocks": int(np.count_nonzero(near_hull)), "fan_blocks": int(np.count_nonzero(flat)),
                  "one_segment_sides": int(np.unpackbits(selection.coarse_sides).sum()),
                  "blocks_by_detail_maps": np.bincount(maps, minlength=used_maps + 1).tolist(),
-                 "foam_streak_blocks": int(np.count_nonzero(streaks))}
+                 "foam_streak_blocks": int(np.count_nonzero(streaks)), "land_blocks": int(np.count_nonzero(land))}
         return near_hull, maps, streaks, flat, groups, stats
 
     def execute(self, frame, targets) -> None:
@@ -351,9 +359,9 @@ class WaterPass(UnderwaterDraws, RenderPass):
         # an animating sea plans once.
         plan_key = (self._selection_version, b"".join(h.tobytes() for h in hulls),
                     tuple((size, len(w)) for size, w in tiles), view.tangents, view.width, view.height, level_z,
-                    self.skip_minified_maps, self.skip_faded_streaks)
+                    self.skip_minified_maps, self.skip_faded_streaks, self.skip_offshore_land)
         near_hull, maps, streaks, flat, groups, plan_stats = self.memo.get(
-            "draw_plan", plan_key, lambda: self._draw_plan(sea, selection, hulls, tiles, view, level_z, used_maps))
+            "draw_plan", plan_key, lambda: self._draw_plan(sea, selection, hulls, tiles, scene, view, level_z, used_maps))
         # Tile averages of the maps some block does not read (empty maps average 0).
         means = detail_means(tiles) if np.any(maps < used_maps) else np.zeros((DETAIL_MAPS, 4))
         self._update_detail(sea, t, resolution, tiles, int(maps.max()) if len(maps) else 0)
@@ -368,9 +376,9 @@ class WaterPass(UnderwaterDraws, RenderPass):
         lights = local_light_defines(frame.lights)
         for key, *_ in groups:
             if key not in programs:
-                with_hulls, m, streak = key
+                with_hulls, m, streak, land = key
                 programs[key] = self._configured_program(sea, shared, m, means, with_hulls and bool(hulls),
-                                                         streak, lights)
+                                                         streak, lights, land)
         self.stats = {"blocks": int(len(selection.nodes)), "triangles": selection.triangles,
                       "lod_error_px": selection.error_bound_px, "error_sphere_m": selection.error_sphere,
                       "finest_spacing_m": selection.finest_spacing, "waves": sea.n,
@@ -447,13 +455,13 @@ class WaterPass(UnderwaterDraws, RenderPass):
         return float(moved[0]), float(moved[1])
 
     def _configured_program(self, sea, shared: dict, read_maps: int, means: np.ndarray, with_hulls: bool,
-                            foam_streaks: bool, lights: dict) -> moderngl.Program:
+                            foam_streaks: bool, lights: dict, land: bool) -> moderngl.Program:
         """The water program (with or without the hull test, reading the first ``read_maps`` detail
         maps and the tile means of the others, with or without the foam's streak noise, the frame's
-        local lights ``lights``: frame.local_light_defines) with this frame's uniforms
-        (``_frame_uniforms``) set."""
+        local lights ``lights``: frame.local_light_defines, with or without the shore's land) with this
+        frame's uniforms (``_frame_uniforms``) set."""
         program = self._program(sea.field is not None, with_hulls, read_maps, lights,
-                                streak_variant(foam_streaks, shared["values"]), shared["values"])
+                                streak_variant(foam_streaks, shared["values"]), shared["values"], land)
         set_uniforms(program, shared["values"])
         set_uniforms(program, {"u_detail_map": shared["detail_map"][: max(read_maps, 1)].tobytes()})
         mean = program.get("u_detail_mean", None)
