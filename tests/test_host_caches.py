@@ -127,3 +127,56 @@ def test_an_array_changed_in_place_is_written_though_the_dict_is_the_same(render
     value[...] = 2.5  # the same object, new content
     shaders.set_uniforms(program, values)
     assert program["u_exposure_correction"].value == pytest.approx(2.5)
+
+
+def test_fog_layer_key_found_once_and_a_settled_stream_keeps_one_eased_layer(renderer):
+    from igserver.render.sky import frame_sky
+    from igserver.render.sky.haze import HazeLayer
+    layer = HazeLayer(np.array([1e-4, 2e-4, 3e-4]), 10.0, 100.0, 0.8, 0.9)
+    assert not layer.beta.flags.writeable  # its own copy: the key cannot go stale
+    assert layer.key is layer.key
+    scene = _demo()
+    _stream(renderer, scene, 3)
+    before = frame_sky.SKY_PARTS.computed["eased_haze"]
+    _stream(renderer, scene, 4, t0=scene.time.sim_time + 0.1)
+    assert frame_sky.SKY_PARTS.computed["eased_haze"] == before
+    _stream(renderer, apply_patch(scene, {"atmosphere": {"visibility": 9000.0}}), 1)
+    assert frame_sky.SKY_PARTS.computed["eased_haze"] == before + 1
+
+
+def test_each_frame_gets_its_own_copy_of_the_operating_point_report(renderer):
+    scene = _demo()
+    a = renderer.render(scene).overload
+    decision = renderer.frame_quality.decide(scene, renderer.render_scale)
+    assert a == decision.fields()
+    a["rungs"]["water"] = "changed"
+    a["scale"] = -1.0
+    assert renderer.render(scene).overload == decision.fields()
+
+
+def test_lights_ranked_as_numpy_ranks_them():
+    from igserver.render import lights
+    from igserver.render.camera import make_view
+    from igserver.render.point_lights import PointLight
+    scene = _demo()
+    view = make_view(scene.camera)
+    rng = np.random.default_rng(3)
+    made = [PointLight(view.position + rng.normal(0.0, 40.0, 3) + np.array([0.0, 60.0, 0.0]),
+                       rng.uniform(0.0, 500.0, 3) * (i % 7 != 0), 200.0) for i in range(40)]
+    made += [PointLight(made[1].position.copy(), made[1].color.copy(), 200.0)]  # a tie keeps its order
+
+    def importance(light):
+        d = float(np.linalg.norm(view.relative(light.position)))
+        return float(np.max(light.color)) / max(d * d, 1.0)
+
+    def reference():
+        kept = [l for l in made if float(np.max(l.color)) > 0.0 and view.sphere_visible(l.position, l.range)]
+        return sorted(kept, key=importance, reverse=True)[:24]
+
+    saved = lights.LIGHT_SOURCES
+    try:
+        lights.LIGHT_SOURCES = [lambda scene: made]
+        got = lights.gather_lights(scene, view, 24)
+    finally:
+        lights.LIGHT_SOURCES = saved
+    assert [id(l) for l in got] == [id(l) for l in reference()]

@@ -300,8 +300,16 @@ class Renderer:
         result = RenderResult(None, names, pass_ms, 0.0, quality, ev100=frame.ev100,
                               illuminance_lux=frame.illuminance_lux, pass_cpu_ms=pass_cpu,
                               host_frame=scene.host_frame, sim_time=scene.time.sim_time,
-                              overload=decision.fields())
+                              overload=self._report(decision))
         return _Drawn(result, output, start, time.perf_counter(), timed, meter=frame.resources.get("meter_ticket"))
+
+    def _report(self, decision) -> dict:
+        """``decision.fields()``, found once per decision (a frozen record: a scene without a frame
+        rate gets the same one every frame); each frame gets its own copy."""
+        held = getattr(self, "_held_report", None)
+        if held is None or held[0] is not decision:
+            held = self._held_report = (decision, decision.fields())
+        return {**held[1], "rungs": dict(held[1]["rungs"])}
 
     def read_hdr(self) -> np.ndarray:
         """The last frame's pre-exposed linear HDR colour (float32, top row first), for quality tools."""

@@ -76,8 +76,8 @@ def halo_uniforms(frame, exposure_correction: float = 1.0) -> dict:
     lights = []
     for light in frame.lights:
         rel = view.relative(light.position)
-        d = max(float(np.linalg.norm(rel)), 1e-3)
-        radius = halo_radius(d, beta, float(haze.omega), float(haze.g), float(np.max(light.color)), threshold,
+        d = max(math.sqrt(float(rel @ rel)), 1e-3)  # np.linalg.norm's sum and root, without its call
+        radius = halo_radius(d, beta, float(haze.omega), float(haze.g), max(light.color.tolist()), threshold,
                              pixel_angle)
         if radius > 0.0 and _cone_on_screen(view, rel, d, radius):
             lights.append(light)

@@ -187,7 +187,8 @@ def sky_frame(ctx: moderngl.Context, scene: Scene, celestial, altitude_m: float,
                              lambda: scene_haze(scene, params))
         if transition is not None:
             beta = transition.apply(haze.beta, atm.visibility_transition, scene.time.sim_time)
-            haze = replace(haze, beta=beta)
+            # one layer object per (layer, eased extinction): a settled haze keeps its computed key
+            haze = SKY_PARTS.get("eased_haze", (haze.key, beta.tobytes()), lambda: replace(haze, beta=beta))
     xy = (float(camera_xy_m[0]), float(camera_xy_m[1]))
     # Everything _sky_parts reads: the tables, the fog layer, the atmosphere and weather records
     # (visibility, turbidity, cirrus), the ground's altitude, sun and moon, the camera's position.

@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
+from functools import cached_property
 
 import numpy as np
 
@@ -78,10 +79,16 @@ class HazeLayer:
     # surface's reflection stays the two-stream's isotropic upwelling.
     sea_mss: float = -1.0
 
-    @property
+    def __post_init__(self):
+        # The layer's own read-only copy of its extinction: the key below is computed once.
+        beta = np.array(self.beta)
+        beta.flags.writeable = False
+        object.__setattr__(self, "beta", beta)
+
+    @cached_property
     def key(self) -> tuple:
         """Every field, exactly: what a value derived from the layer is cached under (a field added
-        here joins every such key by itself)."""
+        here joins every such key by itself). The layer is immutable, so it is found once."""
         return tuple(v.tobytes() if isinstance(v, np.ndarray) else v for v in
                      (getattr(self, f.name) for f in fields(self)))
 
