@@ -180,3 +180,33 @@ def test_lights_ranked_as_numpy_ranks_them():
     finally:
         lights.LIGHT_SOURCES = saved
     assert [id(l) for l in got] == [id(l) for l in reference()]
+
+
+def _inputs_by_name(program, values, skip=()):
+    return tuple((name, shaders._frozen(values[name])) for name in shaders._input_names(program)
+                 if name in values and name not in skip)
+
+
+def test_uniform_inputs_is_the_name_by_name_key_as_names_come_and_go(renderer):
+    program = shaders.ProgramCache(renderer.ctx).program("common/fullscreen.vert.glsl", "post/tonemap.glsl",
+                                                         {"MESOPIC": 1, "HALOS": 1})
+    base = _frame_like()
+    cases = [base, dict(base), {**base, "u_halo_far": 3.0}, base, {k: v for k, v in base.items() if k != "u_hdr"},
+             {**base, "u_exposure_correction": np.array(2.0)}, {**base, "u_rod_fraction": [0.5]}, base]
+    for values in cases:
+        for skip in ((), ("u_hdr",)):
+            assert shaders.uniform_inputs(program, values, skip) == _inputs_by_name(program, values, skip)
+
+
+def test_aerial_table_tests_a_still_view_once(renderer, monkeypatch):
+    from igserver.render.common import aerial_table
+    calls = []
+    real = aerial_table.view_inside
+    monkeypatch.setattr(aerial_table, "view_inside", lambda *a, **k: calls.append(1) or real(*a, **k))
+    scene = _demo(640, 360)  # the table serves frames of at least its node count
+    _stream(renderer, scene, 2)
+    calls.clear()
+    _stream(renderer, scene, 3, t0=scene.time.sim_time + 1.0)
+    assert calls == []
+    _stream(renderer, _demo(640, 360, heading=289.0), 1)
+    assert calls

@@ -136,8 +136,39 @@ def block_reads(program) -> frozenset:
 def uniform_inputs(program, values: dict, skip: tuple = ()) -> tuple:
     """The values ``values`` gives ``program``'s active uniforms (all but ``skip``), as an exact,
     hashable key: what a table the program draws or fills was made from, so the table can be kept
-    until one of them changes (a uniform the shader gains joins the key by itself)."""
-    return tuple((name, _frozen(values[name])) for name in _input_names(program) if name in values and name not in skip)
+    until one of them changes (a uniform the shader gains joins the key by itself).
+
+    The names ``values`` holds are those it held last time when it holds none of the others (one
+    set test); their values are gathered in C and are their own key when all are hashable
+    (numbers, tuples of numbers, bytes), else frozen one by one."""
+    held = _present(program).get(skip)
+    if held is None or not values.keys().isdisjoint(held[2]):
+        held = None
+    else:
+        try:
+            current = held[1](values)
+        except KeyError:  # one of them is gone
+            held = None
+    if held is None:
+        names = tuple(name for name in _input_names(program) if name in values and name not in skip)
+        absent = frozenset(_input_names(program)) - set(names) - set(skip)
+        getter = operator.itemgetter(*names) if len(names) > 1 else (lambda v: tuple(v[n] for n in names))
+        held = _present(program)[skip] = (names, getter, absent)
+        current = getter(values)
+    try:
+        hash(current)
+        return tuple(zip(held[0], current))
+    except TypeError:  # an array or a list among them
+        return tuple((name, _frozen(value)) for name, value in zip(held[0], current))
+
+
+def _present(program) -> dict:
+    """Per ``skip``: the names uniform_inputs last found in its values, their getter, the rest."""
+    try:
+        return program._igserver_present
+    except AttributeError:
+        program._igserver_present = {}
+        return program._igserver_present
 
 
 def _input_names(program) -> tuple:

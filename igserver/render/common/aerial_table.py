@@ -71,14 +71,20 @@ def table_range(scene, view) -> float:
            horizon_distance(z)]
     for entity in scene.entities:
         if entity.visible:
-            d = float(np.linalg.norm(np.asarray(entity.position) - view.position))
+            d = _distance(entity.position, view.position)
             reach = 50.0 * max(entity.scale)
             if d - reach <= scene.camera.far:
                 far.append(d + reach)
     for effect in scene.effects:
-        far.append(float(np.linalg.norm(np.asarray(effect.position) - view.position)) + 100.0)
+        far.append(_distance(effect.position, view.position) + 100.0)
     d = min(max(max(far), AERIAL_MIN_RANGE), AERIAL_MAX_RANGE)
     return float(2.0 ** math.ceil(math.log2(d)))
+
+
+def _distance(position, origin: np.ndarray) -> float:
+    """|position - origin| as np.linalg.norm finds it (its dot product and root), without its call."""
+    v = np.asarray(position) - origin
+    return math.sqrt(float(v @ v))
 
 
 def table_map(d_max: float, slices: int, d0: float = AERIAL_D0) -> tuple[float, float, float, float]:
@@ -111,6 +117,7 @@ class AerialTable:
         self._frame = None  # (right, up, forward, tangents) the table was filled for
         self._key = None
         self._pending = None  # a fill under way in the buffers (AerialTable._start)
+        self._inside: dict = {}  # id(table frame) -> (the frame, {(view, margin): view_inside})
         self.fills = 0
 
     @classmethod
@@ -134,20 +141,41 @@ class AerialTable:
         values = {**uniforms, "u_aerial_map": table_map(d_max, self.size[2])}
         key = (inputs, uniform_inputs(prog, values, skip=VIEW_UNIFORMS))
         pending = self._pending if self._pending is not None and self._pending["key"] == key else None
-        if key == self._key and self._frame is not None and view_inside(self._frame, uniforms):
-            if pending is not None and not view_inside(pending["frame"], uniforms):
+        inside = self._view_inside
+        if key == self._key and self._frame is not None and inside(self._frame, uniforms):
+            if pending is not None and not inside(pending["frame"], uniforms):
                 pending = self._pending = None  # the turn reversed: the table ahead would not hold the view
-            if pending is None and not view_inside(self._frame, uniforms, 1.0 - AERIAL_AHEAD):
+            if pending is None and not inside(self._frame, uniforms, 1.0 - AERIAL_AHEAD):
                 pending = self._start(values, key, self._frame)
             if pending is not None:
                 self._fill_part(prog, pending, 1)
-                if self._pending is None and not view_inside(self._frame, uniforms, 1.0 - AERIAL_AHEAD):
+                if self._pending is None and not inside(self._frame, uniforms, 1.0 - AERIAL_AHEAD):
                     # Swapped in already turned past it: the next one's parts from the next frame.
                     self._start(values, key, self._frame)
             return
-        if pending is None or not view_inside(pending["frame"], uniforms):
+        if pending is None or not inside(pending["frame"], uniforms):
             pending = self._start(values, key)
         self._fill_part(prog, pending, AERIAL_PARTS - pending["done"])
+
+    def _view_inside(self, table_frame, uniforms: dict, margin: float = 0.0) -> bool:
+        """view_inside, kept per table frame (the object itself, held) and exact view (the camera
+        uniforms it reads) and margin: a still camera tests each once."""
+        view = tuple(uniforms[name] for name in VIEW_UNIFORMS[:4])
+        held = self._inside.get(id(table_frame))
+        if held is None or held[0] is not table_frame:
+            if len(self._inside) >= 4:  # the table's frame and the one being filled ahead
+                self._inside.clear()
+            held = self._inside[id(table_frame)] = (table_frame, {})
+        key = (view, margin)
+        try:
+            hit = held[1].get(key)
+        except TypeError:  # a camera given as arrays: tested, not kept
+            return view_inside(table_frame, uniforms, margin)
+        if hit is None:
+            if len(held[1]) >= 16:
+                held[1].clear()
+            hit = held[1][key] = view_inside(table_frame, uniforms, margin)
+        return hit
 
     def _start(self, values: dict, key, ahead_of=None) -> dict:
         """A fill for the view in these uniforms, not yet run: its frame, map, uniforms and parts done.
