@@ -95,7 +95,7 @@ def test_a_large_dict_given_again_is_compared_whole_and_writes_nothing(renderer,
     program = shaders.ProgramCache(renderer.ctx).program("common/fullscreen.vert.glsl", "post/tonemap.glsl", {"MESOPIC": 1, "HALOS": 1})
     by_name = []
     real = shaders._write
-    monkeypatch.setattr(shaders, "_write", lambda p, m, names, v: by_name.append(1) or real(p, m, names, v))
+    monkeypatch.setattr(shaders, "_write", lambda p, m, names, v: by_name.append(sorted(names)) or real(p, m, names, v))
     values = _frame_like()
     shaders.set_uniforms(program, values)
     with GLCallCounter() as calls:
@@ -112,6 +112,7 @@ def test_a_large_dict_given_again_is_compared_whole_and_writes_nothing(renderer,
     with GLCallCounter() as calls:
         shaders.set_uniforms(program, _frame_like(u_rod_fraction=0.5))
     assert dict(calls.by_name) == {"Uniform[u_rod_fraction].write": 1}
+    assert by_name[-1] == ["u_rod_fraction"]  # the others were compared in one pass, not name by name
     # another set of names (one more uniform of the program in the dict): its own record
     with GLCallCounter() as calls:
         shaders.set_uniforms(program, _frame_like(u_rod_fraction=0.5, u_halo_far=7.0))

@@ -213,7 +213,8 @@ def set_uniforms(program, values: dict[str, object]) -> None:
     A large dict (the frame's values) is first compared whole: the program keeps, per set of its
     uniforms that such a dict gave it, those values as one tuple (``_Given``), held while no other
     value is written to one of them. The same set and the same values (compared in C): every one of
-    those uniforms already holds its value, and nothing is compared name by name.
+    those uniforms already holds its value, and nothing is compared name by name; else only the
+    values that differ from that tuple go through the name-by-name write.
     """
     members = _settable(program)
     if len(values) < WHOLE_MIN_VALUES:
@@ -227,14 +228,17 @@ def set_uniforms(program, values: dict[str, object]) -> None:
             current = given.getter(values)
         except KeyError:
             continue
-        # the names this dict gives the program are exactly given.names
+        # the names this dict gives the program are exactly given.order
+        changed = given.order
         if given.held and set(map(type, current)).isdisjoint(_MUTABLE):
             try:
                 if current == given.values:
                     return
+                # the uniforms hold given.values: only those whose value differs may need a write
+                changed = [name for name, a, b in zip(given.order, current, given.values) if a != b]
             except ValueError:  # a sequence holding arrays: compare name by name
                 pass
-        _write(program, members, given.names, values)
+        _write(program, members, changed, values)
         given.values, given.held = current, True
         return
     names = tuple(sorted(members.keys() & values.keys()))
@@ -256,10 +260,10 @@ class _Given:
     """A set of ``names`` a large dict gave a program (and the program's other uniforms, which it did
     not hold) and the values it gave them; ``held``: no other value written to one of them since."""
 
-    __slots__ = ("names", "others", "getter", "values", "held")
+    __slots__ = ("order", "names", "others", "getter", "values", "held")
 
     def __init__(self, names: tuple, others: frozenset, values: dict):
-        self.names, self.others, self.held = frozenset(names), others, True
+        self.order, self.names, self.others, self.held = names, frozenset(names), others, True
         getter = operator.itemgetter(*names) if names else (lambda values: ())
         self.getter = getter if len(names) != 1 else (lambda values: (getter(values),))
         self.values = self.getter(values)
