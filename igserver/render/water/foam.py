@@ -102,6 +102,17 @@ def streak_variant(streaks: bool, values: dict) -> int:
     return 0 if not streaks else 2 if values.get("u_foam_octaves", (1.0, 0.0, 0.0))[1] > 0.0 else 1
 
 
+def dots_defines(values: dict) -> dict:
+    """The water program's WATER_FOAM_DOTS and the dots' constants: the far whitecaps drawn as sparse
+    dots (foam_streaks.glsl foam_dots) in a sea without wind rows (``values``: the frame's uniforms,
+    foam_frame's u_foam_octaves), whose whitecaps are sparse; a storm's foam is dense, its dots would
+    be its mean, and its program leaves them out."""
+    if values.get("u_foam_octaves", (1.0, 0.0, 0.0))[1] > 0.0:
+        return {"WATER_FOAM_DOTS": 0}
+    return {"WATER_FOAM_DOTS": 1, "FOAM_DOT_AREA": FOAM_DOT_AREA, "FOAM_DOT_LIFE": FOAM_DOT_LIFE,
+            "FOAM_DOT_PERIOD": FOAM_DOT_PERIOD}
+
+
 def spray_strength(wind: float) -> float:
     """0..1: spindrift blown off the crests, from Beaufort 8 (17.2 m/s: "edges of crests begin to
     break into spindrift") to full at Beaufort 11 (28.5 m/s: "edges of crests blown into froth")."""
@@ -137,6 +148,14 @@ def rows_channel_cells() -> tuple[tuple[float, float], tuple[float, float]]:
 # m along and across the wind: a cell of the fresh foam's noise (whitecaps drawn out downwind)
 FOAM_PATCH_SIZE = (10.0, 3.0)
 FOAM_PATCH_HS = 6.0  # m: the sea's Hs at which a whitecap's patch is FOAM_PATCH_SIZE
+# The far whitecaps' dots (foam_streaks.glsl foam_dots): a whitecap's area over its patch cell (a
+# quarter: 5 m x 1.5 m in a sea of Hs 6 m, as the patches' noise draws them near; a dot's cover, this
+# over the cell's patch cells plus m, stays under 1), the seconds between two breakings of a dot's cell
+# (its foam fades over them, FOAM_DECAY_S being 3.5 s), the patch cells the cells' coordinates wrap on
+# (a power of two: no repetition within 160 km along the wind at Hs 6 m).
+FOAM_DOT_AREA = 0.25
+FOAM_DOT_LIFE = 10.0
+FOAM_DOT_PERIOD = 16384
 
 
 def whitecap_patch_size(hs: float) -> tuple[float, float]:
@@ -186,9 +205,11 @@ def foam_frame(scene: Scene, view: CameraView, sea: SeaSurface, wind: float, max
     hs = sea.waves.hs
     patch_size = whitecap_patch_size(hs)
     patch = np.mod([drifted / patch_size[0], side / patch_size[1]], FOAM_PERIOD)
+    dots = np.mod([drifted / patch_size[0], side / patch_size[1]], FOAM_DOT_PERIOD)
     return {"u_foam_frame": (*axis, 1.0 / size[0], 1.0 / size[1]),
             "u_foam_offset": offset.tobytes(), "u_foam_period": FOAM_PERIOD,
             "u_foam_octaves": streak_octave_weights(wind), "u_foam_patch": (1.0 / patch_size[0], 1.0 / patch_size[1], *(float(x) for x in patch)),
+            "u_foam_dots": (*(float(x) for x in dots), math.fmod(t, FOAM_DOT_LIFE * 4096.0) % (FOAM_DOT_LIFE * 4096.0)),
             "u_foam_noise": FOAM_NOISE_UNIT, "u_foam_decay": (*foam_decay(), SURF_FOAM_JACOBIAN, streak_opacity(wind)),
             "u_spray": (spray_strength(wind), 1.0 / max(hs, 1e-3)),
             "u_wave_lag": wave_lags(sea, max_waves)}

@@ -90,14 +90,78 @@ vec2 foam_cells(vec2 rest, vec2 dx, vec2 dy, vec2 inv_size, out vec2 width) {
     return to_cells * rest;
 }
 
+// Whitecaps a pixel cannot resolve (docs/water.md#shading, Whitecaps far away): where the patches'
+// noise has faded, the foam used to be its mean m, an even grey veil, though a real sea's whitecaps are
+// sparse: in a pixel of the far sea there are a few or none. There the pixel's foam is the whitecaps
+// that fall into a world-fixed cell of about the pixel's extent: with a whitecap covering
+// FOAM_DOT_AREA of a patch cell, a cell of n patch cells holds lambda = m n / FOAM_DOT_AREA of them on
+// average; it shows foam with a chance P = lambda / (1 + lambda) (about lambda when sparse, 1 when
+// dense), and then m / P of it (FOAM_DOT_AREA / n + m: under 1), so the mean stays m. Each cell
+// breaks afresh every FOAM_DOT_LIFE seconds at its own phase and its foam fades over the life toward
+// 3 (1 - age)^2 (mean 1, so the mean is again m; less of that swing where it would pass full cover);
+// the draw against P goes through a ramp, so a dot fades in and out as the waves move m. The cells
+// drift downwind with the patches (foam.py foam_frame u_foam_dots). Only a sea without wind rows
+// (WATER_FOAM_DOTS): a storm's foam is dense, its dots would be its mean.
+#if WATER_FOAM_DOTS
+uniform vec3 u_foam_dots;  // xy: the camera's patch-cell coordinates, drifted, mod FOAM_DOT_PERIOD; z: time (s) mod
+                           // FOAM_DOT_LIFE x 4096 (foam.py foam_frame)
+// FOAM_DOT_AREA (a whitecap's area over its patch cell), FOAM_DOT_LIFE (s between two breakings of a
+// cell), FOAM_DOT_PERIOD (patch cells the cells' coordinates wrap on, a power of two): defined by
+// water.py from foam.py's values (foam.py dots_defines).
+
+// The whitecaps of mean cover m at the rest point (m; dx, dy its screen derivatives; sparse: 1 for the
+// open sea's whitecaps, 0 for the surf's foam, which lies in lines along the breaking crests), in the cell of
+// 2^level.x by 2^level.y patch cells (along, across the wind) that matches the pixel's extent along and
+// across the wind (seen at a grazing angle a pixel is long in depth and narrow, so a whitecap far off
+// is a short dash along the horizon, as a breaking crest foreshortened is). From where the patches
+// have faded (a pixel spans 3/4 of a patch cell) the dots come in, whole from 1.5 cells.
+float foam_dots(float m, vec2 rest, vec2 dx, vec2 dy, float sparse) {
+    vec2 extent;
+    vec2 q = foam_cells(rest, dx, dy, u_foam_patch.xy, extent) + u_foam_dots.xy;
+    // no dots where the derivatives run off (a silhouette at the horizon: NaN would reach the picture)
+    // or the interpolated mean dips under 0
+    if (!(max(extent.x, extent.y) < 1e30) || !(m > 0.0)) return m;
+    // the level per axis: the exponent of the pixel's extent in patch cells, rounded (frexp: x = f 2^e,
+    // f in [0.5, 1); 1.4 cells and up -> level 1, from 2.8 level 2, ...)
+    ivec2 level;
+    frexp(clamp(extent, vec2(1.0), vec2(FOAM_DOT_PERIOD)) * 0.7071068, level);  // at the horizon extents run off
+    // the cell: the patch cell's integer coordinates wrapped on FOAM_DOT_PERIOD (a power of two) and
+    // shifted down by the level
+    ivec2 cell = (ivec2(floor(q)) & (FOAM_DOT_PERIOD - 1)) >> level;
+    // one hash: the cell's phase (high bits), then a fresh draw per life (the low bits scrambled with
+    // the life's number: one multiply)
+    uint h = uint(cell.x) * 0x8da6b343u ^ uint(cell.y) * 0xd8163841u ^ uint(level.x + 16 * level.y) * 0xcb1ab31fu;
+    h ^= h >> 16; h *= 0x7feb352du; h ^= h >> 15;
+    float age = u_foam_dots.z / FOAM_DOT_LIFE + float(h >> 16) * (1.0 / 65536.0);
+    float life = floor(age);
+    uint k = ((h & 0xffffu) ^ (uint(life) * 0x9e3779b9u)) * 0x85ebca6bu;
+    float lambda = m * float(1 << (level.x + level.y)) / FOAM_DOT_AREA;
+    float p = lambda / (1.0 + lambda);  // the chance the cell shows foam: ~lambda when sparse, 1 when dense
+    float cover = min(m / max(p, 1e-9), 1.0);  // FOAM_DOT_AREA / n + m: under 1 but where m is
+    // the foam's fading over a life, 3 (1 - age)^2, mean 1: a sparse cell's one whitecap ages, a dense
+    // cell's lambda whitecaps of their own ages average out (by 1 / sqrt(1 + lambda) = sqrt(1 - P)); no
+    // more than keeps the cover under 1
+    float x = age - life;
+    float fading = clamp(0.5 * (1.0 / max(cover, 1e-9) - 1.0), 0.0, 1.0) * sqrt(1.0 - p);
+    float decay = 1.0 + fading * (3.0 * (1.0 - x) * (1.0 - x) - 1.0);
+    // shown where the cell's draw u is under p, through a ramp p (1 - p) wide centred on p (its mean
+    // over u is still p): a dot fades in and out as the waves move m, instead of popping
+    float u = float(k >> 16) * (1.0 / 65536.0);
+    float shown = clamp((p - u) / max(p * (1.0 - p), 1e-6) + 0.5, 0.0, 1.0);
+    float dots = shown * cover * decay;
+    return mix(m, dots, smoothstep(0.75, 1.5, max(extent.x, extent.y)) * sparse);
+}
+#endif
+
 #if WATER_FOAM_STREAKS
 // The lookups only where there is foam (or spray) with a pattern that has not faded, in branches a GPU
 // skips where all of a group of pixels agrees; llvmpipe runs a fragment shader's branches masked, every
 // lookup compiled in on every pixel, so for it the program variants (WATER_FOAM_STREAKS) and the rows'
 // one lookup of three channels are what keep the cost down. The derivatives come from main (the detail
 // maps' too), outside any branch.
-// rest: the rest point (m), dx and dy its screen derivatives.
-float foam_cover(float m, float fresh, vec2 rest, vec2 dx, vec2 dy, out float spray) {
+// rest: the rest point (m), dx and dy its screen derivatives; sparse: the share of the foam that is the open
+// sea's whitecaps (not the surf's lines: foam_dots).
+float foam_cover(float m, float fresh, vec2 rest, vec2 dx, vec2 dy, float sparse, out float spray) {
     vec2 w_streak, w_patch;
     vec2 q_streak = foam_cells(rest, dx, dy, u_foam_frame.zw, w_streak);
     vec2 q_patch = foam_cells(rest, dx, dy, u_foam_patch.xy, w_patch) + u_foam_patch.zw;
@@ -144,8 +208,19 @@ float foam_cover(float m, float fresh, vec2 rest, vec2 dx, vec2 dy, out float sp
             cover = foam_phi((foam_phi_inverse(m) * sqrt(1.0 + e2) - dot(weight, z)) / sigma);
         }
     }
+#if WATER_FOAM_DOTS
+    // where a pixel spans patch cells (the patches have faded), the whitecaps are sparse dots of the same mean
+    if (m > 0.0) cover *= foam_dots(m, rest, dx, dy, sparse) / m;
+#endif
     return cover;
 }
 #else  // a block where every pixel spans 3/4 of every noise cell (water.py foam_streaks_needed): the mean
-float foam_cover(float m, float fresh, vec2 rest, vec2 dx, vec2 dy, out float spray) { spray = SPRAY_MEAN; return m; }
+float foam_cover(float m, float fresh, vec2 rest, vec2 dx, vec2 dy, float sparse, out float spray) {
+    spray = SPRAY_MEAN;
+#if WATER_FOAM_DOTS
+    return foam_dots(m, rest, dx, dy, sparse);
+#else
+    return m;
+#endif
+}
 #endif

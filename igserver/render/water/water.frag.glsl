@@ -197,7 +197,8 @@ void main() {
     // older grey-green and thinner), torn into streaks by the wind (foam.glsl); spindrift off crests.
     float spray;
     float fresh = clamp(v_foam.y, 0.0, 1.0);
-    float foam = foam_cover(v_foam.x, fresh, v_rest, rest_dx, rest_dy, spray) * mix(FOAM_OLD, 1.0, fresh);
+    float sparse = 1.0 - smoothstep(0.1, 0.7, v_breaking);  // the surf's foam lies in lines (foam.glsl foam_vertex)
+    float foam = foam_cover(v_foam.x, fresh, v_rest, rest_dx, rest_dy, sparse, spray) * mix(FOAM_OLD, 1.0, fresh);
     spray *= u_spray.x * v_foam.z;
     // Foam is a rough white surface on the facet n: the sun and the moon by n.l, the sky by the part
     // of the dome the facet sees ((1 + n_z) / 2), local lights as on a level surface — so the foam on a

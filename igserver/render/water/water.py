@@ -33,7 +33,7 @@ from . import lod
 from .detail import (DETAIL_MAPS, detail_map_levels, detail_means, detail_tiles, detail_unresolved_var,
                      foam_streaks_needed, minified_maps_from)
 from .foam import (FOAM_EDGE, FOAM_NOISE_SIZE, FOAM_NOISE_UNIT, FOAM_PERIOD, foam_calibration, foam_frame,
-                   rows_channel_cells, streak_variant)
+                   dots_defines, rows_channel_cells, streak_variant)
 from .hulls import MAX_HULLS, blocks_near_hulls, hull_boxes
 from .shore import blocks_reaching_land, shore_uniforms
 from .sea_tables import SeaTables
@@ -144,6 +144,7 @@ class WaterPass(UnderwaterDraws, RenderPass):
         values = values or {}
         defines["WATER_DETAIL_MOTION"] = int(tuple(values.get("u_detail_motion", (0.0, 0.0))) != (0.0, 0.0))
         defines["FOG_RELIEF"] = int(values.get("u_fog_relief", (0.0, 0.0, 1.0, 0.0))[2] > 0.0)
+        defines.update(dots_defines(values))
         return self.programs.program("water/water.vert.glsl", "water/water.frag.glsl", defines)
 
     def _atmosphere_define(self) -> dict:
