@@ -141,6 +141,7 @@ def uniform_inputs(program, values: dict, skip: tuple = ()) -> tuple:
     The names ``values`` holds are those it held last time when it holds none of the others (one
     set test); their values are gathered in C and are their own key when all are hashable
     (numbers, tuples of numbers, bytes), else frozen one by one."""
+    skip = tuple(skip)
     held = _present(program).get(skip)
     if held is None or not values.keys().isdisjoint(held[2]):
         held = None
