@@ -9,6 +9,11 @@
 // thresholding thins the rare low-J tail out: distant whitecaps vanished). The fragment inverts
 // foam_mean and dithers the opacity into wind streaks of that mean.
 
+// WATER_FOAM 0: a sea too calm for whitecaps (foam.py foam_drawn), its program without the foam's code
+// (the lagged Jacobians, the mean cover, the dither): llvmpipe runs it on every pixel whatever it draws.
+#ifndef WATER_FOAM
+#define WATER_FOAM 1
+#endif
 uniform float u_foam_jacobian;  // J below which the sea turns white (foam.py drawn_foam_threshold)
 uniform vec2 u_foam_edge;       // J above / below it where the foam starts / is solid (foam.py FOAM_EDGE)
 uniform vec4 u_foam_decay;      // opacity of the foam FOAM_LAG[0], FOAM_LAG[1] seconds old; surf J threshold;

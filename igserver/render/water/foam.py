@@ -102,6 +102,20 @@ def streak_variant(streaks: bool, values: dict) -> int:
     return 0 if not streaks else 2 if values.get("u_foam_octaves", (1.0, 0.0, 0.0))[1] > 0.0 else 1
 
 
+# m/s: Beaufort 3, "large wavelets, crests begin to break" (WMO); calmer, the crests are glassy and do
+# not break, though Monahan's fit still gives W = 2e-4 at 3.4 m/s and 4e-6 at 1 m/s. Below it the
+# water program leaves the foam out (foam_drawn).
+FOAM_LEAST_WIND = 3.4
+
+
+def foam_drawn(sea: SeaSurface, wind: float, threshold_set: bool = False) -> bool:
+    """The water program's WATER_FOAM: whether the sea draws foam. Not a sea too calm for whitecaps
+    (wind under FOAM_LEAST_WIND) with no surf (no bathymetry field, where the waves break on the
+    shallows whatever the wind) and no foam threshold set by hand (``threshold_set``: the tests' and
+    the quality report's fixed thresholds)."""
+    return threshold_set or sea.field is not None or wind >= FOAM_LEAST_WIND
+
+
 def dots_defines(values: dict) -> dict:
     """The water program's WATER_FOAM_DOTS and the dots' constants: the far whitecaps drawn as sparse
     dots (foam_streaks.glsl foam_dots) in a sea without wind rows (``values``: the frame's uniforms,

@@ -7,6 +7,7 @@
 //   P = (p + sum b_i Khat_i cos theta_i,  L(z1 + z2))   (L: the depth limit, bathymetry.depth_limit)
 // f_i fades a wave out where the mesh spacing cannot carry it (LOD): waves of k*spacing between
 // pi/2 and pi (4 to 2 vertices per wavelength); their slope variance goes to the roughness instead.
+// Needs WATER_FOAM defined (water/foam.glsl, included first): without foam the lagged J is not summed.
 #ifndef MAX_WAVES
 #define MAX_WAVES 64
 #endif
@@ -117,8 +118,10 @@ SeaSample sea_displace(vec2 p, float spacing) {
         jxy -= bk.x * s * kv.y;
         jyx -= bk.y * s * kv.x;
         jyy -= bk.y * s * kv.y;
+#if WATER_FOAM
         vec4 wl = u_wave_lag[i];  // theta(t - lag) = theta + w lag
         lag += dot(bk, kv) * (s * wl.xz - c * wl.yw);
+#endif
         grad += a * c * kv;
         float s2 = a * sqrt(u_second_order * kmag);
         xy2 += s2 * vec2(s, c);

@@ -195,11 +195,15 @@ void main() {
     vec3 lit = fresnel * sky + direct + (1.0 - fresnel) * body;
     // Whitecaps where the Gerstner surface pinches (J small) now or a few seconds ago (fresh white,
     // older grey-green and thinner), torn into streaks by the wind (foam.glsl); spindrift off crests.
+#if WATER_FOAM
     float spray;
     float fresh = clamp(v_foam.y, 0.0, 1.0);
     float sparse = 1.0 - smoothstep(0.1, 0.7, v_breaking);  // the surf's foam lies in lines (foam.glsl foam_vertex)
     float foam = foam_cover(v_foam.x, fresh, v_rest, rest_dx, rest_dy, sparse, spray) * mix(FOAM_OLD, 1.0, fresh);
     spray *= u_spray.x * v_foam.z;
+#else  // a sea too calm for whitecaps (foam.py foam_drawn)
+    float foam = 0.0, spray = 0.0;
+#endif
     // Foam is a rough white surface on the facet n: the sun and the moon by n.l, the sky by the part
     // of the dome the facet sees ((1 + n_z) / 2), local lights as on a level surface — so the foam on a
     // crest facing the sun is brighter than on its lee (a level downwelling value drew a flat sheet).

@@ -33,7 +33,7 @@ from . import lod
 from .detail import (DETAIL_MAPS, detail_map_levels, detail_means, detail_tiles, detail_unresolved_var,
                      foam_streaks_needed, minified_maps_from)
 from .foam import (FOAM_EDGE, FOAM_NOISE_SIZE, FOAM_NOISE_UNIT, FOAM_PERIOD, foam_calibration, foam_frame,
-                   dots_defines, rows_channel_cells, streak_variant)
+                   dots_defines, foam_drawn, rows_channel_cells, streak_variant)
 from .hulls import MAX_HULLS, blocks_near_hulls, hull_boxes
 from .shore import blocks_reaching_land, shore_uniforms
 from .sea_tables import SeaTables
@@ -124,12 +124,13 @@ class WaterPass(UnderwaterDraws, RenderPass):
     # ---- resources ------------------------------------------------------------------------------
     def _program(self, field: bool, hulls: bool = False, detail_maps: int = DETAIL_MAPS,
                  lights: dict | None = None, foam_streaks: int = 2, values: dict | None = None,
-                 land: bool = True) -> moderngl.Program:
+                 land: bool = True, foam: bool = True) -> moderngl.Program:
         """``lights``: frame.local_light_defines (None: every light term compiled); ``values``: the
         frame's uniform values (``_frame_uniforms``), which pick the variants of what is off this frame
         (None: everything compiled in, no motion); ``land``: over a field, whether the swash and the
-        land are drawn (shore.py blocks_reaching_land)."""
-        defines = {"MAX_WAVES": MAX_WAVES, "MAX_HULLS": MAX_HULLS, "WATER_DETAIL_MAPS": detail_maps,
+        land are drawn (shore.py blocks_reaching_land); ``foam``: whether the sea draws foam (foam.py
+        foam_drawn)."""
+        defines = {"MAX_WAVES": MAX_WAVES, "MAX_HULLS": MAX_HULLS, "WATER_DETAIL_MAPS": detail_maps, "WATER_FOAM": int(foam),
                    **(lights or {}), "WATER_FOAM_STREAKS": int(foam_streaks), **self._atmosphere_define()}
         if field:
             defines["WATER_FIELD"] = 1
@@ -384,7 +385,8 @@ class WaterPass(UnderwaterDraws, RenderPass):
                       "lod_error_px": selection.error_bound_px, "error_sphere_m": selection.error_sphere,
                       "finest_spacing_m": selection.finest_spacing, "waves": sea.n,
                       "detail_resolution": resolution, **plan_stats,
-                      "blocks_by_detail_maps": list(plan_stats["blocks_by_detail_maps"])}
+                      "blocks_by_detail_maps": list(plan_stats["blocks_by_detail_maps"]),
+                      "foam": bool(shared["foam"]) if shared is not None else False}
         if len(selection.nodes) == 0:
             return
         if self._underwater is not None:
@@ -440,7 +442,8 @@ class WaterPass(UnderwaterDraws, RenderPass):
             mats[: len(hulls)] = np.transpose(np.asarray(hulls), (0, 2, 1))
             values["u_hull_inv"] = mats.tobytes()
         values["u_detail_motion"] = self.detail_motion(scene, view)
-        return {"values": values, "detail_map": detail_map}
+        return {"values": values, "detail_map": detail_map,
+                "foam": foam_drawn(sea, wind, self.foam_threshold is not None)}
 
     def detail_motion(self, scene, view) -> tuple[float, float]:
         """The detail ripples' apparent displacement across this frame (m, world x, y): the eye's
@@ -462,7 +465,7 @@ class WaterPass(UnderwaterDraws, RenderPass):
         local lights ``lights``: frame.local_light_defines, with or without the shore's land) with this
         frame's uniforms (``_frame_uniforms``) set."""
         program = self._program(sea.field is not None, with_hulls, read_maps, lights,
-                                streak_variant(foam_streaks, shared["values"]), shared["values"], land)
+                                streak_variant(foam_streaks, shared["values"]), shared["values"], land, shared["foam"])
         set_uniforms(program, shared["values"])
         set_uniforms(program, {"u_detail_map": shared["detail_map"][: max(read_maps, 1)].tobytes()})
         mean = program.get("u_detail_mean", None)

@@ -1,8 +1,8 @@
 // Sea mesh: one instanced G x G patch per CDLOD block (lod.py), morphed, displaced, on the earth.
 #include "common/frame.glsl"
 #include "water/sea_tables.glsl"
-#include "water/gerstner.glsl"
 #include "water/foam.glsl"
+#include "water/gerstner.glsl"
 #ifdef WATER_FIELD
 #include "water/shore.glsl"
 out vec4 v_swash;              // the swash on the beach (shore.glsl swash_vertex)
@@ -60,7 +60,11 @@ void main() {
     // only the shore draws it (water.frag.glsl); 2 m: triangles of 100 m on the 2 % beach
     v_swash = s.depth < 2.0 ? swash_vertex(p) : vec4(0.0);
 #endif
+#if WATER_FOAM
     v_foam = foam_vertex(s.jacobian, s.jacobian_past, s.lost_jvar, s.breaking, s.pos.z);
+#else
+    v_foam = vec3(0.0, 1.0, 0.0);
+#endif
     // Aerial perspective is affine in the radiance and smooth in distance: the per-frame table of the
     // shared function over the sea (sea_tables.glsl) per vertex, interpolated per pixel.
     sea_aerial_perspective(v_rel, v_air_t, v_air_s);
