@@ -113,7 +113,7 @@ def _to_white_cell(t: list, stops: float) -> tuple:
     """_to_white of one colour ``t`` (3 floats) whose brightest channel is ``stops`` over the
     threshold (no hue weight)."""
     s = min(max(stops / WHITE_STOPS, 0.0), 1.0)
-    w = s * s * (3.0 - 2.0 * s) * (1.0 - 0.0)
+    w = s * s * (3.0 - 2.0 * s)  # (_to_white's factor 1 - hue_weight is 1 here: exact)
     top = max(t)
     return tuple(c + w * (top - c) for c in t)
 
