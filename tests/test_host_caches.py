@@ -85,39 +85,9 @@ def test_uniform_key_of_a_vector_is_the_vector_and_arrays_are_frozen():
 
 
 def _frame_like(**changes) -> dict:
-    """A dict as large as a frame's values (set_uniforms compares such a dict whole first)."""
-    values = {f"u_unused_{i}": float(i) for i in range(shaders.WHOLE_MIN_VALUES)}
+    """A dict of many values, as the frame's are, most of them not the program's."""
+    values = {f"u_unused_{i}": float(i) for i in range(60)}
     return {**values, "u_hdr": 0, "u_exposure_correction": 1.5, "u_rod_fraction": 0.25, **changes}
-
-
-def test_a_large_dict_given_again_is_compared_whole_and_writes_nothing(renderer, monkeypatch):
-    from igserver.render.gl_count import GLCallCounter
-    program = shaders.ProgramCache(renderer.ctx).program("common/fullscreen.vert.glsl", "post/tonemap.glsl", {"MESOPIC": 1, "HALOS": 1})
-    by_name = []
-    real = shaders._write
-    monkeypatch.setattr(shaders, "_write", lambda p, m, names, v: by_name.append(sorted(names)) or real(p, m, names, v))
-    values = _frame_like()
-    shaders.set_uniforms(program, values)
-    with GLCallCounter() as calls:
-        for _ in range(3):
-            shaders.set_uniforms(program, dict(values))  # equal values: one tuple comparison each
-    assert calls.total == 0 and len(by_name) == 1
-    # a value written by another dict in between: the large dict's value is written back
-    shaders.set_uniforms(program, {"u_exposure_correction": 3.0})
-    with GLCallCounter() as calls:
-        shaders.set_uniforms(program, values)
-    assert calls.by_name["Uniform[u_exposure_correction].write"] == 1
-    assert program["u_exposure_correction"].value == pytest.approx(1.5)
-    # a changed value among them: only it is written
-    with GLCallCounter() as calls:
-        shaders.set_uniforms(program, _frame_like(u_rod_fraction=0.5))
-    assert dict(calls.by_name) == {"Uniform[u_rod_fraction].write": 1}
-    assert by_name[-1] == ["u_rod_fraction"]  # the others were compared in one pass, not name by name
-    # another set of names (one more uniform of the program in the dict): its own record
-    with GLCallCounter() as calls:
-        shaders.set_uniforms(program, _frame_like(u_rod_fraction=0.5, u_halo_far=7.0))
-    assert dict(calls.by_name) == {"Uniform[u_halo_far].write": 1}
-    assert len(shaders._givens(program)) == 2
 
 
 def test_an_array_changed_in_place_is_written_though_the_dict_is_the_same(renderer):
@@ -181,22 +151,6 @@ def test_lights_ranked_as_numpy_ranks_them():
     finally:
         lights.LIGHT_SOURCES = saved
     assert [id(l) for l in got] == [id(l) for l in reference()]
-
-
-def _inputs_by_name(program, values, skip=()):
-    return tuple((name, shaders._frozen(values[name])) for name in shaders._input_names(program)
-                 if name in values and name not in skip)
-
-
-def test_uniform_inputs_is_the_name_by_name_key_as_names_come_and_go(renderer):
-    program = shaders.ProgramCache(renderer.ctx).program("common/fullscreen.vert.glsl", "post/tonemap.glsl",
-                                                         {"MESOPIC": 1, "HALOS": 1})
-    base = _frame_like()
-    cases = [base, dict(base), {**base, "u_halo_far": 3.0}, base, {k: v for k, v in base.items() if k != "u_hdr"},
-             {**base, "u_exposure_correction": np.array(2.0)}, {**base, "u_rod_fraction": [0.5]}, base]
-    for values in cases:
-        for skip in ((), ("u_hdr",)):
-            assert shaders.uniform_inputs(program, values, skip) == _inputs_by_name(program, values, skip)
 
 
 def test_aerial_table_tests_a_still_view_once(renderer, monkeypatch):

@@ -6,7 +6,6 @@ Shader variants are compiled with only the features in use: the defines are part
 
 from __future__ import annotations
 
-import operator
 import re
 from functools import lru_cache
 from importlib import resources
@@ -136,40 +135,8 @@ def block_reads(program) -> frozenset:
 def uniform_inputs(program, values: dict, skip: tuple = ()) -> tuple:
     """The values ``values`` gives ``program``'s active uniforms (all but ``skip``), as an exact,
     hashable key: what a table the program draws or fills was made from, so the table can be kept
-    until one of them changes (a uniform the shader gains joins the key by itself).
-
-    The names ``values`` holds are those it held last time when it holds none of the others (one
-    set test); their values are gathered in C and are their own key when all are hashable
-    (numbers, tuples of numbers, bytes), else frozen one by one."""
-    skip = tuple(skip)
-    held = _present(program).get(skip)
-    if held is None or not values.keys().isdisjoint(held[2]):
-        held = None
-    else:
-        try:
-            current = held[1](values)
-        except KeyError:  # one of them is gone
-            held = None
-    if held is None:
-        names = tuple(name for name in _input_names(program) if name in values and name not in skip)
-        absent = frozenset(_input_names(program)) - set(names) - set(skip)
-        getter = operator.itemgetter(*names) if len(names) > 1 else (lambda v: tuple(v[n] for n in names))
-        held = _present(program)[skip] = (names, getter, absent)
-        current = getter(values)
-    try:
-        hash(current)
-        return tuple(zip(held[0], current))
-    except TypeError:  # an array or a list among them
-        return tuple((name, _frozen(value)) for name, value in zip(held[0], current))
-
-
-def _present(program) -> dict:
-    """Per ``skip``: the names uniform_inputs last found in its values, their getter, the rest."""
-    try:
-        return program._igserver_present
-    except AttributeError:
-        program._igserver_present = {}
-        return program._igserver_present
+    until one of them changes (a uniform the shader gains joins the key by itself)."""
+    return tuple((name, _frozen(values[name])) for name in _input_names(program) if name in values and name not in skip)
 
 
 def _input_names(program) -> tuple:
@@ -210,77 +177,11 @@ def set_uniforms(program, values: dict[str, object]) -> None:
     again, so what does not change between frames (texture units, the sea's tables, materials, the
     sun while the clock runs) costs a dict look-up and a comparison instead of a driver call. Every
     write to a program's uniforms goes through here, or the memory would be stale.
-
-    A large dict (the frame's values) is first compared whole: the program keeps, per set of its
-    uniforms that such a dict gave it, those values as one tuple (``_Given``), held while no other
-    value is written to one of them. The same set and the same values (compared in C): every one of
-    those uniforms already holds its value, and nothing is compared name by name; else only the
-    values that differ from that tuple go through the name-by-name write.
     """
-    members = _settable(program)
-    if len(values) < WHOLE_MIN_VALUES:
-        _write(program, members, values.keys() & members.keys() if len(values) > len(members) else values, values)
-        return
-    givens = _givens(program)
-    for given in givens:
-        if not values.keys().isdisjoint(given.others):
-            continue
-        try:
-            current = given.getter(values)
-        except KeyError:
-            continue
-        # the names this dict gives the program are exactly given.order
-        changed = given.order
-        if given.held and set(map(type, current)).isdisjoint(_MUTABLE):
-            try:
-                if current == given.values:
-                    return
-                # the uniforms hold given.values: only those whose value differs may need a write
-                changed = [name for name, a, b in zip(given.order, current, given.values) if a != b]
-            except ValueError:  # a sequence holding arrays: compare name by name
-                pass
-        _write(program, members, changed, values)
-        given.values, given.held = current, True
-        return
-    names = tuple(sorted(members.keys() & values.keys()))
-    _write(program, members, names, values)
-    if len(givens) >= MAX_GIVENS:
-        givens.pop(0)
-    givens.append(_Given(names, frozenset(members.keys()) - set(names), values))
-
-
-# Values whose content may change while the object stays the same: compared name by name (by bytes).
-_MUTABLE = frozenset((np.ndarray, list))
-# Dicts of at least this many values are compared whole first (set_uniforms); a program keeps the
-# last MAX_GIVENS sets of its uniforms that such dicts gave it.
-WHOLE_MIN_VALUES = 16
-MAX_GIVENS = 4
-
-
-class _Given:
-    """A set of ``names`` a large dict gave a program (and the program's other uniforms, which it did
-    not hold) and the values it gave them; ``held``: no other value written to one of them since."""
-
-    __slots__ = ("order", "names", "others", "getter", "values", "held")
-
-    def __init__(self, names: tuple, others: frozenset, values: dict):
-        self.order, self.names, self.others, self.held = names, frozenset(names), others, True
-        getter = operator.itemgetter(*names) if names else (lambda values: ())
-        self.getter = getter if len(names) != 1 else (lambda values: (getter(values),))
-        self.values = self.getter(values)
-
-
-def _givens(program) -> list:
-    try:
-        return program._igserver_givens
-    except AttributeError:
-        program._igserver_givens = []
-        return program._igserver_givens
-
-
-def _write(program, members: dict, names, values: dict) -> None:
-    """Write those of ``names`` (all in ``values``) whose value differs from the one last written."""
     written = _written(program)
+    members = _settable(program)
+    # Walk the shorter of the two: a program reads a few dozen of the frame's hundred values.
+    names = members.keys() & values.keys() if len(values) > len(members) else values
     for name in names:
         member = members.get(name)
         if member is None:
@@ -298,9 +199,6 @@ def _write(program, members: dict, names, values: dict) -> None:
         else:
             member.value = value
         written[name] = key
-        for given in getattr(program, "_igserver_givens", ()):
-            if name in given.names:
-                given.held = False
 
 
 def _fitted(member, value):
