@@ -80,3 +80,28 @@ class GLWork:
         for cls, method, original in reversed(self._saved):
             setattr(cls, method, original)
         self._saved.clear()
+
+
+def synthesized_levels(renderer, tiles: list[np.ndarray], resolution: int, t: float = 0.0,
+                       omegas: list[np.ndarray] | None = None) -> list[list[np.ndarray]]:
+    """Each tile's detail-map levels (render/water/detail_synth.py) as the GL makes them, read back:
+    per tile of waves (m, n, A k, phase at t = 0) and its ω (rad/s; None: 0, a still tile), the levels
+    at time ``t`` (float32 (S, S, 4) each, rows along the tile's y). Textures made for the call."""
+    from igserver.render.water.detail_synth import DetailSynthGL, SynthTables
+
+    ctx = renderer.ctx
+    omegas = omegas or [np.zeros(len(w)) for w in tiles]
+    tables = SynthTables([(w[:, 0:3], o, w[:, 3]) for w, o in zip(tiles, omegas)], resolution)
+    textures = [ctx.texture((resolution, resolution), 4, dtype="f4") for _ in tiles]
+    synth = DetailSynthGL(ctx, renderer.programs)
+    try:
+        for tex in textures:
+            tex.build_mipmaps()
+        synth.write(textures, tables, t, len(tiles))
+        chain = int(np.log2(resolution)) + 1
+        return [[np.frombuffer(tex.read(level=level), np.float32).reshape(resolution >> level, resolution >> level, 4)
+                 for level in range(chain)] for tex in textures]
+    finally:
+        synth.release()
+        for tex in textures:
+            tex.release()

@@ -131,7 +131,7 @@ def test_world_work_is_not_repeated_per_channel(renderer, monkeypatch):
     models as many slices as a stream of the middle channel alone over the same clock steps (the side
     channels see the same fire or none), and writes each detail map at most once a frame."""
     from igserver.render.volumes.volumes import VolumesPass
-    from igserver.render.water import water
+    from igserver.render.water.detail_synth import DetailSynthGL
 
     slices, maps = [], []
     model_slices = VolumesPass._model_slices
@@ -140,9 +140,10 @@ def test_world_work_is_not_repeated_per_channel(renderer, monkeypatch):
         slices.append(max(upto - model.done_z, 0))
         return model_slices(self, model, upto)
 
-    levels = water.detail_map_levels
+    write = DetailSynthGL.write
     monkeypatch.setattr(VolumesPass, "_model_slices", counted_slices)
-    monkeypatch.setattr(water, "detail_map_levels", lambda *a, **k: maps.append(1) or levels(*a, **k))
+    monkeypatch.setattr(DetailSynthGL, "write", lambda self, textures, tables, t, count: (
+        maps.extend([1] * sum(bool(levels) for levels in tables.levels[:count])), write(self, textures, tables, t, count))[1])
     base = load_scene("demo")
     three = [channel(c, h, 96, 54, 30.0, 18.0) for c, h in (("p3", -60.0), ("a3", 0.0), ("s3", 60.0))]
     counts = {}

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import synthesized_levels
 
 import igserver.render.water.water as water_module
 from igserver.photometry import LUMA
@@ -110,7 +111,7 @@ def test_filled_tiles_show_no_lattice_where_resolved(monkeypatch):
         peaks, variances = {}, {}
         for fill in (False, True):
             monkeypatch.setattr(detail, "DETAIL_LATTICE_FILL", fill)
-            renderer.graph.passes["water"]._detail_key = [None] * 3  # the maps anew for the same time
+            renderer.graph.passes["water"]._detail_key = None  # the maps anew for the same time
             variances[fill] = [float(np.sum(w[:, 2] ** 2) / 2.0) for _, w in detail.detail_tiles(sea, 100.0)]
             peaks[fill] = _lattice(renderer, monkeypatch, size=(1280, 720))
     finally:
@@ -135,26 +136,26 @@ def test_still_eye_and_single_frames_are_not_blurred(renderer):
 
 
 @pytest.mark.parametrize("resolution", [32, 128])
-def test_mip_levels_carry_only_the_waves_they_can(resolution):
+def test_mip_levels_carry_only_the_waves_they_can(renderer, resolution):
     """Band-limited mip levels (detail_mips.py): level L (N_L texels a side) is the direct sum, at its
     own texel centres, of the tile's waves with gain 1 - smoothstep(1/2, 1, max(|m|, |n|) / (N_L / 2))
     (none at its Nyquist: nothing folds onto a longer wave); its second moments add the variance the
     gains removed, so each level's tile mean of (sx^2, sy^2) is level 0's, and the 1x1 level is the
     tile average detail_means computes (LEAN mapping's moments, Olano & Baker 2010)."""
-    from igserver.render.water.detail import detail_map_levels, detail_means, detail_tiles
+    from igserver.render.water.detail import detail_means, detail_tiles
     from igserver.water import sea_surface
 
     scene = apply_patch(Scene(), {"ocean": {"enabled": True}, "weather": {"wind_speed": 22.6}})
     sea = sea_surface(scene.ocean, scene.weather)
     tiles = [(size, waves) for size, waves in detail_tiles(sea, 12.3) if len(waves)]
     assert len(tiles) >= 2
-    for size, waves in tiles:
-        levels = detail_map_levels(waves, resolution)
+    maps = synthesized_levels(renderer, [waves for _, waves in tiles], resolution)
+    for (size, waves), levels in zip(tiles, maps):
         mn = waves[:, :2]
         g = waves[:, 2:3] * mn / np.linalg.norm(mn, axis=1, keepdims=True)
         scale = float(np.abs(g).sum())
         total = levels[0][..., 2:].astype(np.float64).mean(axis=(0, 1))
-        for level in levels[1:]:
+        for level in levels:
             n_l = level.shape[0]
             u = (np.arange(n_l) + 0.5) / n_l
             x, y = np.meshgrid(u, u)

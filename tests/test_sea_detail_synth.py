@@ -1,4 +1,4 @@
-"""The detail maps' per-frame synthesis (render/water/detail_synth.py) against the direct per-level
+"""The detail maps' synthesis on the GL (render/water/detail_synth.py) against the direct per-level
 construction (one spectrum per level from the waves, detail_mips.py ``band_limited_levels``), and its
 caches: each keyed by its whole input, built again when an input changes and only then."""
 
@@ -8,12 +8,18 @@ import math
 
 import numpy as np
 import pytest
+from helpers import synthesized_levels
 
 from igserver.render.water import detail, detail_synth
-from igserver.render.water.detail import detail_map_levels, detail_means, detail_tiles
+from igserver.render.water.detail import detail_means, detail_tiles
 from igserver.render.water.detail_mips import band_limited_levels
 from igserver.scene import Scene, apply_patch
 from igserver.water import sea_surface
+
+# The GL's levels against the float64 reference, as a fraction of level 0's largest value: the phases
+# are reduced in double precision, their sines and the DFTs (7 radix-2 stages at 128²) run in float32,
+# each rounding ~6e-8 of a partial sum. Measured at most 2.0e-7 (every tile and level below).
+TOLERANCE = 4e-7
 
 
 def _sea(wind: float = 22.6):
@@ -21,23 +27,9 @@ def _sea(wind: float = 22.6):
     return sea_surface(scene.ocean, scene.weather)
 
 
-def _direct_level0(waves: np.ndarray, n_side: int) -> np.ndarray:
-    """Level 0 as the inverse DFT of the waves' coefficients added bin by bin (aliased bins summed)."""
-    mn = waves[:, 0:2]
-    g = waves[:, 2:3] * mn / np.linalg.norm(mn, axis=1, keepdims=True)
-    half = 0.5 * (g[:, 0] + 1j * g[:, 1])
-    psi = waves[:, 3] + math.pi * (mn[:, 0] + mn[:, 1]) / n_side
-    m, n = mn[:, 0].astype(int), mn[:, 1].astype(int)
-    spectrum = np.zeros((n_side, n_side), dtype=complex)
-    np.add.at(spectrum, (n % n_side, m % n_side), half * np.exp(1j * psi))
-    np.add.at(spectrum, (-n % n_side, -m % n_side), half * np.exp(-1j * psi))
-    s = np.fft.ifft2(spectrum, norm="forward")
-    return np.stack([s.real, s.imag, s.real ** 2, s.imag ** 2], axis=-1).astype(np.float32)
-
-
 def _shared_points_tile() -> np.ndarray:
     """A tile with two waves on one lattice point, one on the opposite point, and (at 32 texels) a
-    wave past Nyquist folding onto another's bin: the sums and pairings the synthesis must keep."""
+    wave past Nyquist: the sums and pairings the synthesis must keep."""
     rng = np.random.default_rng(3)
     mn = np.array([[5, 3], [5, 3], [-5, -3], [12, 0], [-20, 0], [7, -9], [0, 6], [-11, 4], [14, 13]], float)
     slope = rng.uniform(0.02, 0.1, len(mn))
@@ -50,86 +42,64 @@ def _tiles():
     return tiles + [_shared_points_tile()]
 
 
+def _assert_levels(got: list[np.ndarray], want: list[np.ndarray]) -> None:
+    assert [lv.shape for lv in got] == [lv.shape for lv in want]
+    scale = float(np.abs(want[0]).max())
+    for level, (a, b) in enumerate(zip(got, want)):
+        error = np.abs(a.astype(np.float64) - b).max()
+        assert error <= TOLERANCE * scale, (level, error / scale)
+
+
 @pytest.mark.parametrize("resolution", [32, 128])
-def test_levels_equal_the_direct_construction(resolution):
-    # Within float32's rounding of the same float64 values (the sums only run in another order).
-    for waves in _tiles():
-        levels = detail_map_levels(waves, resolution)
-        reference = band_limited_levels(waves, resolution)
-        assert [lv.shape for lv in levels] == [lv.shape for lv in reference]
-        scale = float(np.abs(reference[0]).max())
-        for got, want in zip(levels, reference):
-            assert got.dtype == np.float32
-            assert np.abs(got.astype(np.float64) - want).max() <= 2e-7 * scale
+def test_levels_equal_the_direct_construction(renderer, resolution):
+    tiles = _tiles()
+    for waves, levels in zip(tiles, synthesized_levels(renderer, tiles, resolution)):
+        _assert_levels(levels, band_limited_levels(waves, resolution))
         means = detail_means([(1.0, waves)])[0]
         assert np.allclose(levels[-1][0, 0], means, rtol=1e-6, atol=1e-12)
 
 
-def test_levels_written_into_held_arrays_are_the_fresh_ones():
-    waves = _tiles()[0]
-    held = [np.full_like(lv, np.nan) for lv in detail_map_levels(waves, 64)]
-    for phase_shift in (0.0, 1.3):
-        shifted = waves.copy()
-        shifted[:, 3] = np.mod(shifted[:, 3] + phase_shift, 2.0 * math.pi)
-        got = detail_map_levels(shifted, 64, out=held)
-        assert all(a is b for a, b in zip(got, held))
-        for a, b in zip(got, detail_map_levels(shifted, 64)):
-            assert np.array_equal(a, b)
+def test_the_phases_follow_the_time_in_double_precision(renderer):
+    # φ = φ0 − ω t reduced on the GL as detail_tiles does on the host: at t = 1e6 s (ω t ~ 1e7 rad)
+    # and at a later frame the levels are those of the host's phases.
+    sea = _sea()
+    lattice = detail._lattice_of(sea)
+    static = [(w, o, p) for (_, w, o, p) in lattice.tiles if len(w)]
+    tiles = [np.column_stack([w, p]) for w, _, p in static]
+    for t in (1e6 + 0.25, 1e6 + 0.25 + 1 / 30):
+        got = synthesized_levels(renderer, tiles, 64, t, omegas=[o for _, o, _ in static])
+        host = [w for _, w in detail_tiles(sea, t) if len(w)]
+        for levels, waves in zip(got, host):
+            _assert_levels(levels, band_limited_levels(waves, 64))
 
 
-def test_the_synthesis_is_built_once_per_lattice_and_resolution():
-    detail_synth.detail_synth.cache_clear()
-    waves = _tiles()[0]
-    info = detail_synth.detail_synth.cache_info
-    detail_map_levels(waves, 64)
+def test_the_tables_are_built_once_per_lattice_and_resolution():
+    detail_synth.synth_tables.cache_clear()
+    info = detail_synth.synth_tables.cache_info
+    sea = _sea()
+    first = detail.detail_synth_tables(sea, 64)
+    assert detail.detail_synth_tables(sea, 64) is first  # another frame: the same tables
     assert info().misses == 1
-    later = waves.copy()
-    later[:, 3] += 0.5  # the time moves only the phases
-    detail_map_levels(later, 64)
-    assert info().misses == 1
-    detail_map_levels(waves, 128)  # another resolution
+    assert detail.detail_synth_tables(sea, 128) is not first  # another resolution
     assert info().misses == 2
-    stronger = waves.copy()
-    stronger[0, 2] *= 1.5  # another amplitude
-    assert not np.allclose(detail_map_levels(stronger, 64)[0], detail_map_levels(waves, 64)[0])
+    detail.detail_synth_tables(_sea(12.0), 64)  # another sea state: other waves
     assert info().misses == 3
-    moved = waves.copy()
-    moved[0, 0] += 1.0  # another lattice point
-    detail_map_levels(moved, 64)
-    assert info().misses == 4
 
 
 def test_the_pairs_are_found_once_per_lattice():
-    # detail_means and every resolution's synthesis share a lattice's pairs; only the lattice's
-    # (m, n, A k) build them anew, not the phases.
+    # detail_means and the tables share a lattice's pairs; only the lattice's (m, n, A k) build them
+    # anew, not the phases.
     detail_synth.tile_pairs.cache_clear()
-    detail_synth.detail_synth.cache_clear()
     waves = _tiles()[-1]
     for phase_shift in (0.0, 0.7):
         shifted = waves.copy()
         shifted[:, 3] += phase_shift
         detail_means([(1.0, shifted)])
-        detail_map_levels(shifted, 32)
-        detail_map_levels(shifted, 64)
     assert detail_synth.tile_pairs.cache_info().misses == 1
     stronger = waves.copy()
     stronger[:, 2] *= 2.0
     assert np.allclose(detail_means([(1.0, stronger)])[0], 4.0 * detail_means([(1.0, waves)])[0])
     assert detail_synth.tile_pairs.cache_info().misses == 2
-
-
-def test_the_box_chain_has_its_own_synthesis(monkeypatch):
-    detail_synth.detail_synth.cache_clear()
-    waves = _tiles()[0]
-    band = detail_map_levels(waves, 32)
-    monkeypatch.setattr(detail, "BAND_LIMITED_MIPS", False)
-    box = detail_map_levels(waves, 32)
-    assert detail_synth.detail_synth.cache_info().misses == 2
-    # the box chain's level 0 holds every wave, aliasing included; the band-limited one drops those
-    # past half its Nyquist (the filled tile reaches 38.5 cycles, past 32 texels' 16)
-    direct = _direct_level0(waves, 32)
-    assert np.abs(box[0].astype(np.float64) - direct).max() <= 2e-7 * float(np.abs(direct).max())
-    assert not np.allclose(box[0], band[0]) and not np.allclose(box[1], band[1])
 
 
 def test_the_lattice_is_built_once_per_sea():
@@ -161,50 +131,30 @@ def test_tiles_phases_follow_the_dispersion():
         assert np.allclose(step, np.angle(np.exp(1j * omega * dt)), atol=1e-6)
 
 
-def test_the_pass_uploads_the_frames_levels(renderer):
-    # The pass fills its held arrays again each frame: after frames at other times, each map's
-    # texture levels are exactly the levels computed afresh for the last frame's time.
+def test_the_pass_writes_the_frames_levels(renderer):
+    # After frames at other times, each map's texture levels are the levels of the last frame's time;
+    # a frame at the same time writes nothing, and no frame makes a GL object.
     scene = apply_patch(Scene(), {"ocean": {"enabled": True}, "weather": {"wind_speed": 12.0},
                                   "camera": {"position": [0.0, 0.0, 3.0], "pitch": -10.0, "width": 64, "height": 36}})
     water = renderer.graph.passes["water"]
     for t in (50.0, 50.5, 51.25):
         renderer.render(apply_patch(scene, {"time": {"sim_time": t}}))
+    synth = water._detail_synth
+    buffers = dict(synth._buffers)
+    written = synth.maps_written
+    renderer.render(apply_patch(scene, {"time": {"sim_time": 51.25}}))  # the same instant: the maps held
+    assert synth.maps_written == written and synth._buffers == buffers
     sea = sea_surface(scene.ocean, scene.weather)
-    written = 0
+    checked = 0
     for c, (_, waves) in enumerate(detail_tiles(sea, 51.25)[:water._maps_written]):
         if not len(waves):
             continue
         tex = water._detail[c]
-        for level, want in enumerate(detail_map_levels(waves, tex.size[0])):
-            got = np.frombuffer(tex.read(level=level), dtype=np.float32).reshape(want.shape)
-            assert np.array_equal(got, want), (c, level)
-        written += 1
-    assert written >= 1
-
-
-def test_unchanged_small_levels_are_not_uploaded_again(renderer, monkeypatch):
-    # The coarse levels no wave fits hold the tile's moments, constant while no two waves share a
-    # lattice point: a later frame uploads the levels that changed only (the readback test above
-    # checks that the textures still hold every level of the frame).
-    import moderngl
-
-    scene = apply_patch(Scene(), {"ocean": {"enabled": True}, "weather": {"wind_speed": 12.0},
-                                  "camera": {"position": [0.0, 0.0, 3.0], "pitch": -10.0, "width": 64, "height": 36}})
-    water = renderer.graph.passes["water"]
-    renderer.render(apply_patch(scene, {"time": {"sim_time": 70.0}}))
-    detail_ids = {id(tex) for tex in water._detail}
-    writes = []
-    write = moderngl.Texture.write
-    monkeypatch.setattr(moderngl.Texture, "write",
-                        lambda self, data, *a, level=0, **k: (writes.append(level) if id(self) in detail_ids else None,
-                                                              write(self, data, *a, level=level, **k))[1])
-    renderer.render(apply_patch(scene, {"time": {"sim_time": 70.5}}))
-    resolution = water._detail[0].size[0]
-    chain = int(math.log2(resolution)) + 1
-    assert water._maps_written >= 1
-    assert 0 < len(writes) < water._maps_written * chain
-    assert all(level == 0 or resolution >> level > 1 for level in writes)  # the 1x1 moments kept
-    assert writes.count(0) == water._maps_written
+        want = band_limited_levels(waves, tex.size[0])
+        got = [np.frombuffer(tex.read(level=level), np.float32).reshape(lv.shape) for level, lv in enumerate(want)]
+        _assert_levels(got, want)
+        checked += 1
+    assert checked >= 1
 
 
 def test_pairs_are_those_of_every_two_waves():

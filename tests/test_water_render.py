@@ -582,43 +582,6 @@ def test_minified_detail_maps_leave_the_picture(renderer):
             assert np.abs(texel[:2]).max() < 1e-5 * np.sqrt(means[c, 2:].max())
 
 
-@pytest.fixture
-def box_mips(monkeypatch):
-    """detail_map_levels with the 2x2 box mip chain (detail.BAND_LIMITED_MIPS False), the one the
-    band-limited chain replaced (tests/test_detail_mips.py checks that one)."""
-    from igserver.render.water import detail
-    monkeypatch.setattr(detail, "BAND_LIMITED_MIPS", False)
-
-
-@pytest.mark.usefixtures("box_mips")
-@pytest.mark.parametrize("resolution", [32, 128])
-def test_detail_maps_are_the_waves_at_the_texel_centres(resolution):
-    # detail_map_levels sums the tile's waves by an inverse FFT: at every texel centre it must equal
-    # the direct sum of their slopes (aliased waves included: at 32 texels the finest waves of a band,
-    # 38.5 cycles a tile, are past Nyquist), and each mip level the mean of 2x2 texels of the one above.
-    from igserver.render.water.detail import detail_map_levels, detail_tiles
-
-    scene = sea_scene(weather={"wind_speed": 22.6})
-    sea = sea_surface(scene.ocean, scene.weather)
-    tiles = [waves for _, waves in detail_tiles(sea, 12.3) if len(waves)]
-    assert len(tiles) >= 2
-    u = (np.arange(resolution) + 0.5) / resolution
-    x, y = np.meshgrid(u, u)  # rows along the tile's y
-    for waves in tiles:
-        levels = detail_map_levels(waves, resolution)
-        mn = waves[:, :2]
-        g = waves[:, 2:3] * mn / np.linalg.norm(mn, axis=1, keepdims=True)
-        theta = 2.0 * np.pi * (mn[:, 0, None, None] * x + mn[:, 1, None, None] * y) + waves[:, 3, None, None]
-        sx = np.sum(g[:, 0, None, None] * np.cos(theta), axis=0)
-        sy = np.sum(g[:, 1, None, None] * np.cos(theta), axis=0)
-        expected = np.stack([sx, sy, sx * sx, sy * sy], axis=-1)
-        assert np.abs(levels[0] - expected).max() < 1e-5 * np.abs(expected).max()
-        assert [lv.shape[0] for lv in levels] == [resolution >> i for i in range(len(levels))]
-        for above, below in zip(levels, levels[1:]):
-            mean = above.reshape(below.shape[0], 2, below.shape[0], 2, 4).mean(axis=(1, 3))
-            assert np.abs(below - mean).max() < 1e-6 * np.abs(expected).max()
-
-
 def test_hull_boxes_follow_the_entities_and_the_camera():
     # hull_boxes is memoised on the visible entities' models and poses, the camera position and the
     # sea level: each of those must still move the boxes (against a cold computation every time).

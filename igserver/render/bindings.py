@@ -52,11 +52,20 @@ BLOCKS = {
     "VOLUME": 1,  # one fire or smoke volume's march constants (render/volumes/march_block.py)
 }
 
+# Shader-storage binding points of compute shaders. Pass-local like units 0-7: a pass binds its
+# buffers there just before it dispatches (GL guarantees 8 points to a compute shader).
+STORAGE = {
+    # the sea's detail-map synthesis (render/water/detail_synth.py)
+    "SEA_DETAIL_WAVES": 0, "SEA_DETAIL_GRID": 1, "SEA_DETAIL_BINS": 2, "SEA_DETAIL_ENTRIES": 3,
+    "SEA_DETAIL_ROWS": 4, "SEA_DETAIL_LEVELS": 5, "SEA_DETAIL_PAIRS": 6, "SEA_DETAIL_TEXELS": 7,
+}
+
 
 def shader_defines() -> dict[str, int]:
-    """``UNIT_<NAME>`` and ``BLOCK_<NAME>``: the registry as the shaders see it."""
+    """``UNIT_<NAME>``, ``BLOCK_<NAME>`` and ``STORAGE_<NAME>``: the registry as the shaders see it."""
     return {**{f"UNIT_{k}": v for k, v in {**FRAME_UNITS, **PASS_UNITS}.items()},
-            **{f"BLOCK_{k}": v for k, v in BLOCKS.items()}}
+            **{f"BLOCK_{k}": v for k, v in BLOCKS.items()},
+            **{f"STORAGE_{k}": v for k, v in STORAGE.items()}}
 
 
 def glsl() -> str:

@@ -1,6 +1,6 @@
 """The sea's detail normal maps: the short waves of the detail band on three tiles of growing size,
-as slope maps with their mip chains made on the CPU for the frame's time, and what each LOD block
-must read of them (the finer tiles are minified to their mean far enough away)."""
+as slope maps with their mip chains made on the GL for the frame's time (detail_synth.py), and what
+each LOD block must read of them (the finer tiles are minified to their mean far enough away)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from ...water.spectrum import SPREADING_S, WaveSet
 from ...water.surface import SeaSurface
 from ..camera import CameraView
 from . import lod
-from .detail_synth import detail_synth, lattice_key, tile_pairs
+from .detail_synth import SynthTables, lattice_key, synth_tables, tile_pairs
 from .foam import FOAM_FADE_CELL, FOAM_STREAK_FADE
 
 DETAIL_MAPS = 3
@@ -40,9 +40,6 @@ DETAIL_MIN_WAVES = 4
 # change; at 3e-2, 430 points drew the lattice again). False: the snapped detail waves only.
 DETAIL_LATTICE_FILL = True
 DETAIL_FILL_FLOOR = 1e-2
-# Each map's levels band-limited (detail_mips.py); False: each the 2×2 box mean of the one
-# above (the tests' reference: it folds the waves near a level's Nyquist into a lattice).
-BAND_LIMITED_MIPS = True
 
 
 def _detail_bands(sea: SeaSurface) -> tuple[np.ndarray, np.ndarray]:
@@ -144,33 +141,21 @@ def detail_lattice(k: bytes, direction: bytes, amplitude: bytes, phase: bytes, a
                          np.frombuffer(phase), azimuth_to, fill)
 
 
-def detail_map_levels(waves: np.ndarray, resolution: int, out: list[np.ndarray] | None = None) -> list[np.ndarray]:
-    """One detail map and its mip chain, level 0 (``resolution``² texels, a power of two) first:
-    (sx, sy, sx², sy²) per texel, float32 (numpy has no fast float16 conversion: 3 ms a 128² map),
-    rows along the tile's y.
+def detail_synth_tables(sea: SeaSurface, resolution: int) -> SynthTables:
+    """The tables from which the GL makes the detail maps' levels at ``resolution`` texels a side for any
+    time (detail_synth.py), once per sea state and resolution.
 
-    The texel (i, j) holds the slopes at its centre u = (i + ½) / N, v = (j + ½) / N of the tile's
-    waves (m, n, A k, phase) (``detail_tiles``): s = Σ g cos θ, g = A k (m, n) / |(m, n)| the slope
-    amplitude, θ = 2π (m u + n v) + phase = 2π (m i + n j) / N + ψ, ψ = phase + π (m + n) / N.
-    Both components at once as sx + i sy = Σ (gx + i gy) (e^{iθ} + e^{−iθ}) / 2: an inverse DFT of
-    N² coefficients (gx + i gy) e^{±iψ} / 2 placed at the bins ±(m, n) mod N — exact at the texel
-    centres, in O(N² log N) whatever the wave count (detail_synth.py: the spectra's fixed part once
-    per lattice and resolution, the phases' each frame). Every level, level 0 included, carries only
-    the waves below half its Nyquist frequency, the others' slope variance in its (sx², sy²)
-    (detail_mips.py: nothing folds onto a longer wave), so E[s²] − E[s]² of a level is the slope
-    variance it no longer resolves (LEAN mapping). The reference chain (BAND_LIMITED_MIPS False):
-    level 0 with every wave, aliasing included, and each level the 2×2 mean of the one above.
-    ``out``: arrays of the band-limited chain's shapes to write the levels into (the last frame's)."""
-    synth = detail_synth(lattice_key(waves), int(resolution), BAND_LIMITED_MIPS)  # detail_synth.py
-    phase = np.ascontiguousarray(waves[:, 3], dtype=np.float64)
-    if BAND_LIMITED_MIPS:  # detail_mips.py: no level folds a wave it cannot carry
-        return synth.levels(phase, out)
-    levels = synth.levels(phase)
-    level = levels[0]
-    while level.shape[0] > 1:
-        level = 0.25 * (level[0::2, 0::2] + level[0::2, 1::2] + level[1::2, 0::2] + level[1::2, 1::2])
-        levels.append(level)
-    return levels
+    A map's level 0 (N² texels, N a power of two) holds at the texel (i, j) the slopes at its centre
+    u = (i + ½) / N, v = (j + ½) / N of the tile's waves (m, n, A k, phase) (``detail_tiles``): s = Σ g
+    cos θ, g = A k (m, n) / |(m, n)| the slope amplitude, θ = 2π (m u + n v) + phase = 2π (m i + n j) /
+    N + ψ, ψ = phase + π (m + n) / N. Both components at once as sx + i sy = Σ (gx + i gy) (e^{iθ} +
+    e^{−iθ}) / 2: an inverse DFT of N² coefficients (gx + i gy) e^{±iψ} / 2 placed at the bins ±(m, n)
+    mod N — exact at the texel centres, in O(N² log N) whatever the wave count. Every level, level 0
+    included, carries only the waves below half its Nyquist frequency, the others' slope variance in its
+    (sx², sy²) (detail_mips.py: nothing folds onto a longer wave), so E[s²] − E[s]² of a level is the
+    slope variance it no longer resolves (LEAN mapping). Texels (sx, sy, sx², sy²) in float32, rows
+    along the tile's y."""
+    return synth_tables(_lattice_of(sea), int(resolution))
 
 
 def detail_unresolved_var(sea: SeaSurface) -> float:

@@ -1,4 +1,4 @@
-"""Band-limited mip levels of a detail map (detail.py ``detail_map_levels``): each level the tile's waves
+"""Band-limited mip levels of a detail map (detail.py ``detail_synth_tables``): each level the tile's waves
 that level can carry, the others' slope variance moved into its second moments (the roughness).
 
 Why: the 2×2 box average of the level above passes a wave near a level's Nyquist frequency at up to
@@ -12,8 +12,9 @@ removed, Σ (1 − G_i G_j) g_i g_j w_ij (the same lattice-point pairing as ``de
 footprint's mean square slope, so the roughness (LEAN mapping) is as before and the 1×1 level is the
 tile average ``detail_means`` computes. The sampler's trilinear filter blends two such levels.
 
-``band_limited_levels`` builds each level directly from the waves, as stated here: the reference of
-detail_synth.py, which makes the same levels each frame from what it keeps per tile lattice.
+``band_limited_levels`` builds each level directly from the waves, as stated here: the tests' reference
+for detail_synth.py, whose compute passes make the same levels each frame from what it keeps per tile
+lattice.
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ def _pairing(mn: np.ndarray, phase: np.ndarray) -> np.ndarray:
 
 def band_limited_levels(waves: np.ndarray, n_side: int) -> list[np.ndarray]:
     """The levels (N, N/2, .. 1 texels a side) of the map of ``waves`` (m, n, A k, phase), each
-    (N_L, N_L, 4) float32 (sx, sy, sx², sy²), rows along the tile's y (as ``detail_map_levels``):
+    (N_L, N_L, 4) float32 (sx, sy, sx², sy²), rows along the tile's y (as the maps' textures):
     the direct construction (tests' reference; the pass uses detail_synth.py). Level 0 is band-limited
     as the others: a tile filled up to 38.5 cycles (detail.py) holds waves past its Nyquist at 64²."""
     mn = waves[:, 0:2]

@@ -1,31 +1,48 @@
-"""One detail map's levels for a frame (detail.py ``detail_map_levels``), with everything that depends on
-the tile's lattice (m, n, A k) and the resolution alone computed once per lattice, and per frame only
-what depends on the waves' phases φ.
+"""The detail maps' levels for a frame (detail.py ``detail_synth_tables`` states them), made on the GL by
+four compute passes from tables uploaded once per tile lattice and resolution; per frame only the time.
 
 A level of S texels a side is the inverse DFT of ½ G (g_x + i g_y) e^{±iψ} at the bins ±(m, n) mod S,
 ψ = φ + π (m + n) / S (the phase at the level's texel centres), G the wave's gain there (every level
-of the band-limited chain, level 0 included: detail_mips.py ``_gain``; the box chain's level 0: 1).
-Each coefficient is c_± e^{±iφ}, with c_± = ½ G (g_x + i g_y) e^{±iπ (m + n) / S} fixed: a frame's
-spectra of all levels are the fixed c_± times the frame's phasors, summed per bin (the box chain's
-level 0 may fold a wave past its Nyquist onto another's bin). The spectrum's rows holding no bin are
-zero: the inverse DFT's pass along m skips them. The
-variance a level's gains removed, Σ (1 − G_i G_j) g_i g_j w_ij (detail_mips.py), is nonzero only
-for the pairs of waves on the same or opposite lattice points, w = ½ cos(φ_i ∓ φ_j): fixed weights
-(1 − G_i G_j) g_i g_j per pair and level times the pairs' cosines.
+of the band-limited chain, level 0 included: detail_mips.py ``_gain``). Each coefficient is c_± e^{±iφ},
+c_± = ½ G (g_x + i g_y) e^{±iπ (m + n) / S} fixed. The tables hold per wave ω, φ0 (φ = φ0 − ω t) and
+m + n; per bin its coefficients c_± and their waves; per level of each map the rows of its spectrum
+that hold a bin (the others are zero, and so are their inverse DFTs along m, which are skipped).
+The passes, each reading what the one before wrote (a memory barrier between):
 
-The same values as detail_mips.py ``band_limited_levels`` (its tests' reference), within float32's
-rounding (the sums run in another order, the inverse DFTs in complex64).
+1. detail_waves.comp.glsl: each wave's phasor e^{iφ}, φ reduced in double precision (t reaches 1e9 s).
+2. detail_bins.comp.glsl: each bin's Σ c_± e^{±iφ}, gathered from its coefficients (no atomics; a
+   filled tile has one a bin, the snapped waves may share one).
+3. detail_rows.comp.glsl: the inverse DFT along m of each row that holds a bin.
+4. detail_columns.comp.glsl: the inverse DFT along n of each column, written as (sx, sy, sx² + r_x,
+   sy² + r_y) into the level's texels, each level then copied into its mip level of the map.
+
+The variance r that a level's gains removed, Σ (1 − G_i G_j) g_i g_j w_ij (detail_mips.py), is a
+fixed Σ ½ (1 − G_i²) g_i² per wave and, for the pairs of waves on the same or opposite lattice
+points (w = ½ cos(φ_i ∓ φ_j)), a fixed weight (1 − G_i G_j) g_i g_j per pair and level times the
+frame's cosine, summed by the last pass (a filled tile has no such pair: none is summed, and its
+levels' r is a constant of the table).
+
+The same values as detail_mips.py ``band_limited_levels`` (the tests' reference) within float32's
+rounding, 3e-7 of the map's largest slope: the phases are reduced in double precision, their sines
+and the DFTs run in float. On llvmpipe (its one compute thread) the demo's two 128² maps take ~1.1 ms:
+waves 0.04, bins 0.16, rows 0.25, columns 0.6, copies 0.06; the calling thread's Python ~0.1 ms.
 """
 
 from __future__ import annotations
 
 import functools
 import math
-import threading
 
+import moderngl
 import numpy as np
 
+from ..bindings import STORAGE
+from ..shaders import GENERATED, set_uniforms
+from .detail_fft import RADIX, fft_glsl
 from .detail_mips import _gain
+
+# The passes' DFTs, included like a package file (shaders.py read_glsl: the text made once a process).
+GENERATED.setdefault("generated/detail_fft.glsl", fft_glsl)
 
 
 class TilePairs:
@@ -79,109 +96,187 @@ def lattice_key(waves: np.ndarray) -> bytes:
     return np.ascontiguousarray(waves[:, 0:3], dtype=np.float64).tobytes()
 
 
-class DetailSynth:
-    """The fixed part of one map's levels (module docstring) at ``resolution`` texels a side: level 0
-    only (``band_limited`` False: the box chain is made from it) or the band-limited chain."""
-
-    def __init__(self, lattice: np.ndarray, resolution: int, band_limited: bool):
-        self.pairs = pairs = tile_pairs(lattice_key(lattice))
-        count = len(lattice)
-        mn = lattice[:, 0:2]
-        m, n = mn[:, 0].astype(int), mn[:, 1].astype(int)
-        half = 0.5 * (pairs.g[:, 0] + 1j * pairs.g[:, 1])
-        sizes = [resolution >> level for level in range(int(math.log2(resolution)) + 1 if band_limited else 1)]
-        # Level 0 band-limited too (a wave past half its Nyquist would fold onto a longer one, and a
-        # tile filled up to 38.5 cycles holds many at 64² and below); the box chain's level 0 keeps all.
-        gains = [_gain(mn, size) for size in sizes] if band_limited else [np.ones(count)]
-        # Levels carrying a wave (a spectrum): level 0 and the band-limited ones until none fits.
-        self.spectral = [s for s, gain in zip(sizes, gains) if s == resolution or np.any(gain > 0.0)]
-        self.sizes = sizes
-        # Each spectral level's bins as (row, m) in a block of the rows that hold a bin (the rest of
-        # the spectrum is zero: its rows' inverse DFTs along m are zero, so only these are done).
-        self.rows, bins, columns, values, start = [], [], [], [], 0
-        for size, gain in zip(self.spectral, gains):
-            keep = np.nonzero(gain > 0.0)[0]  # |m|, |n| < size / 2: no two kept bins fold together
-            shift = math.pi * (m[keep] + n[keep]) / size
-            row = np.concatenate([n[keep] % size, -n[keep] % size])
-            rows, row = np.unique(row, return_inverse=True)
-            self.rows.append((rows, start))
-            bins.append(start + row * size + np.concatenate([m[keep] % size, -m[keep] % size]))
-            columns += [keep, keep + count]
-            values += [half[keep] * gain[keep] * np.exp(1j * shift), half[keep] * gain[keep] * np.exp(-1j * shift)]
-            start += len(rows) * size
-        self.total = start
-        # Per coefficient: its bin (an index of the distinct bins ``bins``), its phasor's column in
-        # (e^{iφ}, e^{−iφ}) and c_±; summed per bin in this order by bincount (no BLAS call: its threads
-        # would wait for cores that llvmpipe's rasterizer holds) where two share a bin, else each put
-        # in its bin (a filled tile: every point once).
-        self.entry_bins = np.concatenate(bins)
-        self.bins, self.slot = np.unique(self.entry_bins, return_inverse=True)
-        self.shared_bins = len(self.bins) < len(self.entry_bins)
-        self.columns, self.values = np.concatenate(columns), np.concatenate(values)
-        self.flat = np.zeros(self.total, np.complex64)  # the levels' row blocks: zero but on the bins
-        # Per level, the variance its gains removed (sx², sy²): each wave's own ½ (1 − G²) g² (fixed),
-        # and per pair of two waves (1 − G_i G_j) g_i g_j w_ij (levels × 2 rows, times w each frame).
-        self.removed_fixed = 0.5 * np.array([(1.0 - gain * gain) @ pairs.square for gain in gains]).T
-        lost = np.array([1.0 - gain[pairs.i] * gain[pairs.j] for gain in gains]).reshape(len(gains), len(pairs.i))
-        self.removed = np.concatenate([lost * pairs.gg[0], lost * pairs.gg[1]])
-
-    def levels(self, phase: np.ndarray, out: list[np.ndarray] | None = None) -> list[np.ndarray]:
-        """The levels for the waves' phases ``phase``: (S, S, 4) float32 (sx, sy, sx², sy²) each, S =
-        resolution, /2, .. (band-limited) or level 0 alone; written into ``out`` (arrays of those
-        shapes, e.g. the last frame's: no fresh pages to fault in) when given."""
-        if out is None:
-            out = [np.empty((size, size, 4), np.float32) for size in self.sizes]
-        rotor = np.exp(1j * phase)
-        terms = self.values * np.concatenate([rotor, rotor.conj()])[self.columns]
-        removed = self.removed_fixed  # (sx², sy²) per level
-        if len(self.pairs.i):
-            removed = removed + np.sum(self.removed * self.pairs.weights(phase), axis=1).reshape(2, -1)
-        with _LOCK:
-            flat = self.flat
-            if self.shared_bins:
-                flat.real[self.bins] = np.bincount(self.slot, terms.real, len(self.bins))
-                flat.imag[self.bins] = np.bincount(self.slot, terms.imag, len(self.bins))
-            else:
-                flat[self.entry_bins] = terms
-            for level, (size, texels) in enumerate(zip(self.sizes, out)):
-                extra = removed[:, level]
-                if level >= len(self.spectral):  # no wave fits: zero slope, the tile's slope variance
-                    texels[...] = (0.0, 0.0, *extra)
-                    continue
-                # Σ X e^{+2πi (m i + n j) / S} (no 1/S² factor): ifft2's two passes, along m only on the
-                # rows holding a bin (the others' are zero), then along n
-                rows, start = self.rows[level]
-                along_m, s, square = _grid(size, rows)
-                block = flat[start:start + len(rows) * size].reshape(-1, size)
-                along_m[rows] = np.fft.ifft(block, axis=1, norm="forward")
-                np.fft.ifft(along_m, axis=0, norm="forward", out=s)
-                texels[..., 0], texels[..., 1] = s.real, s.imag
-                for channel, part, add in ((2, s.real, extra[0]), (3, s.imag, extra[1])):
-                    np.add(np.multiply(part, part, out=square), add, out=texels[..., channel])
-        return out
+# The passes' work-group sizes (local_size_x): an invocation per wave or bin, 32 a group (llvmpipe's
+# cost per group: 25 % of the bins' pass at 8); an invocation per row or column, 8 a group (a vector
+# on llvmpipe), each level's rows and columns starting on a group of their own (padded).
+GROUP = 8
+WIDE_GROUP = 32
+_ENTRY = np.dtype([("value", "<f4", 2), ("wave", "<i4"), ("unused", "<i4")])
+_LEVEL = np.dtype([("size", "<i4"), ("along", "<i4"), ("first", "<i4"), ("spectral", "<i4"),
+                   ("removed", "<f4", 2), ("pair_first", "<i4"), ("pair_end", "<i4"), ("texels", "<i4"),
+                   ("unused", "<i4", 3)])
+_PAIR = np.dtype([("weight", "<f4", 2), ("i", "<i4"), ("j", "<i4")])
 
 
-# Work arrays shared by every DetailSynth (one set per level size; the lock: one user at a time).
-# The inverse DFTs run in complex64 (numpy's pocketfft keeps the precision: 3.5x faster than complex128
-# at 128²): their rounding, a few 1e-7 of the map's largest slope, is that of the float32 texels.
-_LOCK = threading.Lock()
-_WORK: dict = {}
+def _padded(count: int) -> int:
+    return -(-count // GROUP) * GROUP
 
 
-def _grid(size: int, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A level's (along m: zero but on ``rows``, which the caller fills; the field; a float64 square)."""
-    held = _WORK.get(size)
-    if held is None:
-        held = _WORK[size] = (np.zeros((size, size), np.complex64), np.empty((size, size), np.complex64),
-                              np.empty((size, size), np.float32), [np.arange(0)])
-    along_m, s, square, last = held
-    along_m[last[0]] = 0.0
-    last[0] = rows
-    return along_m, s, square
+class SynthTables:
+    """What the passes read of the maps' tiles at ``resolution`` texels a side (the module docstring),
+    as the bytes of their storage buffers; ``tiles``: per map, (m, n, A k) of its waves, their ω (rad/s)
+    and φ0 (rad). Every table runs map by map: ``ends[c]``, the waves, bins, rows, levels and column
+    invocations of the first c + 1 maps (a frame writes a prefix of the maps); ``levels[c]``, per level
+    of map c, (its first texel in the texel buffer, S)."""
+
+    def __init__(self, tiles, resolution: int):
+        self.resolution = resolution
+        sizes = [resolution >> level for level in range(int(math.log2(resolution)) + 1)]
+        waves, bins, entries, rows, levels, pairs = [], [], [], [], [], []
+        self.ends, self.levels = [], []
+        base = texels = columns = 0
+        place = sum(len(fixed) for fixed, _, _ in tiles)  # the phasors first in the grid
+        count = {"bins": 0, "entries": 0, "rows": 0, "pairs": 0}
+        for fixed, omega, phase in tiles:
+            fixed = np.asarray(fixed, dtype=np.float64)
+            map_levels = []
+            if len(fixed):
+                tile = TilePairs(fixed)
+                mn = fixed[:, 0:2]
+                m, n = mn[:, 0].astype(int), mn[:, 1].astype(int)
+                waves.append(np.column_stack([omega, phase, m + n, np.zeros(len(m))]))
+            for size in sizes if len(fixed) else []:
+                gain = _gain(mn, size)
+                keep = np.nonzero(gain > 0.0)[0]  # |m|, |n| < size / 2: no two kept bins fold together
+                record = np.zeros((), _LEVEL)
+                record["size"], record["first"], record["spectral"] = size, columns, int(len(keep) > 0)
+                record["removed"] = 0.5 * ((1.0 - gain * gain) @ tile.square)
+                record["texels"] = texels
+                map_levels.append((texels, size))
+                if len(keep):
+                    # The bins +(m, n) and −(m, n) mod S of each kept wave, in the rows that hold one.
+                    row = np.concatenate([n[keep] % size, -n[keep] % size])
+                    column = np.concatenate([m[keep] % size, -m[keep] % size])
+                    held, row = np.unique(row, return_inverse=True)
+                    spectrum, along = place, place + len(held) * size
+                    place = along + size * size
+                    # Per distinct bin its coefficients, in wave order (stable sort).
+                    key = row * size + column
+                    order = np.argsort(key, kind="stable")
+                    at, start = np.unique(key[order], return_index=True)
+                    half = 0.5 * gain[keep] * (tile.g[keep, 0] + 1j * tile.g[keep, 1])
+                    shift = np.exp(1j * math.pi * (m[keep] + n[keep]) / size)
+                    value = np.concatenate([half * shift, half * shift.conj()])[order]
+                    entry = np.zeros(len(order), _ENTRY)
+                    entry["value"] = np.column_stack([value.real, value.imag])
+                    entry["wave"] = np.concatenate([base + keep, ~(base + keep)])[order]
+                    first = count["entries"] + start
+                    bins.append(np.column_stack([spectrum + at, first, np.append(first[1:], first[0] + len(order)),
+                                                 np.zeros(len(at))]))
+                    entries.append(entry)
+                    # Each held row a task of the third pass; padded to whole work groups.
+                    task = np.zeros((_padded(len(held)), 4), np.int64)
+                    task[:, 0], task[:, 2] = size, -1
+                    task[:len(held), 1] = spectrum + np.arange(len(held)) * size
+                    task[:len(held), 2] = along + held * size
+                    rows.append(task)
+                    record["along"] = along
+                    count["bins"] += len(at)
+                    count["entries"] += len(entry)
+                    count["rows"] += len(task)
+                # The pairs whose weight 1 − G_i G_j is not zero on this level.
+                lost = 1.0 - gain[tile.i] * gain[tile.j]
+                used = np.nonzero(lost != 0.0)[0]
+                pair = np.zeros(len(used), _PAIR)
+                pair["weight"] = (lost[used] * tile.gg[:, used]).T
+                pair["i"] = base + tile.i[used]
+                pair["j"] = np.where(tile.sign[used] < 0.0, base + tile.j[used], ~(base + tile.j[used]))
+                record["pair_first"], record["pair_end"] = count["pairs"], count["pairs"] + len(pair)
+                count["pairs"] += len(pair)
+                pairs.append(pair)
+                levels.append(record)
+                texels += size * size
+                columns += _padded(size)
+            base += len(fixed)
+            self.levels.append(map_levels)
+            self.ends.append({"waves": base, "bins": count["bins"], "rows": count["rows"], "levels": len(levels),
+                              "columns": columns})
+        self.buffers = {
+            "SEA_DETAIL_WAVES": _data(waves, np.float64, (0, 4)),
+            "SEA_DETAIL_GRID": bytes(8 * max(place, 1)),  # zero: what no pass writes
+            "SEA_DETAIL_BINS": _data(bins, np.int32, (0, 4)),
+            "SEA_DETAIL_ENTRIES": _data(entries, _ENTRY, (0,)),
+            "SEA_DETAIL_ROWS": _data(rows, np.int32, (0, 4)),
+            "SEA_DETAIL_LEVELS": _data([np.array(levels, _LEVEL)] if levels else [], _LEVEL, (0,)),
+            "SEA_DETAIL_PAIRS": _data(pairs, _PAIR, (0,)),
+            "SEA_DETAIL_TEXELS": bytes(16 * max(texels, 1)),
+        }
 
 
-@functools.lru_cache(maxsize=8)
-def detail_synth(lattice: bytes, resolution: int, band_limited: bool) -> DetailSynth:
-    """The ``DetailSynth`` of the lattice (m, n, A k) rows given as float64 bytes (``lattice_key``), the
-    resolution and the chain's kind: the key is the whole input, so a changed sea or knob builds anew."""
-    return DetailSynth(np.frombuffer(lattice).reshape(-1, 3), resolution, band_limited)
+def _data(parts: list[np.ndarray], dtype, empty_shape) -> bytes:
+    """The parts' rows as one buffer's bytes (at least one zero element: GL has no empty buffer)."""
+    array = np.concatenate(parts).astype(dtype) if parts else np.zeros(empty_shape, dtype)
+    return array.tobytes() or bytes(np.zeros(1, dtype).nbytes * (empty_shape[1] if len(empty_shape) > 1 else 1))
+
+
+@functools.lru_cache(maxsize=4)
+def synth_tables(lattice, resolution: int) -> SynthTables:
+    """The ``SynthTables`` of a ``detail.DetailLattice`` (one object per set of detail waves: detail.py
+    ``detail_lattice`` caches it by its whole input) at ``resolution``."""
+    return SynthTables([(fixed, omega, phase) for _, fixed, omega, phase in lattice.tiles], resolution)
+
+
+class DetailSynthGL:
+    """The synthesis on one GL context: the tables' buffers and a pixel buffer per level (made again
+    when the tables change, never per frame) and, per frame, the four passes for the time t and the
+    copies of the levels into their textures (a pixel buffer each: moderngl's Texture.write reads a
+    buffer from its start). ``maps_written`` counts the maps written (tests: at most once a frame each)."""
+
+    # Per pass: its shader, the uniform that bounds it (the waves, bins or levels of the maps written;
+    # the rows pass runs exactly its rows, a whole number of groups), what it runs over, its group size.
+    PASSES = (("water/detail_waves.comp.glsl", "u_waves", "waves", WIDE_GROUP),
+              ("water/detail_bins.comp.glsl", "u_bins", "bins", WIDE_GROUP),
+              ("water/detail_rows.comp.glsl", None, "rows", GROUP),
+              ("water/detail_columns.comp.glsl", "u_levels", "columns", GROUP))
+
+    def __init__(self, ctx: moderngl.Context, programs):
+        self.ctx, self.programs = ctx, programs
+        self._tables: SynthTables | None = None
+        self._buffers: dict[str, moderngl.Buffer] = {}
+        self._pixels: list[list[moderngl.Buffer]] = []
+        self._pending = 0  # maps dispatched and not yet copied into their textures
+        self.maps_written = 0
+
+    def release(self) -> None:
+        for buffer in [*self._buffers.values(), *(b for level in self._pixels for b in level)]:
+            buffer.release()
+        self._buffers, self._pixels, self._tables = {}, [], None
+
+    def write(self, textures, tables: SynthTables, t: float, maps: int) -> None:
+        """Write every level of the first ``maps`` maps of ``tables`` into ``textures`` (rgba32f, each
+        with its whole mip chain allocated) for the time ``t`` (s): ``dispatch`` then ``copy``."""
+        self.dispatch(tables, t, maps)
+        self.copy(textures)
+
+    def dispatch(self, tables: SynthTables, t: float, maps: int) -> None:
+        """Run the passes for the first ``maps`` maps at the time ``t`` (s); ``copy`` puts their levels
+        into the textures. (A GPU runs them while the caller goes on; llvmpipe runs each dispatch to
+        its end before returning, on its compute threads.)"""
+        if tables is not self._tables:
+            self.release()
+            self._buffers = {name: self.ctx.buffer(data) for name, data in tables.buffers.items()}
+            self._pixels = [[self.ctx.buffer(reserve=16 * size * size) for _, size in levels] for levels in tables.levels]
+            self._tables = tables
+        ends = tables.ends[maps - 1]
+        self._pending = maps if ends["waves"] else 0
+        if not self._pending:
+            return
+        for name, buffer in self._buffers.items():  # other compute passes may bind these points
+            buffer.bind_to_storage_buffer(STORAGE[name])
+        for path, uniform, end, group in self.PASSES:
+            program = self.programs.compute(path, {"DETAIL_N": tables.resolution, "DETAIL_GROUP": group})
+            set_uniforms(program, {"u_time": float(t), "u_detail_radix": RADIX,
+                                   **({uniform: ends["levels" if end == "columns" else end]} if uniform else {})})
+            program.run(-(-ends[end] // group))
+            # The next pass reads what this one wrote; after the last, ``copy`` reads it.
+            self.ctx.memory_barrier(moderngl.SHADER_STORAGE_BARRIER_BIT | moderngl.BUFFER_UPDATE_BARRIER_BIT)
+
+    def copy(self, textures) -> None:
+        """Copy the levels the last ``dispatch`` made into ``textures`` (its maps', once)."""
+        texels = self._buffers.get("SEA_DETAIL_TEXELS")
+        for texture, levels, pixels in zip(textures[:self._pending], self._tables.levels if texels else [], self._pixels):
+            for index, ((first, size), buffer) in enumerate(zip(levels, pixels)):
+                self.ctx.copy_buffer(buffer, texels, 16 * size * size, read_offset=16 * first)
+                texture.write(buffer, level=index)
+            self.maps_written += bool(levels)
+        self._pending = 0

@@ -30,8 +30,9 @@ from ..passes import RenderPass
 from ..post.exposure import MAX_STREAM_DT
 from ..shaders import assemble, set_uniforms
 from . import lod
-from .detail import (DETAIL_MAPS, detail_map_levels, detail_means, detail_tiles, detail_unresolved_var,
+from .detail import (DETAIL_MAPS, detail_means, detail_synth_tables, detail_tiles, detail_unresolved_var,
                      foam_streaks_needed, minified_maps_from)
+from .detail_synth import DetailSynthGL
 from .foam import (FOAM_EDGE, FOAM_NOISE_SIZE, FOAM_NOISE_UNIT, FOAM_PERIOD, foam_calibration, foam_frame,
                    dots_defines, foam_drawn, rows_channel_cells, streak_variant)
 from .hulls import MAX_HULLS, blocks_near_hulls, hull_boxes
@@ -44,9 +45,6 @@ MAX_WAVES = 64
 DETAIL_UNIT0 = PASS_UNITS["SEA_DETAIL0"]  # and the next two
 FIELD_UNIT = PASS_UNITS["SEA_FIELD"]
 FIELD_SCALAR_UNIT = PASS_UNITS["SEA_FIELD_SCALAR"]
-# Detail map levels of at most this many texels a side are compared with what they hold before an
-# upload (a 16² level is 4 KiB): the coarse levels no wave fits hold the tile's constant moments.
-SMALL_LEVEL = 16
 
 
 @dataclass(frozen=True)
@@ -98,9 +96,8 @@ class WaterPass(UnderwaterDraws, RenderPass):
         self._field_key = None
         self._field_tex = None
         self._detail = None
-        self._detail_key = [None] * DETAIL_MAPS
-        self._detail_texels: list[list[np.ndarray] | None] = [None] * DETAIL_MAPS  # each map's last levels
-        self._detail_small: dict[tuple[int, int], bytes] = {}  # (map, level): what the small levels hold
+        self._detail_key = None  # (tables, t, maps) the detail maps hold
+        self._detail_synth = DetailSynthGL(ctx, programs)
         self._instances = None
         self._tables: SeaTables | None = None
         self._selection = None  # (key, sea, LodSelection) of the last select()
@@ -217,40 +214,32 @@ class WaterPass(UnderwaterDraws, RenderPass):
 
     def _update_detail(self, sea: SeaSurface, t: float, resolution: int, tiles, read: int) -> None:
         """Write the first ``read`` detail maps of ``tiles`` (those some block reads; the others are
-        empty or fully minified everywhere this frame) for time ``t``, with their mip chains
-        (``detail_map_levels``: an inverse FFT on the CPU; drawing the maps and building their mips on
-        llvmpipe cost 2-3 ms a map, most of it waiting for the rasteriser before the mipmap blit)."""
+        empty or fully minified everywhere this frame) for time ``t``, with their mip chains: compute
+        passes from tables made once per sea state and resolution (detail_synth.py), dispatched here
+        and copied into the textures before the draws (``execute``)."""
         if self._detail is None or self._detail[0].size[0] != resolution:
             if self._detail is not None:
                 for tex in self._detail:
                     tex.release()
-            self._detail_key = [None] * DETAIL_MAPS
-            self._detail_small = {}
+            self._detail_key = None
             self._detail = [self.ctx.texture((resolution, resolution), 4, dtype="f4") for _ in range(DETAIL_MAPS)]
             for tex in self._detail:
-                tex.build_mipmaps()  # allocates the chain that _update_detail overwrites level by level
+                tex.build_mipmaps()  # allocates the chain that the synthesis writes level by level
                 tex.repeat_x = tex.repeat_y = True
                 tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
-        for c, ((size, waves), tex) in enumerate(zip(tiles[:read], self._detail)):
-            # A map depends on the sea state and the time only: a frame at the same time (another
-            # view, a re-render of a paused scene) reuses it. (The sea is cached per state by
-            # igserver.water, so identity is the state; a resolution change above clears the keys.)
-            if len(waves) == 0 or (self._detail_key[c] is not None and self._detail_key[c][0] is sea
-                                   and self._detail_key[c][1] == float(t)):
-                continue
-            self._detail_key[c] = (sea, float(t))
-            # the last write's arrays are filled again (no fresh pages each frame); the chain's shapes
-            # follow the resolution alone, so a map's arrays fit whatever its waves
-            held = self._detail_texels[c]
-            held = held if held is not None and len(held[0]) == resolution else None
-            self._detail_texels[c] = detail_map_levels(waves, resolution, out=held)
-            for level, texels in enumerate(self._detail_texels[c]):
-                if texels.shape[0] <= SMALL_LEVEL:  # a coarse level often holds what it held (no wave fits)
-                    content = texels.tobytes()
-                    if self._detail_small.get((c, level)) == content:
-                        continue
-                    self._detail_small[(c, level)] = content
-                tex.write(texels, level=level)
+        if not any(len(waves) for _, waves in tiles[:read]):
+            return
+        # The maps depend on the sea state and the time only: a frame at the same time (another view,
+        # a re-render of a paused scene) reuses them. (The tables are cached per sea state and
+        # resolution, so their identity is the state.)
+        tables = detail_synth_tables(sea, resolution)
+        held = self._detail_key
+        if held is not None and held[0] is tables and held[1] == float(t) and held[2] >= read:
+            return
+        # On a GPU the passes run while the frame's uniforms and programs are made here; the copies
+        # into the textures come just before the first draw (execute).
+        self._detail_synth.dispatch(tables, float(t), read)
+        self._detail_key = (tables, float(t), read)
 
     # ---- per frame ------------------------------------------------------------------------------
     def wave_uniforms(self, sea: SeaSurface, scene: Scene, view: CameraView) -> dict:
@@ -387,6 +376,7 @@ class WaterPass(UnderwaterDraws, RenderPass):
                       "detail_resolution": resolution, **plan_stats,
                       "blocks_by_detail_maps": list(plan_stats["blocks_by_detail_maps"]),
                       "foam": bool(shared["foam"]) if shared is not None else False}
+        self._detail_synth.copy(self._detail)  # the maps this frame dispatched (_update_detail)
         if len(selection.nodes) == 0:
             return
         if self._underwater is not None:
