@@ -2,7 +2,8 @@
 
 Each pass is bracketed by ``ctx.finish()`` and a wall clock (llvmpipe has no usable timer queries);
 ``frame`` is the same frame rendered without the per-pass synchronisation, i.e. what a client sees.
-Animation advances by 1/30 s per frame so time-dependent work (noise, flicker) is really done.
+Animation advances by 1/30 s per frame so time-dependent work (noise, flicker) is really done, the
+way the IG clock steps a stream (``scene.at_sim_time``: the rest of the state stays the same objects).
 
 Besides, per scene, after those frames:
 
@@ -32,7 +33,7 @@ import numpy as np
 from pydantic import ValidationError
 
 from .render.gl_count import GLCallCounter
-from .scene import apply_patch, load_scene
+from .scene import apply_patch, at_sim_time, load_scene
 from .scene.patch import patch_from_assignments
 
 DEFAULT_SCENES = ["sky_only", "clear_noon_ocean", "demo", "night_fire", "high_altitude"]
@@ -144,10 +145,10 @@ def bench_scene(renderer, scene, frames: int, warmup: int = 3, gpu_timer: str | 
     totals, frame_ms = [], []
     t0 = scene.time.sim_time
     for i in range(warmup + frames):
-        s = apply_patch(scene, {"time": {"sim_time": t0 + i / 30.0}})
+        s = at_sim_time(scene, t0 + i / 30.0)  # the IG clock's step: the rest of the state is the same objects
         result = renderer.render(s, timed=True)
         # A different sim_time, so time-animated work (volume modelling) is really redone.
-        s_untimed = apply_patch(scene, {"time": {"sim_time": t0 + (i + 0.5) / 30.0}})
+        s_untimed = at_sim_time(scene, t0 + (i + 0.5) / 30.0)
         start = time.perf_counter()
         renderer.render(s_untimed, timed=False)
         untimed = (time.perf_counter() - start) * 1e3
@@ -163,10 +164,10 @@ def bench_scene(renderer, scene, frames: int, warmup: int = 3, gpu_timer: str | 
     stats = {name: dict(p.stats) for name, p in renderer.graph.passes.items()
              if name in result.passes and getattr(p, "stats", None)}
     # The same clock steps again, after the frames above: the world is as warm as in a stream.
-    later = [apply_patch(scene, {"time": {"sim_time": t0 + (warmup + frames + i) / 30.0}}) for i in range(frames)]
+    later = [at_sim_time(scene, t0 + (warmup + frames + i) / 30.0) for i in range(frames)]
     extra = _instrumented(renderer, later)
     n = 4 * max(frames // 4, 2)  # 4 blocks of at least 2 frames: one frame in flight while one is drawn
-    stream = [apply_patch(scene, {"time": {"sim_time": t0 + (warmup + frames + i) / 30.0}}) for i in range(n)]
+    stream = [at_sim_time(scene, t0 + (warmup + frames + i) / 30.0) for i in range(n)]
     extra["fps_sync"], extra["fps_in_flight"] = _throughput(renderer, stream)
     if gpu_timer is None:
         gpu: dict[str, list[float]] = {}

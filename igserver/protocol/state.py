@@ -15,7 +15,7 @@ from typing import Any, Callable
 from pydantic import ValidationError
 
 from ..scene.model import Effect, Scene
-from ..scene.patch import apply_patch, validate_wire
+from ..scene.patch import apply_patch, at_sim_time, validate_wire
 from .clock import IGClock, sends_sim_time
 from .problems import ProblemError, from_validation_error
 
@@ -164,9 +164,3 @@ class StateStore:
         """Accept a scene from ``validate_patch``/``validate_replace`` (validated against the current state);
         ``tree`` is the message it came from (a ``time.sim_time`` in it hands the clock to the host)."""
         return self._accept(scene, tree)
-
-
-def at_sim_time(scene: Scene, sim_time: float) -> Scene:
-    if scene.time.sim_time == sim_time:
-        return scene
-    return scene.model_copy(update={"time": scene.time.model_copy(update={"sim_time": sim_time})})

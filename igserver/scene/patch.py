@@ -59,6 +59,15 @@ def apply_patch(scene: Scene, patch: dict[str, Any], strict: bool = False) -> Sc
     return Scene.model_validate(merged)
 
 
+def at_sim_time(scene: Scene, sim_time: float) -> Scene:
+    """``scene`` at another ``time.sim_time``: the IG clock's step (an animating stream). Every other part
+    of the state is the same object as before (a shallow copy, the value was validated by the clock),
+    so what the renderer derives from them is found unchanged by identity, not compared field by field."""
+    if scene.time.sim_time == sim_time:
+        return scene
+    return scene.model_copy(update={"time": scene.time.model_copy(update={"sim_time": sim_time})})
+
+
 def parse_value(text: str) -> Any:
     """A ``--set`` value: JSON when it parses (numbers, true, [], {...}), else the raw string."""
     try:
