@@ -13,7 +13,7 @@ from igserver.render.common import aerial_table
 from igserver.render.post import post
 from igserver.render.sky import frame_sky, sky, sky_view, tables
 from igserver.render.surfaces import gpu_models, surfaces
-from igserver.render.water import sea_tables, water
+from igserver.render.water import sea_inputs, sea_tables, water
 
 RENDER = Path(__file__).resolve().parents[1] / "igserver" / "render"
 
@@ -30,8 +30,8 @@ def test_python_side_binds_the_registry_units():
         aerial_table.AERIAL_UNITS.values()) <= set(bindings.FRAME_UNITS.values())
     pass_units = {
         **gpu_models.SAMPLER_UNITS,
-        "water detail": water.DETAIL_UNIT0, "water field": water.FIELD_UNIT,
-        "water field scalar": water.FIELD_SCALAR_UNIT, "water sky reflection": sea_tables.SKY_REFLECT_UNIT,
+        "water detail": water.DETAIL_UNIT0, "water field": sea_inputs.FIELD_UNIT,
+        "water field scalar": sea_inputs.FIELD_SCALAR_UNIT, "water sky reflection": sea_tables.SKY_REFLECT_UNIT,
         "water air T": sea_tables.AIR_T_UNIT, "water air S": sea_tables.AIR_S_UNIT,
         "post halo table": post.HALO_TABLE_UNIT, "sky cirrus table": sky.CIRRUS_TABLE_UNIT,
         "sky cirrus hide": sky.CIRRUS_HIDE_UNIT, "sky hazy table": sky.SKY_HAZY_UNIT,

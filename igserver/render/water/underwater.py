@@ -4,8 +4,8 @@ compiled with WATER_UNDERWATER (water/underwater.glsl: Snell's window, total int
 Jerlov type II attenuation and scattering, the bed) and a full-screen pass (water/underwater.frag.glsl)
 fills what the mesh leaves: the column, the bed with the sun's caustics, the surface missed by the near
 plane; before the sea, two blended passes show the objects the surfaces pass drew through the water
-(water/underwater_objects.frag.glsl). Above the surface nothing here runs, so every frame with the eye
-in the air is what it was."""
+(water/underwater_objects.frag.glsl). With the eye in the air only one thing here may run: an eye close
+to the surface may see past the mesh's underside, where the water body is filled in (_fill_under_crests)."""
 
 from __future__ import annotations
 
@@ -15,13 +15,14 @@ import numpy as np
 from ...scene.model import Scene
 from ...water.bathymetry import depth_at
 from ...water.surface import SeaSurface
-from ..bindings import PASS_UNITS, use_texture
+from ..bindings import use_texture
+from ..frame import local_light_defines
 from ..shaders import set_uniforms
 from .lod import LodSelection
+from .sea_inputs import FIELD_UNIT  # the objects' pass borrows it for the frame's distance (then the field again)
 
 BED_SLOPE_STEP = 10.0  # m: the bed's plane is fitted to the depths this far either side of the eye
 DEEP_BED = 1e4  # m below the eye: no bed seen (the water is opaque past ~110 m)
-FIELD_UNIT = PASS_UNITS["SEA_FIELD"]  # the objects' pass borrows it for the frame's distance (then the field again)
 
 
 def eye_depth(scene: Scene, sea: SeaSurface, eye) -> float:
@@ -55,8 +56,9 @@ def underwater_uniforms(scene: Scene, eye, reach: float) -> dict:
 
 
 class UnderwaterDraws:
-    """The water pass's draws with the eye below the surface (a mixin of water.WaterPass: its programs,
-    context, atmosphere define, field textures and this frame's ``_underwater`` uniforms)."""
+    """The water pass's draws with the eye below the surface or close above it (a mixin of
+    water.WaterPass: its programs, context, atmosphere define, field textures and this frame's
+    ``_underwater`` uniforms)."""
 
     @staticmethod
     def _submerged(frame, sea: SeaSurface, selection: LodSelection) -> bool:
@@ -101,3 +103,37 @@ class UnderwaterDraws:
         self.ctx.disable(moderngl.BLEND)
         if sea.field is not None:  # the distance borrowed the field's unit
             use_texture(self._field_tex[0], FIELD_UNIT)
+
+    @staticmethod
+    def _sees_under_mesh(frame, sea: SeaSurface, selection: LodSelection) -> bool:
+        """Whether the camera may see the underside of the mesh or past it: when it is below the
+        surface (a crest over it) or nearer to it than the near plane. A camera above the surface
+        right below it (the host's height query at its xy, less what the finest mesh level leaves out)
+        by more than the near distance cannot: the sea is a height field out to the horizon, so every
+        ray going down meets its top side before passing beneath it."""
+        sphere = selection.error_sphere
+        height = float(frame.view.position[2]) - frame.scene.ocean.level
+        if height > 1.05 * sphere + frame.view.near:
+            return False
+        w = sea.waves
+        x = w.k * selection.finest_spacing  # mesh deviation near the camera: interpolation + faded waves
+        mesh_error = float(np.sum(w.amplitude * np.minimum(1.0, x * x / 8.0))) * (
+            float(np.max(sea.field.factor)) if sea.field is not None else 1.0)
+        surface = float(sea.query(np.asarray(frame.view.position[:2])[None], frame.scene.time.sim_time)["height"][0])
+        return height - surface <= frame.view.near + mesh_error + 0.05
+
+    def _fill_under_crests(self, frame, selection: LodSelection, table_uniforms: dict) -> None:
+        """Rays that pass under the mesh (``_sees_under_mesh``) meet the water body: draw the sphere
+        below every trough (level − ΣA, no near clip) in deep-water colour; the depth test keeps the
+        mesh wherever it is nearer. Only then: it costs a full-screen pass."""
+        if self._underwater is not None:  # the eye below the surface: the water column and the bed instead
+            self._fill_underwater(table_uniforms)
+            return
+        sphere = selection.error_sphere
+        height = float(frame.view.position[2]) - frame.scene.ocean.level
+        program = self.programs.program("common/fullscreen.vert.glsl", "water/body.frag.glsl",
+                                        {**local_light_defines(frame.lights), **self._atmosphere_define()})
+        set_uniforms(program, frame.uniforms)
+        set_uniforms(program, table_uniforms)
+        set_uniforms(program, {"u_plane_height": -height - 1.05 * sphere})
+        self.fullscreen(program)

@@ -5,9 +5,11 @@ state: integrated once per bathymetry + wave set); phases are reduced in float64
 as good as 100 s); the LOD selection picks the blocks (lod.py); the detail normal maps are rendered
 for the frame's time (three tiles, summed in the water shader).
 
-The pass's parts: the detail maps and what each block reads of them (detail.py), the foam
-(foam.py), the hulls that keep the sea out (hulls.py), the sky reflection and aerial perspective
-tables (sea_tables.py).
+The pass's parts: the detail maps and what each block reads of them (detail.py, detail_synth.py), the
+foam (foam.py), the hulls that keep the sea out (hulls.py), the sky reflection and aerial perspective
+tables (sea_tables.py), the shore (shore.py), the program variant and draw group of each block
+(draw_plan.py), the waves', the field's and the foam noise's inputs (sea_inputs.py), the view from
+under the surface (underwater.py).
 """
 
 from __future__ import annotations
@@ -27,24 +29,20 @@ from ..camera import CameraView
 from ..frame import local_light_defines
 from .. import presets
 from ..passes import RenderPass
-from ..post.exposure import MAX_STREAM_DT
 from ..shaders import assemble, set_uniforms
 from . import lod
-from .detail import (DETAIL_MAPS, detail_means, detail_synth_tables, detail_tiles, detail_unresolved_var,
-                     foam_streaks_needed, minified_maps_from)
+from .detail import DETAIL_MAPS, detail_means, detail_synth_tables, detail_tiles, detail_unresolved_var
 from .detail_synth import DetailSynthGL
-from .foam import (FOAM_EDGE, FOAM_NOISE_SIZE, FOAM_NOISE_UNIT, FOAM_PERIOD, foam_calibration, foam_frame,
-                   dots_defines, foam_drawn, rows_channel_cells, streak_variant)
-from .hulls import MAX_HULLS, blocks_near_hulls, hull_boxes
-from .shore import blocks_reaching_land, shore_uniforms
+from .draw_plan import PlanSwitches, draw_plan
+from .foam import FOAM_EDGE, FOAM_NOISE_UNIT, dots_defines, foam_calibration, foam_drawn, foam_frame, streak_variant
+from .hulls import MAX_HULLS, hull_boxes
+from .sea_inputs import MAX_WAVES, SeaInputs
+from .shore import shore_uniforms
 from .sea_tables import SeaTables
 from .underwater import UnderwaterDraws, underwater_uniforms
 
-MAX_WAVES = 64
 # Texture units bound for the water draw (the frame keeps 8..15: haze table, sky-view table, 4D tables).
 DETAIL_UNIT0 = PASS_UNITS["SEA_DETAIL0"]  # and the next two
-FIELD_UNIT = PASS_UNITS["SEA_FIELD"]
-FIELD_SCALAR_UNIT = PASS_UNITS["SEA_FIELD_SCALAR"]
 
 
 @dataclass(frozen=True)
@@ -82,7 +80,7 @@ def glint_light(uniforms: dict) -> dict:
             "u_glint_illuminance": tuple(float(x) for x in (sun if use_sun else moon))}
 
 
-class WaterPass(UnderwaterDraws, RenderPass):
+class WaterPass(UnderwaterDraws, SeaInputs, RenderPass):
     name = "water"
     preset_pipeline = "water"
     view_state = ("_selection", "_last_eye")  # the LOD selection (select); the eye's last frame (detail_motion)
@@ -172,46 +170,6 @@ class WaterPass(UnderwaterDraws, RenderPass):
             indices[fan] = self.ctx.buffer(lod.fan_indices(fan).tobytes())
         return verts, indices[fan]
 
-    def _upload_field(self, sea: SeaSurface) -> None:
-        if self._field_key is sea:
-            return
-        if self._field_tex is not None:
-            for tex in self._field_tex:
-                tex.release()
-            self._field_tex = None
-        self._field_key = sea
-        f = sea.field
-        if f is None:
-            return
-        n, nu, nv = f.residual.shape
-        data = np.stack([f.residual, f.factor, f.kvec[..., 0], f.kvec[..., 1]], axis=-1)  # (n, nu, nv, 4)
-        data = np.ascontiguousarray(np.transpose(data, (0, 2, 1, 3)), dtype=np.float32)  # rows = v
-        field = self.ctx.texture_array((nu, nv, n), 4, data.tobytes(), dtype="f4")
-        scalar = np.stack([f.steepness, f.depth, f.breaking, np.zeros_like(f.depth)], axis=-1)
-        scalar = np.ascontiguousarray(scalar.transpose(1, 0, 2), dtype=np.float32)
-        scalar_tex = self.ctx.texture((nu, nv), 4, scalar.tobytes(), dtype="f4")
-        for tex in (field, scalar_tex):  # bilinear between nodes, edges clamped (gerstner.glsl)
-            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
-            tex.repeat_x = tex.repeat_y = False
-        self._field_tex = (field, scalar_tex)
-
-    def _foam_noise(self) -> moderngl.Texture:
-        """The foam's streak noise (water/foam_noise.frag.glsl), tabulated once per context."""
-        if self._foam_noise_tex is None:
-            tex = self.ctx.texture((FOAM_NOISE_SIZE, FOAM_NOISE_SIZE), 4, dtype="f1")
-            fbo = self.ctx.framebuffer(color_attachments=[tex])
-            program = self.programs.program("common/fullscreen.vert.glsl", "water/foam_noise.frag.glsl")
-            cells_g, cells_b = rows_channel_cells()
-            set_uniforms(program, {"u_period": FOAM_PERIOD, "u_cells_g": cells_g, "u_cells_b": cells_b})
-            fbo.use()
-            self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-            self.fullscreen(program)
-            fbo.release()
-            tex.repeat_x = tex.repeat_y = True
-            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)  # no mipmaps: a trilinear fetch costs 2x
-            self._foam_noise_tex = tex
-        return self._foam_noise_tex
-
     def _update_detail(self, sea: SeaSurface, t: float, resolution: int, tiles, read: int) -> None:
         """Write the first ``read`` detail maps of ``tiles`` (those some block reads; the others are
         empty or fully minified everywhere this frame) for time ``t``, with their mip chains: compute
@@ -241,39 +199,6 @@ class WaterPass(UnderwaterDraws, RenderPass):
         self._detail_synth.dispatch(tables, float(t), read)
         self._detail_key = (tables, float(t), read)
 
-    # ---- per frame ------------------------------------------------------------------------------
-    def wave_uniforms(self, sea: SeaSurface, scene: Scene, view: CameraView) -> dict:
-        t = scene.time.sim_time
-        cam_xy = view.position[:2]
-        w = sea.waves
-        table = np.zeros((MAX_WAVES, 4), dtype=np.float32)
-        n = min(w.n, MAX_WAVES)
-        table[:n, 0:2] = (w.k[:, None] * w.direction)[:n]
-        table[:n, 2] = w.amplitude[:n]
-        table[:n, 3] = w.omega[:n]
-        phases = np.zeros(MAX_WAVES, dtype=np.float32)
-        phases[:n] = sea.phase_offsets(t, cam_xy)[:n]
-        u = {"u_wave_count": n, "u_wave_norm": float(max(n, 1)), "u_steepness": sea.steepness,
-             "u_second_order": sea.second_order, "u_sea_depth": sea.reference_depth,
-             "u_cam_height": float(view.position[2] - scene.ocean.level),
-             "u_level_z": float(scene.ocean.level - view.position[2]),
-             "u_patch_quads": float(lod.PATCH_QUADS)}
-        if sea.field is not None:
-            g = sea.field.grid
-            u.update({"u_field_origin": tuple(float(x) for x in g.origin - cam_xy),
-                      "u_field_u": tuple(float(x) for x in g.u), "u_field_v": tuple(float(x) for x in g.v),
-                      "u_field_cell": (float(g.du), float(g.dv)), "u_field_size": (g.nu, g.nv),
-                      "u_field": FIELD_UNIT, "u_field_scalar": FIELD_SCALAR_UNIT})
-        return {"uniforms": u, "table": table.tobytes(), "phases": phases.tobytes()}
-
-    def _wave_values(self, sea, wu: dict) -> dict:
-        """The wave set's uniform values (``wave_uniforms``), with a bathymetry's field textures bound."""
-        if sea.field is not None:
-            self._upload_field(sea)
-            use_texture(self._field_tex[0], FIELD_UNIT)
-            use_texture(self._field_tex[1], FIELD_SCALAR_UNIT)
-        return {**wu["uniforms"], "u_wave": wu["table"], "u_wave_phase": wu["phases"]}
-
     def select(self, sea: SeaSurface, scene: Scene, view: CameraView, lod_error_scale: float = 1.0,
                mesh: str = "default") -> lod.LodSelection:
         cam = scene.camera
@@ -293,41 +218,6 @@ class WaterPass(UnderwaterDraws, RenderPass):
         self._selection = (key, sea, selection)
         self._selection_version += 1
         return selection
-
-    def _draw_plan(self, sea, selection, hulls, tiles, scene, view, level_z: float, used_maps: int):
-        """Per block: near a hull, detail maps read, foam streaks, the shore's land; the draw groups they make."""
-        # Blocks whose footprint (grown by the waves' reach) touches no hull are drawn by the program
-        # without the per-fragment hull test (and its discard, which also turns off early depth tests).
-        near_hull = blocks_near_hulls(selection.nodes, hulls, 2.0 * selection.error_sphere + 1.0)
-        flat = selection.flat  # blocks carrying no wave: drawn as fans (lod.fan_indices)
-        # Detail maps read per block: the later (finer) ones are fully minified far enough away.
-        maps = (minified_maps_from(selection, sea, tiles, view, -level_z) if self.skip_minified_maps
-                else np.full(len(selection.nodes), used_maps, dtype=int))
-        # The foam's streak noise only where a pixel is small enough to show it.
-        streaks = (foam_streaks_needed(selection, sea, view, -level_z) if self.skip_faded_streaks
-                   else np.ones(len(selection.nodes), dtype=bool))
-        # The swash and the land only where a block reaches above the water (over a field).
-        land = (blocks_reaching_land(selection.nodes, scene, view, sea) if self.skip_offshore_land
-                else np.full(len(selection.nodes), sea.field is not None))
-        # Draw groups: program (hull test, maps read, streaks, land) x index shape (the full patch, or a
-        # fan with its shared flat sides as one segment: lod.fan_indices), in the order hulls, shape
-        # (full patches first: the near blocks), maps, streaks, land; one instanced draw each.
-        shape = np.where(flat, selection.coarse_sides.astype(int), -1) + 1  # 0: full patch, 1 + mask: fan
-        group = (((near_hull.astype(int) * (len(lod.SIDES) ** 2 + 1) + shape) * (used_maps + 1) + maps) * 2
-                 + streaks) * 2 + land
-        groups = []  # (program key, fan mask or -1, blocks, slot: the group's id, so a slot keeps its shape,
-        #            the blocks as the instance buffer's bytes)
-        for g in np.unique(group):
-            first = int(np.argmax(group == g))
-            key = (bool(near_hull[first]), int(maps[first]), bool(streaks[first]), bool(land[first]))
-            nodes = selection.nodes[group == g]
-            data = np.ascontiguousarray(nodes, np.float32).tobytes()
-            groups.append((key, int(shape[first]) - 1, nodes, int(g), data))
-        stats = {"hull_blocks": int(np.count_nonzero(near_hull)), "fan_blocks": int(np.count_nonzero(flat)),
-                 "one_segment_sides": int(np.unpackbits(selection.coarse_sides).sum()),
-                 "blocks_by_detail_maps": np.bincount(maps, minlength=used_maps + 1).tolist(),
-                 "foam_streak_blocks": int(np.count_nonzero(streaks)), "land_blocks": int(np.count_nonzero(land))}
-        return near_hull, maps, streaks, flat, groups, stats
 
     def execute(self, frame, targets) -> None:
         scene, view = frame.scene, frame.view
@@ -352,7 +242,8 @@ class WaterPass(UnderwaterDraws, RenderPass):
                     tuple((size, len(w)) for size, w in tiles), view.tangents, view.width, view.height, level_z,
                     self.skip_minified_maps, self.skip_faded_streaks, self.skip_offshore_land)
         near_hull, maps, streaks, flat, groups, plan_stats = self.memo.get(
-            "draw_plan", plan_key, lambda: self._draw_plan(sea, selection, hulls, tiles, scene, view, level_z, used_maps))
+            "draw_plan", plan_key, lambda: draw_plan(sea, selection, hulls, tiles, scene, view, level_z, used_maps, PlanSwitches(
+                self.skip_minified_maps, self.skip_faded_streaks, self.skip_offshore_land)))
         # Tile averages of the maps some block does not read (empty maps average 0).
         means = detail_means(tiles) if np.any(maps < used_maps) else np.zeros((DETAIL_MAPS, 4))
         self._update_detail(sea, t, resolution, tiles, int(maps.max()) if len(maps) else 0)
@@ -435,19 +326,6 @@ class WaterPass(UnderwaterDraws, RenderPass):
         return {"values": values, "detail_map": detail_map,
                 "foam": foam_drawn(sea, wind, self.foam_threshold is not None)}
 
-    def detail_motion(self, scene, view) -> tuple[float, float]:
-        """The detail ripples' apparent displacement across this frame (m, world x, y): the eye's
-        horizontal motion since the previous frame of this view when that frame was the last of one
-        stream (0 < dt <= MAX_STREAM_DT); (0, 0) for a still eye, a first frame or a jump. The detail
-        maps are blurred over it (water.frag.glsl detail: a full-interval shutter), so a ripple the eye
-        passes by more than half its length a frame does not alias into shimmer."""
-        t, eye = float(scene.time.sim_time), np.array(view.position[:2], dtype=np.float64)
-        last, self._last_eye = self._last_eye, (t, eye)
-        if last is None or not 0.0 < t - last[0] <= MAX_STREAM_DT:
-            return 0.0, 0.0
-        moved = eye - last[1]
-        return float(moved[0]), float(moved[1])
-
     def _configured_program(self, sea, shared: dict, read_maps: int, means: np.ndarray, with_hulls: bool,
                             foam_streaks: bool, lights: dict, land: bool) -> moderngl.Program:
         """The water program (with or without the hull test, reading the first ``read_maps`` detail
@@ -462,40 +340,6 @@ class WaterPass(UnderwaterDraws, RenderPass):
         if mean is not None:
             set_uniforms(program, {"u_detail_mean": means[read_maps:read_maps + mean.array_length].astype(np.float32).tobytes()})
         return program
-
-    @staticmethod
-    def _sees_under_mesh(frame, sea: SeaSurface, selection: lod.LodSelection) -> bool:
-        """Whether the camera may see the underside of the mesh or past it: when it is below the
-        surface (a crest over it) or nearer to it than the near plane. A camera above the surface
-        right below it (the host's height query at its xy, less what the finest mesh level leaves out)
-        by more than the near distance cannot: the sea is a height field out to the horizon, so every
-        ray going down meets its top side before passing beneath it."""
-        sphere = selection.error_sphere
-        height = float(frame.view.position[2]) - frame.scene.ocean.level
-        if height > 1.05 * sphere + frame.view.near:
-            return False
-        w = sea.waves
-        x = w.k * selection.finest_spacing  # mesh deviation near the camera: interpolation + faded waves
-        mesh_error = float(np.sum(w.amplitude * np.minimum(1.0, x * x / 8.0))) * (
-            float(np.max(sea.field.factor)) if sea.field is not None else 1.0)
-        surface = float(sea.query(np.asarray(frame.view.position[:2])[None], frame.scene.time.sim_time)["height"][0])
-        return height - surface <= frame.view.near + mesh_error + 0.05
-
-    def _fill_under_crests(self, frame, selection: lod.LodSelection, table_uniforms: dict) -> None:
-        """Rays that pass under the mesh (``_sees_under_mesh``) meet the water body: draw the sphere
-        below every trough (level − ΣA, no near clip) in deep-water colour; the depth test keeps the
-        mesh wherever it is nearer. Only then: it costs a full-screen pass."""
-        if self._underwater is not None:  # the eye below the surface: the water column and the bed instead
-            self._fill_underwater(table_uniforms)
-            return
-        sphere = selection.error_sphere
-        height = float(frame.view.position[2]) - frame.scene.ocean.level
-        program = self.programs.program("common/fullscreen.vert.glsl", "water/body.frag.glsl",
-                                        {**local_light_defines(frame.lights), **self._atmosphere_define()})
-        set_uniforms(program, frame.uniforms)
-        set_uniforms(program, table_uniforms)
-        set_uniforms(program, {"u_plane_height": -height - 1.05 * sphere})
-        self.fullscreen(program)
 
     def capture(self, scene: Scene, mesh: str = "default") -> tuple[lod.LodSelection, np.ndarray]:
         """The displaced mesh the GPU would draw for ``scene``: the water vertex shader run by transform
