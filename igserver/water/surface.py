@@ -477,9 +477,10 @@ def _interpolate(table: tuple[np.ndarray, np.ndarray], grid: tuple[int, int], gu
 
 
 def surface_key(ocean: Ocean, weather: Weather) -> str:
-    """Everything the wave set depends on (not the level, not sim_time)."""
-    o = ocean.model_dump(mode="json", exclude={"enabled", "level", "lod_error", "detail_resolution"})
-    return json.dumps([o, weather.wind_speed, weather.wind_direction], sort_keys=True)
+    """Everything the wave set depends on (not the level, not sim_time), as JSON (pydantic's own
+    serialiser, in C: the fields in their declared order, so the same state gives the same text)."""
+    o = ocean.model_dump_json(exclude={"enabled", "level", "lod_error", "detail_resolution"})
+    return f"[{o}, {json.dumps(weather.wind_speed)}, {json.dumps(weather.wind_direction)}]"
 
 
 def sea_surface(ocean: Ocean, weather: Weather, wave_count: int | None = None) -> SeaSurface:

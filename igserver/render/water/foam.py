@@ -190,7 +190,21 @@ FOAM_NOISE_UNIT = FRAME_UNITS["FOAM_NOISE"]
 
 def wave_lags(sea: SeaSurface, max_waves: int) -> bytes:
     """Per mesh wave (1 − cos ωL₁, sin ωL₁, 1 − cos ωL₂, sin ωL₂) for the lags FOAM_LAG: the phase
-    turns gerstner.glsl needs for J at t − L (u_wave_lag)."""
+    turns gerstner.glsl needs for J at t − L (u_wave_lag). Once per sea state (held with the sea)."""
+    held = _LAGS.get((id(sea), max_waves))
+    if held is not None and held[0] is sea:
+        return held[1]
+    if len(_LAGS) > 16:
+        _LAGS.clear()
+    table = _wave_lags(sea, max_waves)
+    _LAGS[(id(sea), max_waves)] = (sea, table)
+    return table
+
+
+_LAGS: dict[tuple[int, int], tuple[SeaSurface, bytes]] = {}
+
+
+def _wave_lags(sea: SeaSurface, max_waves: int) -> bytes:
     table = np.zeros((max_waves, 4), dtype=np.float64)
     n = min(sea.waves.n, max_waves)
     for c, lag in enumerate(FOAM_LAG):
@@ -206,24 +220,24 @@ def foam_frame(scene: Scene, view: CameraView, sea: SeaSurface, wind: float, max
     rows'), drifted downwind by the time, reduced mod
     the period in float64 so the streaks stay put on the sea at any distance from the origin and any
     sim_time — the lags' decay and the spray's strength."""
+    # plain floats: a handful of numbers a frame (numpy's per-call cost is most of their time)
     to = math.radians(scene.weather.wind_direction + 180.0)  # the wind blows from wind_direction
-    axis = np.array([math.sin(to), math.cos(to)])
-    across = np.array([-axis[1], axis[0]])
-    cam = np.asarray(view.position[:2], dtype=np.float64)
+    axis = (math.sin(to), math.cos(to))
+    cam_x, cam_y = float(view.position[0]), float(view.position[1])
     size = streak_size(wind)
     t = scene.time.sim_time
-    along, side = float(cam @ axis), float(cam @ across)
+    along, side = cam_x * axis[0] + cam_y * axis[1], cam_y * axis[0] - cam_x * axis[1]
     drifted = along - FOAM_DRIFT * wind * t
-    offset = np.array([np.mod([drifted / (size[0] * sx) + dx, side / (size[1] * sy) + dy], FOAM_PERIOD)
+    offset = np.array([((drifted / (size[0] * sx) + dx) % FOAM_PERIOD, (side / (size[1] * sy) + dy) % FOAM_PERIOD)
                        for (sx, sy), (dx, dy) in zip(FOAM_OCTAVE_SCALE, FOAM_OCTAVE_SHIFT)], dtype=np.float32)
     hs = sea.waves.hs
     patch_size = whitecap_patch_size(hs)
-    patch = np.mod([drifted / patch_size[0], side / patch_size[1]], FOAM_PERIOD)
-    dots = np.mod([drifted / patch_size[0], side / patch_size[1]], FOAM_DOT_PERIOD)
+    patch = (drifted / patch_size[0] % FOAM_PERIOD, side / patch_size[1] % FOAM_PERIOD)
+    dots = (drifted / patch_size[0] % FOAM_DOT_PERIOD, side / patch_size[1] % FOAM_DOT_PERIOD)
     return {"u_foam_frame": (*axis, 1.0 / size[0], 1.0 / size[1]),
             "u_foam_offset": offset.tobytes(), "u_foam_period": FOAM_PERIOD,
-            "u_foam_octaves": streak_octave_weights(wind), "u_foam_patch": (1.0 / patch_size[0], 1.0 / patch_size[1], *(float(x) for x in patch)),
-            "u_foam_dots": (*(float(x) for x in dots), math.fmod(t, FOAM_DOT_LIFE * 4096.0) % (FOAM_DOT_LIFE * 4096.0)),
+            "u_foam_octaves": streak_octave_weights(wind), "u_foam_patch": (1.0 / patch_size[0], 1.0 / patch_size[1], *patch),
+            "u_foam_dots": (*dots, t % (FOAM_DOT_LIFE * 4096.0)),
             "u_foam_noise": FOAM_NOISE_UNIT, "u_foam_decay": (*foam_decay(), SURF_FOAM_JACOBIAN, streak_opacity(wind)),
             "u_spray": (spray_strength(wind), 1.0 / max(hs, 1e-3)),
             "u_wave_lag": wave_lags(sea, max_waves)}
