@@ -50,7 +50,7 @@ def _assert_levels(got: list[np.ndarray], want: list[np.ndarray]) -> None:
         assert error <= TOLERANCE * scale, (level, error / scale)
 
 
-@pytest.mark.parametrize("resolution", [32, 128])
+@pytest.mark.parametrize("resolution", [32, 128, 256])
 def test_levels_equal_the_direct_construction(renderer, resolution):
     tiles = _tiles()
     for waves, levels in zip(tiles, synthesized_levels(renderer, tiles, resolution)):

@@ -8,9 +8,8 @@ layout(local_size_x = DETAIL_GROUP) in;
 // Per bin: (its place in detail_grid, its coefficients [first, end), unused).
 layout(std430, binding = STORAGE_SEA_DETAIL_BINS) readonly buffer DetailBins { ivec4 detail_bins[]; };
 // Per coefficient: c_± = ½ G (g_x + i g_y) e^{±iπ (m + n) / S} and its wave (~wave: the conjugate bin
-// −(m, n), times e^{−iφ}).
-struct DetailEntry { vec2 value; int wave; int unused; };
-layout(std430, binding = STORAGE_SEA_DETAIL_ENTRIES) readonly buffer DetailEntries { DetailEntry detail_entries[]; };
+// −(m, n), times e^{−iφ}), read as one vec4 (value, wave's bits, unused): one load on llvmpipe.
+layout(std430, binding = STORAGE_SEA_DETAIL_ENTRIES) readonly buffer DetailEntries { vec4 detail_entries[]; };
 
 uniform int u_bins;  // bins of the maps written (a prefix of the table: the first maps')
 
@@ -20,9 +19,10 @@ void main() {
     ivec4 bin = detail_bins[id];
     vec2 sum = vec2(0.0);
     for (int e = bin.y; e < bin.z; ++e) {
-        DetailEntry entry = detail_entries[e];
-        vec2 phasor = entry.wave < 0 ? detail_grid[~entry.wave] * vec2(1.0, -1.0) : detail_grid[entry.wave];
-        sum += vec2(entry.value.x * phasor.x - entry.value.y * phasor.y, entry.value.x * phasor.y + entry.value.y * phasor.x);
+        vec4 entry = detail_entries[e];
+        int wave = floatBitsToInt(entry.z);
+        vec2 phasor = detail_grid[wave < 0 ? ~wave : wave] * vec2(1.0, wave < 0 ? -1.0 : 1.0);  // one load
+        sum += vec2(entry.x * phasor.x - entry.y * phasor.y, entry.x * phasor.y + entry.y * phasor.x);
     }
     detail_grid[bin.x] = sum;
 }

@@ -2,8 +2,8 @@
 // along n of the level's grid, as (sx, sy, sx² + removed_x, sy² + removed_y) into the level's texels
 // (x, y) in detail_texels, from where each level goes to its texture (a copy: llvmpipe's imageStore cost
 // 2x the pass). A level no wave fits holds (0, 0, removed): the tile's slope variance.
-// One invocation per column; each level's columns start on a work group (padded to 8 invocations), so
-// the level and its size are the same throughout a work group.
+// One invocation per two columns (x, x + 1: a point of both one vec4 load); each level's columns start
+// on a work group (padded to 8 invocations), so the level and its size are the same throughout a group.
 #define DETAIL_COLUMNS 1
 #include "water/detail_synth.glsl"
 
@@ -11,6 +11,21 @@ layout(local_size_x = DETAIL_GROUP) in;
 
 // Per level, rows along the tile's y, S × S texels from its first.
 layout(std430, binding = STORAGE_SEA_DETAIL_TEXELS) buffer DetailTexels { vec4 detail_texels[]; };
+
+// The level's texels at y of the columns x and x + 1 from their values v (a pair).
+void detail_column_store(int at, vec4 v, vec2 removed) {
+    detail_texels[at] = vec4(v.xy, v.xy * v.xy + removed);
+    detail_texels[at + 1] = vec4(v.zw, v.zw * v.zw + removed);
+}
+
+// Z between the FFT's steps (detail_fft.py): the invocation's own shared memory where it fits (llvmpipe
+// bounds-checks no shared access), else the texels of its column x (each all four channels: the pair).
+#if DETAIL_N <= 128
+shared vec4 detail_scratch[DETAIL_GROUP * DETAIL_N];
+#define DETAIL_Z(at) detail_scratch[int(gl_LocalInvocationIndex) * DETAIL_N + (at)]
+#else
+#define DETAIL_Z(at) detail_texels[texel + (at) * size]
+#endif
 
 #include "generated/detail_fft.glsl"
 
@@ -36,8 +51,8 @@ void main() {
         if (group >= detail_levels[l].first) level = l;
     }
     DetailLevel record = detail_levels[level];
-    int x = group - record.first + int(gl_LocalInvocationID.x);
-    if (x >= record.size) return;  // the padding of a level narrower than a work group
+    int x = 2 * (group - record.first + int(gl_LocalInvocationID.x));  // the pair's first column
+    if (x >= record.size) return;  // the padding of a level narrower than two work groups
     vec2 removed = record.removed;
     for (int p = record.pair_first; p < record.pair_end; ++p) {
         DetailPair pair = detail_pairs[p];
@@ -45,7 +60,10 @@ void main() {
         removed += pair.weight * (0.5 * cos(detail_angle(sum)));
     }
     if (record.spectral == 0) {
-        for (int y = 0; y < record.size; ++y) detail_texels[record.texels + y * record.size + x] = vec4(0.0, 0.0, removed);
+        for (int y = 0; y < record.size; ++y) {
+            detail_texels[record.texels + y * record.size + x] = vec4(0.0, 0.0, removed);
+            if (x + 1 < record.size) detail_texels[record.texels + y * record.size + x + 1] = vec4(0.0, 0.0, removed);
+        }
     } else {
         detail_column(record.size, record.along, x, record.texels + x, removed);
     }

@@ -12,9 +12,11 @@ The passes, each reading what the one before wrote (a memory barrier between):
 1. detail_waves.comp.glsl: each wave's phasor e^{iφ}, φ reduced in double precision (t reaches 1e9 s).
 2. detail_bins.comp.glsl: each bin's Σ c_± e^{±iφ}, gathered from its coefficients (no atomics; a
    filled tile has one a bin, the snapped waves may share one).
-3. detail_rows.comp.glsl: the inverse DFT along m of each row that holds a bin.
-4. detail_columns.comp.glsl: the inverse DFT along n of each column, written as (sx, sy, sx² + r_x,
-   sy² + r_y) into the level's texels, each level then copied into its mip level of the map.
+3. detail_rows.comp.glsl: the inverse DFT along m of each row that holds a bin, two a task (their
+   spectra interleaved: a point of both is one load; an odd row's partner a spare row).
+4. detail_columns.comp.glsl: the inverse DFT along n of each column, two a task (x, x + 1), written
+   as (sx, sy, sx² + r_x, sy² + r_y) into the level's texels, each level then copied into its mip
+   level of the map.
 
 The variance r that a level's gains removed, Σ (1 − G_i G_j) g_i g_j w_ij (detail_mips.py), is a
 fixed Σ ½ (1 − G_i²) g_i² per wave and, for the pairs of waves on the same or opposite lattice
@@ -24,8 +26,9 @@ levels' r is a constant of the table).
 
 The same values as detail_mips.py ``band_limited_levels`` (the tests' reference) within float32's
 rounding, 3e-7 of the map's largest slope: the phases are reduced in double precision, their sines
-and the DFTs run in float. On llvmpipe (its one compute thread) the demo's two 128² maps take ~1.1 ms:
-waves 0.04, bins 0.16, rows 0.25, columns 0.6, copies 0.06; the calling thread's Python ~0.1 ms.
+and the DFTs run in float. On llvmpipe (its one compute thread) the demo's two 128² maps take ~0.9 ms:
+waves 0.04, bins 0.14, rows 0.21, columns 0.44, copies 0.06; the calling thread's Python ~0.1 ms.
+There a storage load costs a loop over the lanes whatever its width: the passes read pairs (vec4).
 """
 
 from __future__ import annotations
@@ -97,11 +100,11 @@ def lattice_key(waves: np.ndarray) -> bytes:
 
 
 # The passes' work-group sizes (local_size_x): an invocation per wave or bin, 32 a group (llvmpipe's
-# cost per group: 25 % of the bins' pass at 8); an invocation per row or column, 8 a group (a vector
-# on llvmpipe), each level's rows and columns starting on a group of their own (padded).
+# cost per group: 25 % of the bins' pass at 8); an invocation per two rows or columns, 8 a group (a
+# vector on llvmpipe), each level's rows and columns starting on a group of their own (padded).
 GROUP = 8
 WIDE_GROUP = 32
-_ENTRY = np.dtype([("value", "<f4", 2), ("wave", "<i4"), ("unused", "<i4")])
+_ENTRY = np.dtype([("value", "<f4", 2), ("wave", "<i4"), ("unused", "<i4")])  # one vec4 (bins' pass)
 _LEVEL = np.dtype([("size", "<i4"), ("along", "<i4"), ("first", "<i4"), ("spectral", "<i4"),
                    ("removed", "<f4", 2), ("pair_first", "<i4"), ("pair_end", "<i4"), ("texels", "<i4"),
                    ("unused", "<i4", 3)])
@@ -148,7 +151,13 @@ class SynthTables:
                     row = np.concatenate([n[keep] % size, -n[keep] % size])
                     column = np.concatenate([m[keep] % size, -m[keep] % size])
                     held, row = np.unique(row, return_inverse=True)
-                    spectrum, along = place, place + len(held) * size
+                    # The held rows in pairs (2p, 2p + 1), their spectra interleaved (a pair's point m
+                    # one vec4: one load), an odd last row paired with a spare row that nothing reads;
+                    # the grid even (the columns read pairs of points).
+                    pairs_held = -(-len(held) // 2)
+                    spectrum = place + place % 2
+                    spare = spectrum + 2 * pairs_held * size
+                    along = spare + size + (spare + size) % 2
                     place = along + size * size
                     # Per distinct bin its coefficients, in wave order (stable sort).
                     key = row * size + column
@@ -161,14 +170,16 @@ class SynthTables:
                     entry["value"] = np.column_stack([value.real, value.imag])
                     entry["wave"] = np.concatenate([base + keep, ~(base + keep)])[order]
                     first = count["entries"] + start
-                    bins.append(np.column_stack([spectrum + at, first, np.append(first[1:], first[0] + len(order)),
+                    slot = spectrum + 2 * ((at // size // 2) * size + at % size) + at // size % 2
+                    bins.append(np.column_stack([slot, first, np.append(first[1:], first[0] + len(order)),
                                                  np.zeros(len(at))]))
                     entries.append(entry)
-                    # Each held row a task of the third pass; padded to whole work groups.
-                    task = np.zeros((_padded(len(held)), 4), np.int64)
+                    # Each pair of held rows a task of the third pass; padded to whole work groups.
+                    task = np.zeros((_padded(pairs_held), 4), np.int64)
                     task[:, 0], task[:, 2] = size, -1
-                    task[:len(held), 1] = spectrum + np.arange(len(held)) * size
-                    task[:len(held), 2] = along + held * size
+                    task[:pairs_held, 1] = spectrum + 2 * np.arange(pairs_held) * size
+                    out = np.append(along + held * size, spare)
+                    task[:pairs_held, 2], task[:pairs_held, 3] = out[0:2 * pairs_held:2], out[1:2 * pairs_held:2]
                     rows.append(task)
                     record["along"] = along
                     count["bins"] += len(at)
@@ -186,7 +197,7 @@ class SynthTables:
                 pairs.append(pair)
                 levels.append(record)
                 texels += size * size
-                columns += _padded(size)
+                columns += _padded(-(-size // 2))  # an invocation per pair of columns
             base += len(fixed)
             self.levels.append(map_levels)
             self.ends.append({"waves": base, "bins": count["bins"], "rows": count["rows"], "levels": len(levels),
