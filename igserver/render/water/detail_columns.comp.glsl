@@ -13,9 +13,12 @@ layout(local_size_x = DETAIL_GROUP) in;
 layout(std430, binding = STORAGE_SEA_DETAIL_TEXELS) buffer DetailTexels { vec4 detail_texels[]; };
 
 // The level's texels at y of the columns x and x + 1 from their values v (a pair).
+// The texels as pairs (8 floats as a dvec4 of their bits): two texels in one store (at even).
+layout(std430, binding = STORAGE_SEA_DETAIL_TEXELS) writeonly buffer DetailTexelPairs { dvec4 detail_texel_pairs[]; };
+double detail_bits(float a, float b) { return packDouble2x32(uvec2(floatBitsToUint(a), floatBitsToUint(b))); }
 void detail_column_store(int at, vec4 v, vec2 removed) {
-    detail_texels[at] = vec4(v.xy, v.xy * v.xy + removed);
-    detail_texels[at + 1] = vec4(v.zw, v.zw * v.zw + removed);
+    vec4 a = vec4(v.xy, v.xy * v.xy + removed), b = vec4(v.zw, v.zw * v.zw + removed);
+    detail_texel_pairs[at >> 1] = dvec4(detail_bits(a.x, a.y), detail_bits(a.z, a.w), detail_bits(b.x, b.y), detail_bits(b.z, b.w));
 }
 
 // Z between the FFT's steps (detail_fft.py): the invocation's own shared memory where it fits (llvmpipe

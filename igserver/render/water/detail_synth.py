@@ -27,8 +27,9 @@ levels' r is a constant of the table).
 The same values as detail_mips.py ``band_limited_levels`` (the tests' reference) within float32's
 rounding, 3e-7 of the map's largest slope: the phases are reduced in double precision, their sines
 and the DFTs run in float. On llvmpipe (its one compute thread) the demo's two 128² maps take ~0.9 ms:
-waves 0.04, bins 0.14, rows 0.21, columns 0.44, copies 0.06; the calling thread's Python ~0.1 ms.
-There a storage load costs a loop over the lanes whatever its width: the passes read pairs (vec4).
+waves 0.04, bins 0.14, rows 0.21, columns 0.39, copies 0.06; the calling thread's Python ~0.1 ms.
+There a storage access costs a loop over the lanes whatever its width: the passes read pairs (vec4)
+and the columns write pairs of texels (8 floats, a dvec4 of their bits).
 """
 
 from __future__ import annotations
@@ -196,7 +197,7 @@ class SynthTables:
                 count["pairs"] += len(pair)
                 pairs.append(pair)
                 levels.append(record)
-                texels += size * size
+                texels += size * size + size * size % 2  # each level's first even (pairs of texels)
                 columns += _padded(-(-size // 2))  # an invocation per pair of columns
             base += len(fixed)
             self.levels.append(map_levels)
