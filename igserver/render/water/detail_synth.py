@@ -100,11 +100,12 @@ def lattice_key(waves: np.ndarray) -> bytes:
     return np.ascontiguousarray(waves[:, 0:3], dtype=np.float64).tobytes()
 
 
-# The passes' work-group sizes (local_size_x): an invocation per wave or bin, 32 a group (llvmpipe's
-# cost per group: 25 % of the bins' pass at 8); an invocation per two rows or columns, 8 a group (a
-# vector on llvmpipe), each level's rows and columns starting on a group of their own (padded).
+# The passes' work-group sizes (local_size_x): an invocation per wave or bin, 128 a group (llvmpipe's
+# cost per group: 25 % of the bins' pass at 8, 10 % at 32, none measured past 128); an invocation per
+# two rows or columns, 8 a group (a vector on llvmpipe), each level's rows and columns starting on a
+# group of their own (padded).
 GROUP = 8
-WIDE_GROUP = 32
+WIDE_GROUP = 128
 _ENTRY = np.dtype([("value", "<f4", 2), ("wave", "<i4"), ("unused", "<i4")])  # one vec4 (bins' pass)
 _LEVEL = np.dtype([("size", "<i4"), ("along", "<i4"), ("first", "<i4"), ("spectral", "<i4"),
                    ("removed", "<f4", 2), ("pair_first", "<i4"), ("pair_end", "<i4"), ("texels", "<i4"),
