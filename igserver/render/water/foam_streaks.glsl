@@ -137,7 +137,7 @@ float foam_dots(float m, vec2 rest, vec2 dx, vec2 dy, float sparse) {
     uint k = ((h & 0xffffu) ^ (uint(life) * 0x9e3779b9u)) * 0x85ebca6bu;
     float lambda = m * float(1 << (level.x + level.y)) / FOAM_DOT_AREA;
     float p = lambda / (1.0 + lambda);  // the chance the cell shows foam: ~lambda when sparse, 1 when dense
-    float cover = min(m / max(p, 1e-9), 1.0);  // FOAM_DOT_AREA / n + m: under 1 but where m is
+    float cover = min(m / max(p, 1e-9), 1.0);  // = FOAM_DOT_AREA / n + m: under 1 unless m is near 1
     // the foam's fading over a life, 3 (1 - age)^2, mean 1: a sparse cell's one whitecap ages, a dense
     // cell's lambda whitecaps of their own ages average out (by 1 / sqrt(1 + lambda) = sqrt(1 - P)); no
     // more than keeps the cover under 1
