@@ -2,7 +2,7 @@
 // along n of the level's grid, as (sx, sy, sx² + removed_x, sy² + removed_y) into the level's texels
 // (x, y) in detail_texels, from where each level goes to its texture (a copy: llvmpipe's imageStore cost
 // 2x the pass). A level no wave fits holds (0, 0, removed): the tile's slope variance.
-// One invocation per two columns (x, x + 1: a point of both one vec4 load); each level's columns start
+// One invocation per four columns (x .. x + 3: a point of all one dvec4 load); each level's columns start
 // on a work group (padded to 8 invocations), so the level and its size are the same throughout a group.
 #define DETAIL_COLUMNS 1
 #include "water/detail_synth.glsl"
@@ -12,22 +12,37 @@ layout(local_size_x = DETAIL_GROUP) in;
 // Per level, rows along the tile's y, S × S texels from its first.
 layout(std430, binding = STORAGE_SEA_DETAIL_TEXELS) buffer DetailTexels { vec4 detail_texels[]; };
 
-// The level's texels at y of the columns x and x + 1 from their values v (a pair).
-// The texels as pairs (8 floats as a dvec4 of their bits): two texels in one store (at even).
-layout(std430, binding = STORAGE_SEA_DETAIL_TEXELS) writeonly buffer DetailTexelPairs { dvec4 detail_texel_pairs[]; };
-double detail_bits(float a, float b) { return packDouble2x32(uvec2(floatBitsToUint(a), floatBitsToUint(b))); }
-void detail_column_store(int at, vec4 v, vec2 removed) {
-    vec4 a = vec4(v.xy, v.xy * v.xy + removed), b = vec4(v.zw, v.zw * v.zw + removed);
-    detail_texel_pairs[at >> 1] = dvec4(detail_bits(a.x, a.y), detail_bits(a.z, a.w), detail_bits(b.x, b.y), detail_bits(b.z, b.w));
+// Four complex values (8 floats) as a dvec4 of their bits: one access. The grid's points (x .. x + 3)
+// of a row (x a multiple of 4, as the grid's rows and start), the texels (x, x + 1) of a level.
+layout(std430, binding = STORAGE_SEA_DETAIL_GRID) readonly buffer DetailGridQuads { dvec4 detail_grid_quads[]; };
+layout(std430, binding = STORAGE_SEA_DETAIL_TEXELS) buffer DetailTexelPairs { dvec4 detail_texel_pairs[]; };
+double detail_bits(vec2 v) { return packDouble2x32(floatBitsToUint(v)); }
+vec2 detail_floats(double d) { return uintBitsToFloat(unpackDouble2x32(d)); }
+dvec4 detail_pack(mat2x4 v) {
+    return dvec4(detail_bits(v[0].xy), detail_bits(v[0].zw), detail_bits(v[1].xy), detail_bits(v[1].zw));
+}
+mat2x4 detail_unpack(dvec4 d) {
+    return mat2x4(vec4(detail_floats(d.x), detail_floats(d.y)), vec4(detail_floats(d.z), detail_floats(d.w)));
+}
+mat2x4 detail_quad(int at) { return detail_unpack(detail_grid_quads[at >> 2]); }
+
+// The level's texels at y of the columns x .. x + 3 from their values v, two stores (at even).
+void detail_column_store(int at, mat2x4 v, vec2 removed) {
+    detail_texel_pairs[at >> 1] = detail_pack(mat2x4(vec4(v[0].xy, v[0].xy * v[0].xy + removed),
+                                                     vec4(v[0].zw, v[0].zw * v[0].zw + removed)));
+    detail_texel_pairs[(at >> 1) + 1] = detail_pack(mat2x4(vec4(v[1].xy, v[1].xy * v[1].xy + removed),
+                                                           vec4(v[1].zw, v[1].zw * v[1].zw + removed)));
 }
 
 // Z between the FFT's steps (detail_fft.py): the invocation's own shared memory where it fits (llvmpipe
-// bounds-checks no shared access), else the texels of its column x (each all four channels: the pair).
-#if DETAIL_N <= 128
-shared vec4 detail_scratch[DETAIL_GROUP * DETAIL_N];
-#define DETAIL_Z(at) detail_scratch[int(gl_LocalInvocationIndex) * DETAIL_N + (at)]
+// bounds-checks no shared access), else the texels (x, x + 1) (8 floats: the four columns' Z).
+#if DETAIL_N <= 128  // 32 KiB: llvmpipe's limit
+shared dvec4 detail_scratch[DETAIL_GROUP * DETAIL_N];
+mat2x4 detail_z(int at, int texel, int size) { return detail_unpack(detail_scratch[int(gl_LocalInvocationIndex) * DETAIL_N + at]); }
+void detail_z(int at, int texel, int size, mat2x4 v) { detail_scratch[int(gl_LocalInvocationIndex) * DETAIL_N + at] = detail_pack(v); }
 #else
-#define DETAIL_Z(at) detail_texels[texel + (at) * size]
+mat2x4 detail_z(int at, int texel, int size) { return detail_unpack(detail_texel_pairs[(texel + at * size) >> 1]); }
+void detail_z(int at, int texel, int size, mat2x4 v) { detail_texel_pairs[(texel + at * size) >> 1] = detail_pack(v); }
 #endif
 
 #include "generated/detail_fft.glsl"
@@ -54,8 +69,8 @@ void main() {
         if (group >= detail_levels[l].first) level = l;
     }
     DetailLevel record = detail_levels[level];
-    int x = 2 * (group - record.first + int(gl_LocalInvocationID.x));  // the pair's first column
-    if (x >= record.size) return;  // the padding of a level narrower than two work groups
+    int x = 4 * (group - record.first + int(gl_LocalInvocationID.x));  // the first of four columns
+    if (x >= record.size) return;  // the padding of a level narrower than four work groups
     vec2 removed = record.removed;
     for (int p = record.pair_first; p < record.pair_end; ++p) {
         DetailPair pair = detail_pairs[p];
@@ -64,8 +79,7 @@ void main() {
     }
     if (record.spectral == 0) {
         for (int y = 0; y < record.size; ++y) {
-            detail_texels[record.texels + y * record.size + x] = vec4(0.0, 0.0, removed);
-            if (x + 1 < record.size) detail_texels[record.texels + y * record.size + x + 1] = vec4(0.0, 0.0, removed);
+            for (int c = x; c < min(x + 4, record.size); ++c) detail_texels[record.texels + y * record.size + c] = vec4(0.0, 0.0, removed);
         }
     } else {
         detail_column(record.size, record.along, x, record.texels + x, removed);

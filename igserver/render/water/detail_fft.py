@@ -1,11 +1,12 @@
 """The detail maps' inverse DFTs as GLSL made here (``generated/detail_fft.glsl``, included by
 detail_rows.comp.glsl and detail_columns.comp.glsl; detail_synth.py registers it): ``detail_row`` and
-``detail_column`` transform two rows or two columns of S = 1, 2, .. 512 points per invocation, each
-point of the pair a vec4 (DETAIL_C: two complex values) read by one load (no barrier: llvmpipe runs a
+``detail_column`` transform two rows or four columns of S = 1, 2, .. 512 points per invocation, each
+point of them a vec4 or mat2x4 (DETAIL_C: two or four complex values) read by one load (no barrier: llvmpipe runs a
 barrier's invocations as coroutines). On llvmpipe each storage load or store is a loop over the 8
 lanes, its cost mostly per access, not per value (measured at 128²: dropping the columns' input load,
 one of four accesses a point, saved 22 % of the pass; widening it to a vec4 cost 7 %): two transforms
-an invocation take half the accesses (columns 0.60 -> 0.44 ms, rows 0.25 -> 0.21 for the demo).
+an invocation take half the accesses (columns 0.60 -> 0.44 ms, rows 0.25 -> 0.21 for the demo), four
+columns in dvec4s (8 floats) a quarter (0.35 ms).
 
 Why generated: a DFT in a local array indexed by loop counters runs on llvmpipe as a search over the
 array per access (~36 ns per radix-2 butterfly of 8 lanes); unrolled, each point is a variable of its
@@ -18,8 +19,9 @@ x = x2 + B x1 (k1, x1 < RADIX; k2, x2 < B), w_N = e^{2πi / N},
     y[x2 + B x1] = Σ_k1 Z[k1][x2] w_RADIX^{k1 x1}                 (one RADIX-point DFT per x2)
 
 (w_S^{k x} splits so, w_S^{RADIX B k2 x1} = 1). Z sits at the places x2 + B k1 of the scratch
-(DETAIL_Z: the invocation's shared memory, or the output itself), the second step in place per x2. The loops run to the uniform u_detail_radix (= RADIX), a bound the
-compiler cannot unroll; one RADIX-point kernel serves every size, a B-point one per B up to the map's.
+(the invocation's shared memory up to 128², else the output itself), the second step in place per x2.
+The loops run to the uniform u_detail_radix (= RADIX), a bound the compiler cannot unroll; one
+RADIX-point kernel serves every size, a B-point one per B up to the map's.
 Compiled in 0.6 s at 128² (1.7 s at 512²) and ~20 % faster than unrolled whole (less spilled). The
 kernels are radix 2, decimation in time: points d_k = X_{rev(k)} (k's bits reversed), joined in log2 n
 stages, d_a, d_b ← d_a + w d_b, d_a − w d_b, w = e^{+2πi k / (2 span)}. The twiddles w_S^{k1 x2} are sines
@@ -116,8 +118,10 @@ def _transform(name: str, params: str, args: str, load: str, store: str, scratch
 HEAD = """uniform int u_detail_radix;  // RADIX (detail_fft.py): a loop bound the compiler cannot unroll
 vec2 detail_mul(vec2 a, vec2 b) { return vec2(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x); }
 vec4 detail_mul(vec2 a, vec4 b) { return vec4(detail_mul(a, b.xy), detail_mul(a, b.zw)); }  // a pair
+mat2x4 detail_mul(vec2 a, mat2x4 b) { return mat2x4(detail_mul(a, b[0]), detail_mul(a, b[1])); }  // four
 vec2 detail_i(vec2 b) { return vec2(-b.y, b.x); }  // i b
 vec4 detail_i(vec4 b) { return vec4(-b.y, b.x, -b.w, b.z); }
+mat2x4 detail_i(mat2x4 b) { return mat2x4(detail_i(b[0]), detail_i(b[1])); }
 vec2 detail_turn(int j, int n) {  // e^{2πi j / n}, 0 <= j < n, its angle taken in [−π, π]
     float angle = 6.28318531 * float(2 * j > n ? j - n : j) / float(n);
     return vec2(cos(angle), sin(angle));
@@ -127,10 +131,10 @@ vec2 detail_turn(int j, int n) {  // e^{2πi j / n}, 0 <= j < n, its angle taken
 def fft_glsl() -> str:
     """The generated file: ``detail_row`` (DETAIL_ROWS: a row's spectrum at detail_grid[spectrum ..]
     to its inverse DFT at detail_grid[along ..]) and ``detail_column`` (DETAIL_COLUMNS: the columns x
-    and x + 1 of a level's grid at detail_grid[along ..], x even, as one pair (vec4: each point's two
-    complex values, read by one load from detail_grid4) to the level's texels (sx, sy, sx² + removed_x,
-    sy² + removed_y) at detail_texels[texel + y S] and the next, texel the column x's first; Z between
-    the steps in DETAIL_Z, the column's shared memory or its texels)."""
+    .. x + 3 of a level's grid at detail_grid[along ..], x a multiple of 4, as one quad (mat2x4: each
+    point's four complex values, one load, ``detail_quad``) to the level's texels (sx, sy, sx² +
+    removed_x, sy² + removed_y) at detail_texels[texel + y S] and the next three, texel the column x's
+    first; Z between the steps through ``detail_z``: shared memory or the texels)."""
     return "\n".join([
         HEAD,
         "#ifdef DETAIL_ROWS",
@@ -139,8 +143,9 @@ def fft_glsl() -> str:
                    "detail_row_store({at}, a, b, {value})", "detail_z({at}, a, b)", "detail_z({at}, a, b, {value})"),
         "#endif",
         "#ifdef DETAIL_COLUMNS",
-        "#define DETAIL_C vec4",
+        "#define DETAIL_C mat2x4",
         _transform("detail_column", "int along, int x, int texel, vec2 removed", "along, x, texel, removed",
-                   "detail_grid4[(along + ({index}) * size + x) >> 1]",
-                   "detail_column_store(texel + ({at}) * size, {value}, removed)", "DETAIL_Z({at})", "DETAIL_Z({at}) = {value}"),
+                   "detail_quad(along + ({index}) * size + x)",
+                   "detail_column_store(texel + ({at}) * size, {value}, removed)", "detail_z({at}, texel, size)",
+                   "detail_z({at}, texel, size, {value})"),
         "#endif", ""])

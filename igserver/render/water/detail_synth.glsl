@@ -13,8 +13,7 @@ layout(std430, binding = STORAGE_SEA_DETAIL_WAVES) readonly buffer DetailWaves {
 // (rows n, columns x) after the third pass's inverse DFT along m (its rows that hold no bin stay zero:
 // no pass writes them).
 layout(std430, binding = STORAGE_SEA_DETAIL_GRID) buffer DetailGrid { vec2 detail_grid[]; };
-// The same as pairs of complex values, one load each: the rows' interleaved spectra and the columns'
-// points (x, x + 1), x even.
+// The same as pairs of complex values, one load each: the rows' interleaved spectra.
 layout(std430, binding = STORAGE_SEA_DETAIL_GRID) readonly buffer DetailGrid4 { vec4 detail_grid4[]; };
 
 uniform double u_time;  // s

@@ -14,7 +14,7 @@ The passes, each reading what the one before wrote (a memory barrier between):
    filled tile has one a bin, the snapped waves may share one).
 3. detail_rows.comp.glsl: the inverse DFT along m of each row that holds a bin, two a task (their
    spectra interleaved: a point of both is one load; an odd row's partner a spare row).
-4. detail_columns.comp.glsl: the inverse DFT along n of each column, two a task (x, x + 1), written
+4. detail_columns.comp.glsl: the inverse DFT along n of each column, four a task (x .. x + 3), written
    as (sx, sy, sx² + r_x, sy² + r_y) into the level's texels, each level then copied into its mip
    level of the map.
 
@@ -27,9 +27,9 @@ levels' r is a constant of the table).
 The same values as detail_mips.py ``band_limited_levels`` (the tests' reference) within float32's
 rounding, 3e-7 of the map's largest slope: the phases are reduced in double precision, their sines
 and the DFTs run in float. On llvmpipe (its one compute thread) the demo's two 128² maps take ~0.9 ms:
-waves 0.04, bins 0.14, rows 0.21, columns 0.39, copies 0.06; the calling thread's Python ~0.1 ms.
-There a storage access costs a loop over the lanes whatever its width: the passes read pairs (vec4)
-and the columns write pairs of texels (8 floats, a dvec4 of their bits).
+waves 0.03, bins 0.13, rows 0.21, columns 0.35, copies 0.06; the calling thread's Python ~0.1 ms.
+There a storage access costs a loop over the lanes whatever its width: the rows' pass reads pairs
+(vec4), the columns' pass quads and pairs of texels (8 floats, a dvec4 of their bits).
 """
 
 from __future__ import annotations
@@ -102,7 +102,7 @@ def lattice_key(waves: np.ndarray) -> bytes:
 
 # The passes' work-group sizes (local_size_x): an invocation per wave or bin, 128 a group (llvmpipe's
 # cost per group: 25 % of the bins' pass at 8, 10 % at 32, none measured past 128); an invocation per
-# two rows or columns, 8 a group (a vector on llvmpipe), each level's rows and columns starting on a
+# two rows or four columns, 8 a group (a vector on llvmpipe), each level's rows and columns starting on a
 # group of their own (padded).
 GROUP = 8
 WIDE_GROUP = 128
@@ -159,7 +159,7 @@ class SynthTables:
                     pairs_held = -(-len(held) // 2)
                     spectrum = place + place % 2
                     spare = spectrum + 2 * pairs_held * size
-                    along = spare + size + (spare + size) % 2
+                    along = -(-(spare + size) // 4) * 4  # a multiple of 4: the columns read quads
                     place = along + size * size
                     # Per distinct bin its coefficients, in wave order (stable sort).
                     key = row * size + column
@@ -199,7 +199,7 @@ class SynthTables:
                 pairs.append(pair)
                 levels.append(record)
                 texels += size * size + size * size % 2  # each level's first even (pairs of texels)
-                columns += _padded(-(-size // 2))  # an invocation per pair of columns
+                columns += _padded(-(-size // 4))  # an invocation per four columns
             base += len(fixed)
             self.levels.append(map_levels)
             self.ends.append({"waves": base, "bins": count["bins"], "rows": count["rows"], "levels": len(levels),
