@@ -281,8 +281,9 @@ class DetailSynthGL:
             set_uniforms(program, {"u_time": float(t), "u_detail_radix": RADIX,
                                    **({uniform: ends["levels" if end == "columns" else end]} if uniform else {})})
             program.run(-(-ends[end] // group))
-            # The next pass reads what this one wrote; after the last, ``copy`` reads it.
-            self.ctx.memory_barrier(moderngl.SHADER_STORAGE_BARRIER_BIT | moderngl.BUFFER_UPDATE_BARRIER_BIT)
+            # The next pass reads what this one wrote; after the last, ``copy`` reads it. Every bit, as
+            # every compute pass of the frame (tests/test_gl_hazards.py: a GPU may reorder what llvmpipe does not).
+            self.ctx.memory_barrier()
 
     def copy(self, textures) -> None:
         """Copy the levels the last ``dispatch`` made into ``textures`` (its maps', once)."""
