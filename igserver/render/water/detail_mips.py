@@ -10,7 +10,7 @@ max(|m|, |n|) / (N_L / 2)) (the whole wave up to half its Nyquist, none at it: n
 sampled at its own texel centres, and its (sx², sy²) channels hold sx² + the variance the gains
 removed, Σ (1 − G_i G_j) g_i g_j w_ij (the same lattice-point pairing as ``detail_means``): the
 footprint's mean square slope, so the roughness (LEAN mapping) is as before and the 1×1 level is the
-tile average ``detail_means`` computes. The sampler's trilinear filter blends two such levels.
+tile average ``detail_means`` computes. The sampler reads the nearest level, bilinear (water.py).
 
 ``band_limited_levels`` builds each level directly from the waves, as stated here: the tests' reference
 for detail_synth.py, whose compute passes make the same levels each frame from what it keeps per tile

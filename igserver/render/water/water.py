@@ -184,7 +184,12 @@ class WaterPass(UnderwaterDraws, SeaInputs, RenderPass):
             for tex in self._detail:
                 tex.build_mipmaps()  # allocates the chain that the synthesis writes level by level
                 tex.repeat_x = tex.repeat_y = True
-                tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+                # Bilinear in the nearest level, not trilinear: half the texels a read (the water pass's
+                # CPU -6 % on llvmpipe). Each band-limited level keeps the slope variance it no longer
+                # resolves in its second moments, and the footprint fade has softened a map's slopes
+                # before its level changes, so the switch does not show (shimmer of a moving eye at
+                # 2-20 m/s 0.21/0.04/0.00/0.35 % of the near pixels, 0.19/0.03/0.00/0.35 trilinear).
+                tex.filter = (moderngl.LINEAR_MIPMAP_NEAREST, moderngl.LINEAR)
         if not any(len(waves) for _, waves in tiles[:read]):
             return
         # The maps depend on the sea state and the time only: a frame at the same time (another view,
