@@ -105,3 +105,19 @@ def synthesized_levels(renderer, tiles: list[np.ndarray], resolution: int, t: fl
         synth.release()
         for tex in textures:
             tex.release()
+
+
+def with_and_without_skip(renderer, scene, switch: str) -> tuple[np.ndarray, np.ndarray, dict]:
+    """The water pass's picture of ``scene`` with the block variant ``switch`` (a WaterPass attribute:
+    skip_minified_maps, skip_faded_streaks, skip_offshore_land) on and off, and its stats with it on:
+    (fast, full, stats)."""
+    water = renderer.graph.passes["water"]
+    fast = renderer.render(scene).rgba
+    stats = dict(water.stats)
+    setattr(water, switch, False)
+    try:
+        full = renderer.render(scene).rgba
+    finally:
+        setattr(water, switch, True)
+    return fast, full, stats
+

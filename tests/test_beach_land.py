@@ -18,6 +18,8 @@ from igserver.scene import apply_patch
 from igserver.scene.files import load_scene
 from igserver.water.land import land_elevation, profile
 
+from helpers import with_and_without_skip
+
 # From the sand 20 m above the still-water line (x = 420; the shore runs north at x = 400), looking
 # east, inland, level: the backshore and the foredune ridge ahead.
 INLAND = {"camera": {"position": [420.0, -120.0, 3.0], "heading": 90.0, "pitch": 0.0, "fov_y": 40.0,
@@ -109,14 +111,6 @@ def test_offshore_blocks_leave_the_land_out(renderer, bathymetry):
                         "width": 240, "height": 135}, "time": {"sim_time": 100.0}}
     if bathymetry is not None:
         patch["ocean"] = {"bathymetry": bathymetry}
-    scene = apply_patch(load_scene("sea_beach"), patch)
-    water = renderer.graph.passes["water"]
-    fast = renderer.render(scene).rgba
-    stats = dict(water.stats)
-    water.skip_offshore_land = False
-    try:
-        full = renderer.render(scene).rgba
-    finally:
-        water.skip_offshore_land = True
+    fast, full, stats = with_and_without_skip(renderer, apply_patch(load_scene("sea_beach"), patch), "skip_offshore_land")
     assert 0 < stats["land_blocks"] < stats["blocks"], stats
     assert np.array_equal(fast, full)

@@ -14,6 +14,8 @@ from igserver.scene import apply_patch
 from igserver.scene.model import Scene, Weather
 from igserver.water import sea_surface
 
+from helpers import with_and_without_skip
+
 EARTH_RADIUS = 6.371e6
 
 
@@ -558,13 +560,8 @@ def test_minified_detail_maps_leave_the_picture(renderer):
 
     scene = sea_scene(camera={"position": [0.0, 0.0, 30.0], "pitch": -15.0, "width": 160, "height": 90})
     water = renderer.graph.passes["water"]
-    fast = renderer.render(scene).rgba
-    by_maps = water.stats["blocks_by_detail_maps"]
-    water.skip_minified_maps = False
-    try:
-        full = renderer.render(scene).rgba
-    finally:
-        water.skip_minified_maps = True
+    fast, full, stats = with_and_without_skip(renderer, scene, "skip_minified_maps")
+    by_maps = stats["blocks_by_detail_maps"]
     assert sum(by_maps[:-1]) > len(by_maps) and by_maps[-1] < sum(by_maps)  # maps were skipped
     # The average in float64 against the box-filtered float32 map: a level at most.
     assert np.abs(fast.astype(int) - full.astype(int)).max() <= 1
@@ -686,13 +683,6 @@ def test_faded_foam_streaks_leave_the_picture(renderer):
     # frame as with the noise read on every block.
     scene = sea_scene(camera={"position": [0.0, 0.0, 300.0], "pitch": -10.0, "width": 320, "height": 180},
                       weather={"wind_speed": 22.6})
-    water = renderer.graph.passes["water"]
-    fast = renderer.render(scene).rgba
-    stats = dict(water.stats)
-    water.skip_faded_streaks = False
-    try:
-        full = renderer.render(scene).rgba
-    finally:
-        water.skip_faded_streaks = True
+    fast, full, stats = with_and_without_skip(renderer, scene, "skip_faded_streaks")
     assert 0 < stats["foam_streak_blocks"] < stats["blocks"]
     np.testing.assert_array_equal(fast, full)
