@@ -262,6 +262,35 @@ def test_running_out_of_descriptors_logs_one_line_and_recovers(tmp_path):
     assert "cannot accept connections" in text
 
 
+FIRST_REQUEST_IMPORTS = """
+import socket, sys, time
+sys.path.insert(0, {tests!r})
+from test_service_limits import SCENE, FakeServer
+from igserver.protocol.settings import ServerSettings
+with FakeServer(ServerSettings(), SCENE) as srv:
+    time.sleep(0.5)
+    with socket.create_connection(("127.0.0.1", srv.port), timeout=10) as sock:
+        before = set(sys.modules)  # after the client's own name lookup
+        sock.sendall(b"GET /v1/health HTTP/1.1\\r\\nHost: 127.0.0.1\\r\\nConnection: close\\r\\n\\r\\n")
+        answer = b""
+        while chunk := sock.recv(4096):
+            answer += chunk
+    print(answer.split(b"\\r\\n")[0].decode(), sorted(set(sys.modules) - before))
+"""
+
+
+def test_the_first_request_opens_no_module_file():
+    """A request served while the descriptors are spent must not need to open a file: nothing the app
+    imports lazily may wait for the first request (anyio's backend did, and answered 500)."""
+    import os
+    import subprocess
+    import sys
+
+    script = FIRST_REQUEST_IMPORTS.format(tests=os.path.dirname(__file__))
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+    assert out.stdout.strip() == "HTTP/1.1 200 OK []", out.stdout + out.stderr[-2000:]
+
+
 # --------------------------------------------------------------------------- water-height queries
 
 SEA = {**SCENE, "ocean": {"enabled": True}, "weather": {"wind_speed": 11.0}}

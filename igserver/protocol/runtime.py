@@ -9,6 +9,8 @@ import signal
 import threading
 import time
 
+import anyio.to_thread
+
 from ..render.worker import release_free_memory
 from ..scene.model import Scene
 from .frames import FramePump, RenderGateway
@@ -164,6 +166,10 @@ class IGRuntime:
                 log.error("render process failed to start: %s", self.start_error)
 
         _ensure_log_output()
+        # anyio loads its event-loop backend on the first sync dependency a request runs; a request that
+        # arrives while the descriptors are spent could not open that module's file and would fail with a
+        # 500, so the backend (and the threadpool's first worker) is brought up now, while files open
+        await anyio.to_thread.run_sync(int)
         loop = asyncio.get_running_loop()
         guard_accept_loop(loop)  # the lifespan starts before uvicorn listens: the accept loop is the guarded one
         self._end_streams_on_exit_signal(loop)
