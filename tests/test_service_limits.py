@@ -330,12 +330,15 @@ def test_bursts_of_big_queries_leave_no_lasting_memory_growth():
 
         after = []
         with ThreadPoolExecutor(24) as pool:
-            for _ in range(3):
+            for _ in range(6):
                 codes = list(pool.map(query, range(24)))
                 assert set(codes) <= {200, 503} and 200 in codes and 503 in codes
-                after.append(server.rss_mb())
+                after.append(server.settled_rss_mb(at_least_s=0.5))  # what stays, not what a reply holds
     print("server RSS after each burst (MB):", [round(a) for a in after])
-    assert after[2] < after[0] + 12
+    # The first burst brings up the server's threads, each with a malloc arena of its own (measured: the
+    # resident size then settles 0-13 MB higher and stays); the growth after it is what is bounded (a
+    # server that kept each accepted query's answer grew ~17 MB a burst).
+    assert max(after[2:]) < after[1] + 8
 
 
 # --------------------------------------------------------------------------- WebSocket clients
