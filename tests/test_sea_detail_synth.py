@@ -137,9 +137,16 @@ def test_the_pass_writes_the_frames_levels(renderer):
     scene = apply_patch(Scene(), {"ocean": {"enabled": True}, "weather": {"wind_speed": 12.0},
                                   "camera": {"position": [0.0, 0.0, 3.0], "pitch": -10.0, "width": 64, "height": 36}})
     water = renderer.graph.passes["water"]
+    copied = []
     for t in (50.0, 50.5, 51.25):
         renderer.render(apply_patch(scene, {"time": {"sim_time": t}}))
+        copied.append(water._detail_synth.levels_copied)
     synth = water._detail_synth
+    # after the first frame, only the levels that change with t are copied again (the coarse ones
+    # that hold no wave are the same at every t and stay in the textures)
+    varying = sum(sum(v) for v in synth._tables.varies[:water._maps_written])
+    assert 0 < varying < sum(len(v) for v in synth._tables.varies[:water._maps_written])
+    assert copied[2] - copied[1] == varying
     buffers = dict(synth._buffers)
     written = synth.maps_written
     renderer.render(apply_patch(scene, {"time": {"sim_time": 51.25}}))  # the same instant: the maps held

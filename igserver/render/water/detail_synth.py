@@ -128,13 +128,13 @@ class SynthTables:
         self.resolution = resolution
         sizes = [resolution >> level for level in range(int(math.log2(resolution)) + 1)]
         waves, bins, entries, rows, levels, pairs = [], [], [], [], [], []
-        self.ends, self.levels = [], []
+        self.ends, self.levels, self.varies = [], [], []
         base = texels = columns = 0
         place = sum(len(fixed) for fixed, _, _ in tiles)  # the phasors first in the grid
         count = {"bins": 0, "entries": 0, "rows": 0, "pairs": 0}
         for fixed, omega, phase in tiles:
             fixed = np.asarray(fixed, dtype=np.float64)
-            map_levels = []
+            map_levels, map_varies = [], []
             if len(fixed):
                 tile = TilePairs(fixed)
                 mn = fixed[:, 0:2]
@@ -195,6 +195,12 @@ class SynthTables:
                 pair["i"] = base + tile.i[used]
                 pair["j"] = np.where(tile.sign[used] < 0.0, base + tile.j[used], ~(base + tile.j[used]))
                 record["pair_first"], record["pair_end"] = count["pairs"], count["pairs"] + len(pair)
+                # A level changes with t when it holds a wave, or a pair on opposite points (its term
+                # follows φ_i + φ_j = φ0_i + φ0_j − (ω_i + ω_j) t) or of unequal ω; two waves on one
+                # lattice point share ω (one k), their φ_i − φ_j is constant, and a level of such pairs
+                # only, (0, 0, removed), is the same at every t.
+                i, j = tile.i[used], tile.j[used]
+                map_varies.append(bool(len(keep)) or bool(np.any((tile.sign[used] > 0.0) | (omega[i] != omega[j]))))
                 count["pairs"] += len(pair)
                 pairs.append(pair)
                 levels.append(record)
@@ -202,6 +208,7 @@ class SynthTables:
                 columns += _padded(-(-size // 4))  # an invocation per four columns
             base += len(fixed)
             self.levels.append(map_levels)
+            self.varies.append(map_varies)
             self.ends.append({"waves": base, "bins": count["bins"], "rows": count["rows"], "levels": len(levels),
                               "columns": columns})
         self.buffers = {
@@ -248,12 +255,15 @@ class DetailSynthGL:
         self._buffers: dict[str, moderngl.Buffer] = {}
         self._pixels: list[list[moderngl.Buffer]] = []
         self._pending = 0  # maps dispatched and not yet copied into their textures
-        self.maps_written = 0
+        # (texture, level) pairs holding a time-independent level of the current tables: not copied again
+        self._still: set[tuple[moderngl.Texture, int]] = set()
+        self.maps_written = self.levels_copied = 0
 
     def release(self) -> None:
         for buffer in [*self._buffers.values(), *(b for level in self._pixels for b in level)]:
             buffer.release()
         self._buffers, self._pixels, self._tables = {}, [], None
+        self._still = set()
 
     def write(self, textures, tables: SynthTables, t: float, maps: int) -> None:
         """Write every level of the first ``maps`` maps of ``tables`` into ``textures`` (rgba32f, each
@@ -286,11 +296,18 @@ class DetailSynthGL:
             self.ctx.memory_barrier()
 
     def copy(self, textures) -> None:
-        """Copy the levels the last ``dispatch`` made into ``textures`` (its maps', once)."""
+        """Copy the levels the last ``dispatch`` made into ``textures`` (its maps', once). A level the
+        same at every t (``SynthTables.varies``) is copied once per tables and texture."""
         texels = self._buffers.get("SEA_DETAIL_TEXELS")
-        for texture, levels, pixels in zip(textures[:self._pending], self._tables.levels if texels else [], self._pixels):
+        maps = zip(textures[:self._pending], self._tables.levels if texels else [], self._tables.varies, self._pixels)
+        for texture, levels, varies, pixels in maps:
             for index, ((first, size), buffer) in enumerate(zip(levels, pixels)):
+                if not varies[index]:
+                    if (texture, index) in self._still:
+                        continue
+                    self._still.add((texture, index))
                 self.ctx.copy_buffer(buffer, texels, 16 * size * size, read_offset=16 * first)
                 texture.write(buffer, level=index)
+                self.levels_copied += 1
             self.maps_written += bool(levels)
         self._pending = 0
