@@ -55,6 +55,9 @@ def test_a_known_sequence_is_counted_exactly(tiny_program):
     assert calls.created() == 0
     assert calls.gl_cpu_s > 0 and calls.wrapper_cost_s > 0
     assert calls.overhead_s == pytest.approx(5 * calls.wrapper_cost_s)
+    # the wrappers' clock reads inside the calls are part of their cost and not GL work
+    assert 0 < calls.inside_cost_s < calls.wrapper_cost_s
+    assert calls.gl_work_s == pytest.approx(calls.gl_cpu_s - 5 * calls.inside_cost_s)
 
 
 def test_objects_made_in_the_block_are_counted(renderer):
@@ -93,6 +96,27 @@ def test_bench_reports_python_ms_gl_calls_objects_and_fps_in_flight(renderer):
     for column in ("fps in flight", "Python ms", "GL calls", "GL objects made"):
         assert column in head
     assert f"| {row['gl_calls']} |" in line
+
+
+def test_bench_python_ms_is_the_python_a_frame_runs(renderer, monkeypatch):
+    # A pass made to run 4 ms more of Python a frame: the bench's Python ms grows by those 4 ms
+    # (within 1.5 ms: the two frames of a pair are two measurements), its GL work does not count.
+    import time
+
+    scene = tiny()
+    before = bench_scene(renderer, scene, frames=6, warmup=1, gpu_timer="not asked")["python_ms"]["median"]
+    sky = renderer.graph.passes["sky"]
+    execute = sky.execute
+
+    def slower(*args, **kwargs):
+        end = time.thread_time() + 0.004
+        while time.thread_time() < end:
+            pass
+        return execute(*args, **kwargs)
+
+    monkeypatch.setattr(sky, "execute", slower)
+    after = bench_scene(renderer, scene, frames=6, warmup=1, gpu_timer="not asked")["python_ms"]["median"]
+    assert after - before == pytest.approx(4.0, abs=1.5), (before, after)
 
 
 def test_pass_timers_bracket_each_pass_and_leave_the_passes_as_they_were(renderer):
