@@ -41,9 +41,9 @@ def _lattice(renderer, monkeypatch, size=(640, 360)) -> float:
     mean power there."""
     full = _level_view(renderer, size=size)
     with monkeypatch.context() as m:
-        tiles = water_module.detail_tiles
-        m.setattr(water_module, "detail_tiles",
-                  lambda sea, t: [(s, w if c == 0 else w[:0]) for c, (s, w) in enumerate(tiles(sea, t))])
+        tiles = water_module.detail_fixed_tiles
+        m.setattr(water_module, "detail_fixed_tiles",
+                  lambda sea: [(s, w if c == 0 else w[:0]) for c, (s, w) in enumerate(tiles(sea))])
         coarse = _level_view(renderer, size=size)
     part, band = _band_power((full - coarse) @ LUMA)
     background, _ = _band_power(full @ LUMA)

@@ -164,6 +164,36 @@ def test_the_pass_writes_the_frames_levels(renderer):
     assert checked >= 1
 
 
+def test_the_means_a_frame_reads_are_those_of_the_frames_phases():
+    # detail_means_at holds a map's average while no pair of its waves follows t (pairs on one lattice
+    # point share ω): at every t, the tile averages of the phases at t (detail_tiles, detail_means).
+    sea = _sea()
+    first = detail.detail_means_at(sea, 3.0)
+    for t in (3.0, 17.25, 1e6 + 0.5):
+        want = detail_means([(size, waves) for size, waves in detail_tiles(sea, t)])
+        assert np.allclose(detail.detail_means_at(sea, t), want, rtol=1e-9, atol=1e-15)
+    assert np.array_equal(detail.detail_means_at(sea, 1e6 + 0.5), first)
+    assert detail.detail_fixed_tiles(sea) is detail.detail_fixed_tiles(sea)  # per sea state, not per frame
+
+
+def test_a_map_with_waves_on_opposite_points_follows_t():
+    # waves on (5, 3) and (-5, -3): their product averages to ½ cos(φ_i + φ_j), which turns with t
+    lattice = detail.DetailLattice.__new__(detail.DetailLattice)
+    fixed = np.array([[5.0, 3.0, 0.05], [-5.0, -3.0, 0.04], [7.0, -9.0, 0.03]])
+    omega = np.sqrt(9.80665 * np.linalg.norm(fixed[:, :2], axis=1) * 2 * math.pi / 10.0)
+    phase = np.array([0.3, 1.1, 2.0])
+    lattice.tiles = [(10.0, fixed, omega, phase)]
+    lattice.fixed_tiles = [(10.0, fixed)]
+    lattice._pairs = [detail_synth.TilePairs(fixed)]
+    assert detail.still_means(lattice.tiles, lattice._pairs) == []
+    assert detail.still_means(lattice.tiles, [detail_synth.TilePairs(fixed[[0, 0, 2]])]) == [0]  # one point
+    lattice._still_means = {}
+    for t in (0.0, 0.7, 2.2):
+        waves = np.column_stack([fixed, np.mod(phase - np.mod(omega * t, 2 * math.pi), 2 * math.pi)])
+        assert np.allclose(lattice.means(t)[0], detail_means([(10.0, waves)])[0], rtol=1e-12)
+    assert not np.allclose(lattice.means(0.0), lattice.means(0.7))
+
+
 def test_pairs_are_those_of_every_two_waves():
     # The table of lattice points finds the same pairs as comparing every two waves (same point:
     # w follows φ_i − φ_j, opposite points: φ_i + φ_j), in the same order.

@@ -77,6 +77,22 @@ def detail_tiles(sea: SeaSurface, t: float) -> list[tuple[float, np.ndarray]]:
     return tiles
 
 
+def detail_fixed_tiles(sea: SeaSurface) -> list[tuple[float, np.ndarray]]:
+    """Per detail map: (tile side L in m, waves (m, n, A k)): ``detail_tiles`` without the phases, which
+    the GL computes for the frame's time (detail_synth.py). What the draw plan and the maps' sizes read;
+    the same objects for every t of a sea state."""
+    if sea.detail.n == 0:
+        return [(1.0, np.zeros((0, 3)))] * DETAIL_MAPS
+    return _lattice_of(sea).fixed_tiles
+
+
+def detail_means_at(sea: SeaSurface, t: float) -> np.ndarray:
+    """``detail_means`` of ``detail_tiles(sea, t)``, a map whose average does not follow t held."""
+    if sea.detail.n == 0:
+        return np.zeros((DETAIL_MAPS, 4))
+    return _lattice_of(sea).means(t)
+
+
 def _lattice_of(sea: SeaSurface) -> "DetailLattice":
     return detail_lattice(*_wave_key(sea.detail), sea.spectrum.azimuth_to, DETAIL_LATTICE_FILL)
 
@@ -112,6 +128,32 @@ class DetailLattice:
             self.tiles.append((size, np.column_stack([cycles, slope]), omega, wave_phase))
         lost = band >= DETAIL_MAPS
         self.unresolved_var = float(np.sum((amplitude[lost] * k[lost]) ** 2) / 2.0)
+        self.fixed_tiles = [(size, fixed) for size, fixed, _, _ in self.tiles]
+        self._pairs = [tile_pairs(lattice_key(fixed)) if len(fixed) else None for _, fixed, _, _ in self.tiles]
+        self._still_means = dict.fromkeys(still_means(self.tiles, self._pairs))  # each computed at the first t asked
+
+    def means(self, t: float) -> np.ndarray:
+        """Per map, its average over the tile (sx, sy, sx², sy²) at time ``t`` (``detail_means``)."""
+        means = np.zeros((DETAIL_MAPS, 4))
+        for c, ((_, fixed, omega, phase), pairs) in enumerate(zip(self.tiles, self._pairs)):
+            if pairs is None:
+                continue
+            held = self._still_means.get(c)
+            if held is None:
+                turned = np.mod(omega * t, 2.0 * math.pi)
+                held = pairs.mean_square(np.mod(phase - turned, 2.0 * math.pi))
+                if c in self._still_means:
+                    self._still_means[c] = held
+            means[c, 2:] = held
+        return means
+
+
+def still_means(tiles, pairs) -> list[int]:
+    """The maps whose average is the same at every t: a map's average follows t only through its pairs
+    on opposite points (½ cos(φ_i + φ_j)) or of unequal ω; two waves on one point share ω (one k), and
+    their ½ cos(φ_i − φ_j) stays (detail_synth.SynthTables.varies, for the levels)."""
+    return [c for c, ((_, _, omega, _), p) in enumerate(zip(tiles, pairs))
+            if p is not None and not np.any((p.sign > 0.0) | (omega[p.i] != omega[p.j]))]
 
 
 def _lattice_fill(variance: float, azimuth_to: float) -> tuple[np.ndarray, np.ndarray]:

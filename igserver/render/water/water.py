@@ -31,7 +31,7 @@ from .. import presets
 from ..passes import RenderPass
 from ..shaders import assemble, set_uniforms
 from . import lod
-from .detail import DETAIL_MAPS, detail_means, detail_synth_tables, detail_tiles, detail_unresolved_var
+from .detail import DETAIL_MAPS, detail_fixed_tiles, detail_means_at, detail_synth_tables, detail_unresolved_var
 from .detail_synth import DetailSynthGL
 from .draw_plan import PlanSwitches, draw_plan
 from .foam import FOAM_EDGE, FOAM_NOISE_UNIT, dots_defines, foam_calibration, foam_drawn, foam_frame, streak_variant
@@ -231,7 +231,7 @@ class WaterPass(UnderwaterDraws, SeaInputs, RenderPass):
         knobs = self.knobs(frame)
         # A power of two (each mip level halves it exactly): the nearest to the scene's × the preset's scale.
         resolution = 2 ** min(max(round(math.log2(scene.ocean.detail_resolution * knobs.detail_scale)), 5), 9)
-        tiles = detail_tiles(sea, t)
+        tiles = detail_fixed_tiles(sea)  # (size, waves) per map: the GL turns the phases to t
         selection = self.select(sea, scene, view, knobs.lod_error_scale, knobs.mesh)
         hulls = hull_boxes(scene, view)
         if self._tables is None:
@@ -250,7 +250,7 @@ class WaterPass(UnderwaterDraws, SeaInputs, RenderPass):
             "draw_plan", plan_key, lambda: draw_plan(sea, selection, hulls, tiles, scene, view, level_z, used_maps, PlanSwitches(
                 self.skip_minified_maps, self.skip_faded_streaks, self.skip_offshore_land)))
         # Tile averages of the maps some block does not read (empty maps average 0).
-        means = detail_means(tiles) if np.any(maps < used_maps) else np.zeros((DETAIL_MAPS, 4))
+        means = detail_means_at(sea, t) if np.any(maps < used_maps) else np.zeros((DETAIL_MAPS, 4))
         self._update_detail(sea, t, resolution, tiles, int(maps.max()) if len(maps) else 0)
         self._maps_written = int(maps.max()) if len(maps) else 0  # the under-water caustics read these
         shared = self._frame_uniforms(frame, sea, waves, tiles, selection, hulls, table_uniforms) if groups else None
