@@ -126,6 +126,24 @@ def test_world_work_once_and_each_views_work_kept(renderer):
     assert len(set(version.values())) == 3  # each view's selections numbered apart from the others'
 
 
+def test_each_channel_keeps_its_sea_blocks_rows(renderer, monkeypatch):
+    """Three channels over a still sea view: after the first frames no channel uploads its blocks' rows
+    again (each view has its own instance buffers, which the next channel does not overwrite)."""
+    from igserver.render.water import water as water_module
+
+    uploads = []
+    write = water_module.write_buffer
+    monkeypatch.setattr(water_module, "write_buffer", lambda buffer, data: uploads.append(write(buffer, data)) or uploads[-1])
+    scene = apply_patch(load_scene("demo"), {"channels": [channel(c, h, 96, 54, 30.0, 18.0) for c, h in
+                                                          (("p", -60.0), ("a", 0.0), ("s", 60.0))]})
+    for i in range(2):
+        renderer.render(apply_patch(scene, {"time": {"sim_time": 20.0 + i / 30.0}}))
+    uploads.clear()
+    for i in range(2, 5):
+        renderer.render(apply_patch(scene, {"time": {"sim_time": 20.0 + i / 30.0}}))
+    assert len(uploads) >= 3 * 3 and not any(uploads), uploads  # each channel draws blocks; none re-uploads
+
+
 def test_world_work_is_not_repeated_per_channel(renderer, monkeypatch):
     """The fire's volume modelling and the sea's detail maps are world work: a stream of three channels
     models as many slices as a stream of the middle channel alone over the same clock steps (the side
@@ -166,10 +184,11 @@ def test_channels_removed_release_their_targets_and_tables(renderer):
     state = renderer.view_states["gone"]
     aerial = state[AerialTable]
     cirrus = state["sky"]["_held_targets"]["cirrus"][0]
-    assert aerial is not None and aerial is not AerialTable._resident.get(renderer._ctx)
+    blocks = [*state["water"]["_instances"].values(), *state["water"]["_block_vaos"].values()]  # the sea's rows
+    assert aerial is not None and aerial is not AerialTable._resident.get(renderer._ctx) and blocks
     frame = renderer.render(apply_patch(scene, {"channels": []}))
     assert "gone" not in renderer.view_states and not renderer._channel_targets
-    for tex in (targets.hdr, targets.ldr, cirrus, *aerial.textures.values()):
+    for tex in (targets.hdr, targets.ldr, cirrus, *aerial.textures.values(), *blocks):
         assert tex.mglo is None or type(tex.mglo).__name__ == "InvalidObject"
     assert renderer.render(apply_patch(scene, {"channels": []})).rgba.shape == frame.rgba.shape
 

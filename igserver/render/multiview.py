@@ -132,8 +132,8 @@ class _OncePerFrame:
 
 def release_view_state(state: dict) -> None:
     """Release the GL objects a view's state holds (swap_view_state's form): its resident tables and
-    the textures, framebuffers and buffers its passes' attributes hold directly or in dicts and
-    tuples (lists are not walked: ``_bound_shadow_maps`` lists the shared shadow maps)."""
+    the textures, framebuffers, buffers and vertex arrays its passes' attributes hold directly or in
+    dicts and tuples (lists are not walked: ``_bound_shadow_maps`` lists the shared shadow maps)."""
     for key, value in state.items():
         if key in VIEW_RESIDENTS:
             if value is not None:
@@ -144,7 +144,7 @@ def release_view_state(state: dict) -> None:
 
 
 def _release_gl(value) -> None:
-    if isinstance(value, (moderngl.Texture, moderngl.Framebuffer, moderngl.Buffer)):
+    if isinstance(value, (moderngl.Texture, moderngl.Framebuffer, moderngl.Buffer, moderngl.VertexArray)):
         value.release()
     elif isinstance(value, dict):
         for v in value.values():

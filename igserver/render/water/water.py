@@ -83,7 +83,9 @@ def glint_light(uniforms: dict) -> dict:
 class WaterPass(UnderwaterDraws, SeaInputs, RenderPass):
     name = "water"
     preset_pipeline = "water"
-    view_state = ("_selection", "_last_eye")  # the LOD selection (select); the eye's last frame (detail_motion)
+    # the LOD selection (select); the eye's last frame (detail_motion); the blocks' instance buffers and
+    # their vertex arrays (_vao)
+    view_state = ("_selection", "_last_eye", "_instances", "_block_vaos")
     view_counters = ("_selection_version",)
     _selection = None
     _last_eye = None
@@ -96,7 +98,6 @@ class WaterPass(UnderwaterDraws, SeaInputs, RenderPass):
         self._detail = None
         self._detail_key = None  # (tables, t, maps) the detail maps hold
         self._detail_synth = DetailSynthGL(ctx, programs)
-        self._instances = None
         self._tables: SeaTables | None = None
         self._selection = None  # (key, sea, LodSelection) of the last select()
         self._selection_version = 0  # counts select()'s recomputations: a key part for what follows it
@@ -375,21 +376,20 @@ class WaterPass(UnderwaterDraws, SeaInputs, RenderPass):
 
     def _vao(self, program, data: bytes, slot: int = 0, fan: int = -1) -> moderngl.VertexArray:
         """The patch (or a fan of flat blocks, ``_patch_buffer``) drawn once per block of ``data`` (the
-        blocks' rows as float32 bytes); each slot (block group drawn in one frame) has its own
-        instance buffer."""
+        blocks' rows as float32 bytes); each slot (block group drawn in one frame) has its own instance
+        buffer, and each view its own slots (``view_state``: channels drawn in turn do not rewrite each
+        other's rows every frame)."""
         verts, index = self._patch_buffer(fan)
-        buffers = self._instances if self._instances is not None else {}
-        self._instances = buffers
+        buffers, vaos = self.__dict__.setdefault("_instances", {}), self.__dict__.setdefault("_block_vaos", {})
         if slot not in buffers or buffers[slot].size < len(data):
             if slot in buffers:
-                buffers[slot].release()
+                buffers.pop(slot).release()
+                for key in [k for k in vaos if k[1] == slot]:
+                    vaos.pop(key).release()
             buffers[slot] = self.ctx.buffer(reserve=max(len(data), 4096), dynamic=True)
-            self._vaos_water = {k: v for k, v in getattr(self, "_vaos_water", {}).items() if k[1] != slot}
         write_buffer(buffers[slot], data)
         key = (id(program), slot, fan)
-        vaos = getattr(self, "_vaos_water", {})
         if key not in vaos:
             vaos[key] = self.ctx.vertex_array(program, [(verts, "2f", "in_grid"), (buffers[slot], "4f/i", "in_node")],
                                               index_buffer=index)
-            self._vaos_water = vaos
         return vaos[key]
