@@ -80,22 +80,41 @@ struct BrdfTerms {
     vec3 specular;
 };
 
-BrdfTerms brdf_terms(Material m, vec3 n, vec3 v, vec3 l) {
-    float n_dot_l = dot(n, l);
-    if (n_dot_l <= 0.0) return BrdfTerms(vec3(0.0), vec3(0.0));
+// The parts of the BRDF that depend on the surface and the view only, not on the light: computed
+// once per pixel and shared by every light (a pixel's light loop, common/lights.glsl), where each
+// light would otherwise look up E_s(N.V) and E_avg again (bilinear reads of the tables).
+struct BrdfView {
+    float n_dot_v;
+    float alpha;          // GGX alpha = roughness^2, floored
+    vec3 f0;
+    vec3 view_albedo;     // 1 - E_s(N.V)
+    vec3 albedo_norm;     // max(1 - E_avg, 1e-6)
+};
+
+BrdfView brdf_view(Material m, vec3 n, vec3 v) {
     float n_dot_v = max(dot(n, v), 1e-4);
-    vec3 h = normalize(v + l);
-    float alpha = max(m.roughness * m.roughness, MIN_GGX_ALPHA);
     vec3 f0 = mix(vec3(0.04), m.base_color, m.metallic);
-    vec3 f = fresnel_schlick(max(dot(v, h), 0.0), f0);
-    vec3 specular = f * ggx_distribution(n, h, max(dot(n, h), 0.0), alpha) * smith_visibility(n_dot_v, n_dot_l, alpha);
     vec2 ab_v = brdf_table(n_dot_v, m.roughness);
-    vec2 ab_l = brdf_table(n_dot_l, m.roughness);
     vec2 ab_avg = brdf_table_average(m.roughness);
     vec3 e_avg = f0 * ab_avg.x + ab_avg.y;
-    vec3 diffuse = (1.0 - (f0 * ab_v.x + ab_v.y)) * (1.0 - (f0 * ab_l.x + ab_l.y)) / max(1.0 - e_avg, vec3(1e-6))
+    return BrdfView(n_dot_v, max(m.roughness * m.roughness, MIN_GGX_ALPHA), f0,
+                    1.0 - (f0 * ab_v.x + ab_v.y), max(1.0 - e_avg, vec3(1e-6)));
+}
+
+BrdfTerms brdf_terms(Material m, BrdfView b, vec3 n, vec3 v, vec3 l) {
+    float n_dot_l = dot(n, l);
+    if (n_dot_l <= 0.0) return BrdfTerms(vec3(0.0), vec3(0.0));
+    vec3 h = normalize(v + l);
+    vec3 f = fresnel_schlick(max(dot(v, h), 0.0), b.f0);
+    vec3 specular = f * ggx_distribution(n, h, max(dot(n, h), 0.0), b.alpha) * smith_visibility(b.n_dot_v, n_dot_l, b.alpha);
+    vec2 ab_l = brdf_table(n_dot_l, m.roughness);
+    vec3 diffuse = b.view_albedo * (1.0 - (b.f0 * ab_l.x + ab_l.y)) / b.albedo_norm
                  * (1.0 - m.metallic) * m.base_color / PI;
     return BrdfTerms(diffuse * n_dot_l, specular * n_dot_l);
+}
+
+BrdfTerms brdf_terms(Material m, vec3 n, vec3 v, vec3 l) {
+    return brdf_terms(m, brdf_view(m, n, v), n, v, l);
 }
 
 vec3 brdf_cos(Material m, vec3 n, vec3 v, vec3 l) {

@@ -73,8 +73,9 @@ vec3 light_illuminance(int i, vec3 p, out vec3 l) {
 }
 
 // One light of illuminance e (lux per channel at the point, before N.L) with blocked fraction f.
-vec3 shadowed_light(Material m, vec3 n, vec3 v, vec3 l, vec3 e, float f) {
-    BrdfTerms t = brdf_terms(m, n, v, l);
+// b: brdf_view(m, n, v), once per pixel for all its lights.
+vec3 shadowed_light(Material m, BrdfView b, vec3 n, vec3 v, vec3 l, vec3 e, float f) {
+    BrdfTerms t = brdf_terms(m, b, n, v, l);
     float k = u_shadow_density * f;
     return e * (t.diffuse * ((1.0 - k) + k * u_shadow_color) + (1.0 - f) * t.specular);
 }
@@ -93,13 +94,14 @@ vec3 ambient_light(Material m, vec3 n, vec3 v, float ao) {
 
 vec3 shade_surface_ao(Material m, vec3 p, vec3 n, vec3 v, float ao) {
     vec3 radiance = ambient_light(m, n, v, ao);  // Ra * Ia
+    BrdfView b = brdf_view(m, n, v);
 #if SUN_TERM
     if (u_sun_dir.z > -0.1)
-        radiance += shadowed_light(m, n, v, u_sun_dir, u_sun_illuminance, light_shadow(SUN_LIGHT, p, n, u_sun_dir));
+        radiance += shadowed_light(m, b, n, v, u_sun_dir, u_sun_illuminance, light_shadow(SUN_LIGHT, p, n, u_sun_dir));
 #endif
 #if MOON_TERM
     if (u_moon_dir.z > -0.1)
-        radiance += shadowed_light(m, n, v, u_moon_dir, u_moon_illuminance, light_shadow(MOON_LIGHT, p, n, u_moon_dir));
+        radiance += shadowed_light(m, b, n, v, u_moon_dir, u_moon_illuminance, light_shadow(MOON_LIGHT, p, n, u_moon_dir));
 #endif
 #if LOCAL_LIGHTS
     for (int i = 0; i < u_light_count; ++i) {
@@ -108,7 +110,7 @@ vec3 shade_surface_ao(Material m, vec3 p, vec3 n, vec3 v, float ao) {
         vec3 l;
         vec3 e = light_illuminance(i, p, l);
         if (max(e.r, max(e.g, e.b)) <= 0.0 || dot(n, l) <= 0.0) continue;
-        radiance += shadowed_light(m, n, v, l, e, light_shadow(i, p, n, l));
+        radiance += shadowed_light(m, b, n, v, l, e, light_shadow(i, p, n, l));
     }
 #endif
     return radiance;
