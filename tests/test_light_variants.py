@@ -21,9 +21,9 @@ def _spot() -> PointLight:
 
 
 def test_local_light_defines():
-    assert local_light_defines([]) == {"LOCAL_LIGHTS": 0, "SPOT_LIGHTS": 0}
-    assert local_light_defines([_point()]) == {"LOCAL_LIGHTS": 1, "SPOT_LIGHTS": 0}
-    assert local_light_defines([_point(), _spot()]) == {"LOCAL_LIGHTS": 1, "SPOT_LIGHTS": 1}
+    assert local_light_defines([]) == {"LOCAL_LIGHTS": 0, "SPOT_LIGHTS": 0, "LIGHT_TILES": 0}
+    assert local_light_defines([_point()]) == {"LOCAL_LIGHTS": 1, "SPOT_LIGHTS": 0, "LIGHT_TILES": 0}
+    assert local_light_defines([_point(), _spot()]) == {"LOCAL_LIGHTS": 1, "SPOT_LIGHTS": 1, "LIGHT_TILES": 0}
 
 
 def _forcing(monkeypatch, **forced):

@@ -16,7 +16,8 @@ which no entry here names, so they never disturb this record.
 
 from __future__ import annotations
 
-# Frame-wide units (read through common/atmosphere.glsl, common/aerial_table.glsl, common/shadows.glsl).
+# Frame-wide units (read through common/atmosphere.glsl, common/aerial_table.glsl, common/shadows.glsl,
+# common/lights.glsl).
 FRAME_UNITS = {
     "HAZE_TABLE": 8,          # the fog layer's in-scattering table (sky/frame_sky.py)
     "SKY_VIEW_RADIANCE": 9,   # the per-frame sky-view table (sky/sky_view.py)
@@ -32,6 +33,7 @@ FRAME_UNITS = {
     "AERIAL_SOURCE": 19,
     "FOAM_NOISE": 20,         # the sea's foam noise (water), constant for the process's life
     "HAZE_LOBE": 21,          # the fog layer's phase-weighted sky light (sky/haze_lobe.py)
+    "LIGHT_TILES": 22,        # the view's screen-tile light masks (light_tiles.py)
 }
 
 # Pass-local units: bound by the pass that reads them, reused by the next pass.

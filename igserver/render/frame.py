@@ -15,7 +15,8 @@ from ..scene.model import Scene
 from .camera import CameraView, gl_matrix, make_view
 from .depth import zero_to_one
 from .frame_block import MAX_LIGHTS, FrameBlock
-from .lights import PointLight, gather_lights, light_uniforms
+from .light_tiles import LightTiles
+from .lights import FrameLights, PointLight, gather_lights, light_uniforms
 from .memo import Memo
 from .post.exposure import (GROUND_REFLECTANCE, EyeAdaptation, display_metered_ev100, exposure_of_ev100,
                             frustum_directions)
@@ -25,8 +26,8 @@ from .sky.frame_sky import SkyFrame, sky_frame
 from .sky.haze import HazeTransition
 
 # Point/spot lights per frame (MAX_LIGHTS: the frame block's arrays), the brightest at the camera
-# first. The light loop skips lights out of range, so the cost per pixel is bounded by MAX_LIGHTS
-# and usually far below it.
+# first. Where some lights reach only part of the view, a pixel loops over its screen tile's lights
+# only (light_tiles.py).
 
 
 @dataclass(frozen=True)
@@ -217,7 +218,7 @@ def build_frame(ctx: moderngl.Context, scene: Scene, state: FrameState | None = 
     # Sky: resident atmosphere tables (units 12..15), fog layer, sky-view table (9..11), light.
     sky = sky_frame(ctx, scene, celestial, altitude, view.position[:2], state.haze if state else None)
     light = sky.light
-    lights = gather_lights(scene, view, MAX_LIGHTS)
+    lights = FrameLights(gather_lights(scene, view, MAX_LIGHTS))
     # Provisional exposure for the passes (pre-exposure keeps half floats in range): the view
     # estimated from the sky-view table; the post pass meters the rendered frame and corrects it.
     samples = meter_samples(sky, scene, view, celestial, altitude - scene.location.altitude, lights)
@@ -233,6 +234,7 @@ def build_frame(ctx: moderngl.Context, scene: Scene, state: FrameState | None = 
     frame.resources["meter_samples"] = samples  # channels meter the union of their views (render/multiview.py)
     frame.uniforms = common_uniforms(frame, view_uniforms)
     frame.uniforms.update(sky.uniforms)
+    lights.tiled = LightTiles.get(ctx).update(frame.uniforms)  # the view's tile light lists
     frame.defines = light_defines(celestial, lights)
     FrameBlock.get(ctx).update(frame.uniforms)
     return frame
@@ -267,7 +269,8 @@ def light_defines(celestial: SunMoon, lights: list) -> dict:
     """SUN_TERM / MOON_TERM for common/lights.glsl: 0 when that body's term would be skipped at run
     time (same test, same float32 direction), so the frame's shaders do not carry its code;
     LOCAL_LIGHTS: 0 when the frame has no point or spot light; SPOT_LIGHTS: 0 when none of them is
-    a spot. Passes that do not add these defines compile every term and test at run time."""
+    a spot; LIGHT_TILES: 1 when a pixel loops over its screen tile's lights (light_tiles.py). Passes
+    that do not add these defines compile every term and test at run time."""
     sun_z = float(np.float32(celestial.sun_dir[2]))
     moon_z = float(np.float32(celestial.moon_dir[2]))
     return {"SUN_TERM": int(sun_z > BODY_TERM_MIN_Z), "MOON_TERM": int(moon_z > BODY_TERM_MIN_Z),
@@ -277,7 +280,8 @@ def light_defines(celestial: SunMoon, lights: list) -> dict:
 def local_light_defines(lights: list) -> dict:
     """The part of light_defines for passes that read point and spot lights only (light_illuminance:
     the sea, precipitation), so a sunset does not recompile them."""
-    return {"LOCAL_LIGHTS": int(bool(lights)), "SPOT_LIGHTS": int(any(l.spot_dir is not None for l in lights))}
+    return {"LOCAL_LIGHTS": int(bool(lights)), "SPOT_LIGHTS": int(any(l.spot_dir is not None for l in lights)),
+            "LIGHT_TILES": int(bool(lights) and getattr(lights, "tiled", False))}
 
 
 def pixel_angle(camera) -> float:

@@ -26,9 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .bindings import BLOCKS, write_buffer
+from .light_tiles import LIGHT_TILE_PX, LightTiles
 from .resident import resident
 
-MAX_LIGHTS = 64  # point/spot lights per frame; common/lights.glsl loops over the first u_light_count
+MAX_LIGHTS = 64  # point/spot lights per frame (bits of a tile's light mask: light_tiles.py)
 
 
 @dataclass(frozen=True)
@@ -103,6 +104,7 @@ def glsl() -> str:
     return (f"// Generated from igserver/render/frame_block.py (std140, {SIZE} bytes).\n"
             '#include "generated/bindings.glsl"\n'
             f"#define MAX_LIGHTS {MAX_LIGHTS}\n"
+            f"#define LIGHT_TILE_PX {LIGHT_TILE_PX}\n"
             "#if defined(FRAME_BLOCK) && FRAME_BLOCK\n"
             "layout(std140, binding = BLOCK_FRAME) uniform FrameBlock {\n" + body + "\n};\n"
             f"#else\n{plain}\n#endif\n")
@@ -188,3 +190,5 @@ class FrameBlock:
         # Bound every frame (one call): a binding point is context state that other code on the
         # context (a probe, a test) may have used since.
         self.buffer.bind_to_uniform_block(BLOCKS["FRAME"])
+        # The view's tile light lists (light_tiles.py) go with the block's lights and view.
+        LightTiles.get(self.ctx).update(values)

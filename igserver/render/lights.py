@@ -33,6 +33,13 @@ def host_lights(scene: Scene) -> list[PointLight]:
     return lights
 
 
+class FrameLights(list):
+    """The frame's point and spot lights, and whether its view has tile light lists (light_tiles.py:
+    some screen tile lists fewer of them than the frame has; the shaders' LIGHT_TILES)."""
+
+    tiled = False
+
+
 # Functions (scene) -> list[PointLight] whose lights the frame gathers: the host's, the fires'.
 LIGHT_SOURCES = [host_lights, fire_lights]
 

@@ -5,8 +5,7 @@
 // [0,1] is how much light j is blocked at the point (soft shadow maps), d_sh the shadow density
 // and c_sh the shadow colour (the part of the diffuse light a full shadow leaves). We read c_sh
 // as multiplying the diffuse lobe, so a black surface stays black in a coloured shadow.
-// Point/spot lights arrive camera-relative, brightest-at-the-camera first, at most MAX_LIGHTS; the
-// loop stops at u_light_count and skips lights out of range, so cost grows with the lights present.
+// Point/spot lights arrive camera-relative, brightest-at-the-camera first, at most MAX_LIGHTS.
 // Passes that define SURFACE_SHADOWS get shadow maps (common/shadows.glsl); others (water, rain)
 // include this file unchanged and see no shadows.
 // Compile-time light terms (frame.py light_defines): a pass that knows the frame defines SUN_TERM /
@@ -23,6 +22,15 @@
 // by the loop index and the smoothstep run masked for every point light).
 #ifndef SPOT_LIGHTS
 #define SPOT_LIGHTS 1
+#endif
+// LIGHT_TILES 1: a pixel loops over its screen tile's lights only (tile_lights: those whose range
+// can reach a point seen in the tile, render/light_tiles.py), in ascending index as the full loop
+// does, so the sum is the full loop's: a light left out adds exactly 0 there (range_window). On
+// llvmpipe a light skipped inside the loop still costs its whole body (masked SIMD), so only a
+// shorter loop saves it. 0 (frame.py local_light_defines: no tile lists fewer lights than the frame
+// has, or a pass that does not say): every light, no lookup.
+#ifndef LIGHT_TILES
+#define LIGHT_TILES 0
 #endif
 #ifndef SUN_TERM
 #define SUN_TERM 1
@@ -46,6 +54,44 @@ const float GROUND_BOUNCE_ALBEDO = 0.15;
 #include "common/shadows.glsl"
 #else
 float light_shadow(int light, vec3 p, vec3 n, vec3 l) { return 0.0; }
+#endif
+
+#if LOCAL_LIGHTS && LIGHT_TILES
+// Tile light lists: one RG32UI texel per LIGHT_TILE_PX^2 tile of the view, bit i set when light i
+// can reach the tile (bit 32 + i of .y for i >= 32). Row 0 is the bottom row.
+layout(binding = UNIT_LIGHT_TILES) uniform usampler2D u_light_tiles;
+
+// The light mask of the tile p is seen in. The tile comes from p itself, through the image-plane
+// tangents view_ray() uses (x = p.right / p.forward, pixel x = (x - left) / (right - left) * width),
+// not from gl_FragCoord: the lists then hold for any point of the frame's view whatever target is
+// drawn. A point off the grid (behind the camera, outside the frustum) gets every light.
+uvec2 tile_lights(vec3 p) {
+    float depth = dot(p, u_camera_forward);
+    vec2 tangent = vec2(dot(p, u_camera_right), dot(p, u_camera_up)) / depth;
+    vec2 px = (tangent - u_frustum_tangents.xz) / (u_frustum_tangents.yw - u_frustum_tangents.xz) * u_resolution;
+    px = clamp(px, vec2(-1.0), u_resolution + float(LIGHT_TILE_PX));  // keeps the int conversion defined
+    ivec2 tile = ivec2(floor(px / float(LIGHT_TILE_PX)));
+    ivec2 size = textureSize(u_light_tiles, 0);
+    bool inside = depth > 0.0 && all(greaterThanEqual(tile, ivec2(0))) && all(lessThan(tile, size));
+    uvec2 every = uvec2(u_light_count >= 32 ? ~0u : (1u << u_light_count) - 1u,
+                        u_light_count >= 64 ? ~0u : (1u << max(u_light_count - 32, 0)) - 1u);
+    uvec2 listed = texelFetch(u_light_tiles, clamp(tile, ivec2(0), size - 1), 0).xy;
+    return inside ? listed : every;
+}
+
+// The lowest light of ``lights`` (not empty), removed from it: lights come in ascending index.
+int next_light(inout uvec2 lights) {
+    bool low = lights.x != 0u;
+    uint word = low ? lights.x : lights.y;
+    int i = findLSB(word) + (low ? 0 : 32);
+    word &= word - 1u;
+    lights = low ? uvec2(word, lights.y) : uvec2(0u, word);
+    return i;
+}
+
+bool any_light(uvec2 lights) {
+    return (lights.x | lights.y) != 0u;
+}
 #endif
 
 // Smooth range window: inverse-square falloff that reaches exactly 0 at the light's range.
@@ -104,9 +150,14 @@ vec3 shade_surface_ao(Material m, vec3 p, vec3 n, vec3 v, float ao) {
         radiance += shadowed_light(m, b, n, v, u_moon_dir, u_moon_illuminance, light_shadow(MOON_LIGHT, p, n, u_moon_dir));
 #endif
 #if LOCAL_LIGHTS
+#if LIGHT_TILES
+    for (uvec2 lights = tile_lights(p); any_light(lights);) {
+        int i = next_light(lights);
+#else
     for (int i = 0; i < u_light_count; ++i) {
+#endif
         vec3 d = u_light_pos[i].xyz - p;
-        if (dot(d, d) >= u_light_pos[i].w * u_light_pos[i].w) continue;  // out of range: no cost
+        if (dot(d, d) >= u_light_pos[i].w * u_light_pos[i].w) continue;  // out of range
         vec3 l;
         vec3 e = light_illuminance(i, p, l);
         if (max(e.r, max(e.g, e.b)) <= 0.0 || dot(n, l) <= 0.0) continue;

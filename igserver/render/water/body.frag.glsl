@@ -21,7 +21,12 @@ void main() {
     vec3 p = dir * t;
     vec3 e = sea_downwelling();
 #if LOCAL_LIGHTS
+#if LIGHT_TILES  // the tile's lights only (common/lights.glsl)
+    for (uvec2 lights = tile_lights(p); any_light(lights);) {
+        int i = next_light(lights);
+#else
     for (int i = 0; i < u_light_count; ++i) {
+#endif
         vec3 l;
         vec3 e_i = light_illuminance(i, p, l);
         e += e_i * max(l.z, 0.0);

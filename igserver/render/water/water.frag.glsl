@@ -175,7 +175,12 @@ void main() {
     vec3 direct = glint(u_glint_illuminance, n, v, u_glint_dir, alpha);
     vec3 e_local = vec3(0.0);  // local-light irradiance on a horizontal surface (lux), for body/foam
 #if LOCAL_LIGHTS
+#if LIGHT_TILES  // the tile's lights only (common/lights.glsl)
+    for (uvec2 lights = tile_lights(v_rel); any_light(lights);) {
+        int i = next_light(lights);
+#else
     for (int i = 0; i < u_light_count; ++i) {
+#endif
         vec3 l;
         vec3 e = light_illuminance(i, v_rel, l);  // the shared light loop's falloff and spot cone
         direct += glint(e, n, v, l, alpha);
