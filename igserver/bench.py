@@ -8,12 +8,11 @@ way the IG clock steps a stream (``scene.at_sim_time``: the rest of the state st
 Besides, per scene, after those frames:
 
 - **Python ms** (``python_ms``): the frame's host time outside GL calls (Python and numpy), from a
-  separate pass of as many frame pairs: the calling thread's CPU time (``time.thread_time``) for a
-  frame rendered as in a stream, minus the CPU time spent inside moderngl calls (which on llvmpipe
-  includes its vertex work and binning) in the next frame, rendered with every call counted and timed
-  by ``render.gl_count.GLCallCounter`` (less its clock reads inside the calls: ``gl_work_s``). The
-  counting wrappers' own cost thus enters neither term. CPU time, not wall time: waiting for the
-  driver is not counted, on either side.
+  separate instrumented pass of as many frames, each counted with ``render.gl_count.GLCallCounter``:
+  the calling thread's CPU time for the frame (``time.thread_time``) minus the CPU time spent inside
+  moderngl calls (which on llvmpipe includes its vertex work and binning) minus the counting wrappers'
+  own overhead (calls x one wrapper's cost, calibrated on a no-op). CPU time, not wall time: waiting
+  for the driver is not counted, on either side.
 - **GL calls** (``gl_calls``) and **GL objects created** (``gl_objects_created``) per frame, counted
   at moderngl's boundary in the same instrumented frames; objects created must be 0 in steady state.
 - **fps in flight** (``fps_in_flight``): frames through ``Renderer.submit`` (each frame's pixels are
@@ -99,23 +98,17 @@ class PassTimers:
 
 
 def _instrumented(renderer, scenes) -> dict:
-    """Python ms, GL calls and GL objects created per frame: the first half of ``scenes`` rendered as
-    in a stream (each frame's calling-thread CPU time), then the second half with their GL calls
-    counted and timed; frame i of each half make a pair. (Blocks, not alternating frames: entering and
-    leaving the counter rewrites moderngl's classes, and the frame after it would run on cold caches.)"""
-    half = len(scenes) // 2
-    cpu = []
-    for s in scenes[:half]:
-        cpu0 = time.thread_time()
-        renderer.render(s)
-        cpu.append(time.thread_time() - cpu0)
+    """Python ms, GL calls and GL objects created per frame: one counted frame per scene."""
     python_ms, calls, created = [], [], []
     with GLCallCounter() as counter:
-        for s, plain in zip(scenes[half:], cpu):
-            total, work, made = counter.total, counter.gl_work_s, counter.created()
+        for s in scenes:
+            total, gl_cpu, made = counter.total, counter.gl_cpu_s, counter.created()
+            cpu0 = time.thread_time()
             renderer.render(s)
-            python_ms.append((plain - (counter.gl_work_s - work)) * 1e3)
-            calls.append(counter.total - total)
+            cpu = time.thread_time() - cpu0
+            n = counter.total - total
+            python_ms.append((cpu - (counter.gl_cpu_s - gl_cpu) - n * counter.wrapper_cost_s) * 1e3)
+            calls.append(n)
             created.append(counter.created() - made)
     return {"python_ms": {"median": statistics.median(python_ms), "p99": percentile(python_ms, 99)},
             "gl_calls": int(statistics.median(calls)), "gl_objects_created": max(created)}
@@ -172,7 +165,7 @@ def bench_scene(renderer, scene, frames: int, warmup: int = 3, gpu_timer: str | 
              if name in result.passes and getattr(p, "stats", None)}
     # The same clock steps again, after the frames above: the world is as warm as in a stream.
     later = [at_sim_time(scene, t0 + (warmup + frames + i) / 30.0) for i in range(frames)]
-    extra = _instrumented(renderer, [at_sim_time(scene, t0 + (warmup + frames + i) / 30.0) for i in range(2 * frames)])
+    extra = _instrumented(renderer, later)
     n = 4 * max(frames // 4, 2)  # 4 blocks of at least 2 frames: one frame in flight while one is drawn
     stream = [at_sim_time(scene, t0 + (warmup + frames + i) / 30.0) for i in range(n)]
     extra["fps_sync"], extra["fps_in_flight"] = _throughput(renderer, stream)

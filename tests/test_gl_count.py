@@ -55,9 +55,6 @@ def test_a_known_sequence_is_counted_exactly(tiny_program):
     assert calls.created() == 0
     assert calls.gl_cpu_s > 0 and calls.wrapper_cost_s > 0
     assert calls.overhead_s == pytest.approx(5 * calls.wrapper_cost_s)
-    # the wrappers' clock reads inside the calls are part of their cost and not GL work
-    assert 0 < calls.inside_cost_s < calls.wrapper_cost_s
-    assert calls.gl_work_s == pytest.approx(calls.gl_cpu_s - 5 * calls.inside_cost_s)
 
 
 def test_objects_made_in_the_block_are_counted(renderer):
@@ -100,7 +97,7 @@ def test_bench_reports_python_ms_gl_calls_objects_and_fps_in_flight(renderer):
 
 def test_bench_python_ms_is_the_python_a_frame_runs(renderer, monkeypatch):
     # A pass made to run 4 ms more of Python a frame: the bench's Python ms grows by those 4 ms
-    # (within 1.5 ms: the two frames of a pair are two measurements), its GL work does not count.
+    # (within 1.5 ms: two runs of frames on a shared machine).
     import time
 
     scene = tiny()

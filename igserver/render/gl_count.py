@@ -10,12 +10,9 @@ What is not counted, because it does not reach the driver: a program's member lo
 reads moderngl answers from Python (sizes, ``glo``), ``release`` and ``__del__`` (object lifetime).
 
 Besides the count, the wrappers add up the calling thread's CPU time spent inside the wrapped calls
-(``gl_cpu_s``); ``gl_work_s`` is that less the part of the wrappers' own clock reads that falls
-inside the timed interval (calls times ``inside_cost_s``, calibrated on a no-op at entry): the CPU
-time the GL calls themselves took. ``igserver bench`` reports a frame's Python and numpy time as the
-calling thread's CPU time for the frame rendered *without* the wrappers, less the GL work counted in
-a frame rendered with them: the wrappers' whole cost in a real frame (their code runs on cold
-caches, measured at 2-3 times their cost in a loop) is then in neither term.
+(``gl_cpu_s``). A frame's host time *outside* GL is then its calling-thread CPU time minus that, less
+the wrappers' own overhead (``overhead_s``: calls times the cost of one wrapper, calibrated on a
+no-op at entry), which is how ``igserver bench`` reports Python and numpy time per frame.
 """
 
 from __future__ import annotations
@@ -43,16 +40,10 @@ class GLCallCounter:
         self.gl_cpu_s = 0.0
         self._saved: list[tuple[type, str, object]] = []
         self.wrapper_cost_s = 0.0
-        self.inside_cost_s = 0.0
 
     @property
     def total(self) -> int:
         return sum(self.by_name.values())
-
-    @property
-    def gl_work_s(self) -> float:
-        """CPU seconds inside the wrapped calls less the wrappers' clock reads within them."""
-        return self.gl_cpu_s - self.total * self.inside_cost_s
 
     @property
     def overhead_s(self) -> float:
@@ -115,8 +106,7 @@ class GLCallCounter:
         moderngl.Uniform.write = write
 
     def _calibrate(self) -> None:
-        """CPU seconds one wrapper adds around a call that does nothing (``wrapper_cost_s``), and the
-        part of it its own timing counts as inside the call (``inside_cost_s``)."""
+        """CPU seconds one wrapper adds around a call that does nothing."""
         probe = GLCallCounter()
         noop = lambda: None  # noqa: E731
         n = 2000
@@ -124,7 +114,6 @@ class GLCallCounter:
         for _ in range(n):
             probe._timed("noop", noop)
         wrapped = time.thread_time() - t0
-        self.inside_cost_s = probe.gl_cpu_s / n
         t0 = time.thread_time()
         for _ in range(n):
             noop()
