@@ -113,6 +113,69 @@ def test_gpu_halos_match_the_table(renderer):
     assert checked >= 3
 
 
+def _mirror_factor(t0, h, D, d, beta, g):
+    """halos.halo_from_table over arrays: phi from float64 inverse tangents, the table's lookup
+    (the shader takes neither: its u axis and tail come from lengths, halos.frag.glsl)."""
+    phi0, phi1 = np.arctan2(-t0, h), np.arctan2(D - t0, h)
+    r1 = np.hypot(D - t0, h)
+    near = np.exp(halos.lookup(phi0, beta * h, g) - beta * d)
+    far = np.exp(halos.lookup(phi1, beta * h, g) - beta * (D + r1))
+    return np.maximum(near - far, 0.0)
+
+
+def test_gpu_halos_match_the_table_on_every_pixel(renderer):
+    # Every pixel of the halo target against the table's numpy mirror, in dense fog (visibility
+    # 150 m, 20 optical depths at 1 km) with the fire ahead and a lamp 30 m straight behind the
+    # camera, 0.3 m aside: the view rays near screen centre pass close to the lamp's antipode (the
+    # near end in the table's tail), the ground beyond the fire puts far ends in the tail, the
+    # ground before it and the sky the rest. The shader reaches u and the tail's scaling through
+    # lengths where the mirror takes phi = atan2: a slip in either (the u axis, h_eff, the stable
+    # form of T) moves whole regions by far more than the 1 % allowed (half-float storage 0.05 %,
+    # the texture unit's 8-bit filter weights 0.4 %).
+    scene = apply_patch(load_scene("night_fire"), {
+        "camera": {"width": 160, "height": 90, "exposure_ev": 2.0},
+        "atmosphere": {"visibility": 150.0, "visibility_transition": 0.0},
+        "lights": [{"id": "behind", "position": [0.3, -60.0, 3.2], "color": [1.0, 0.9, 0.8],
+                    "intensity": 5000.0, "range": 200.0}]})
+    renderer.render(scene)
+    frame = build_frame(renderer.ctx, scene, None)
+    uniforms = halo_uniforms(frame)
+    n = uniforms["u_halo_count"]
+    pos = np.frombuffer(uniforms["u_halo_pos"], np.float32).reshape(-1, 4)[:n].astype(np.float64)
+    col = np.frombuffer(uniforms["u_halo_intensity"], np.float32).reshape(-1, 4)[:n, :3].astype(np.float64)
+    assert np.any(pos[:, 1] < 0.0) or n >= 2, "the lamp behind the camera must be drawn"
+    post = renderer.graph.passes["post"]
+    w, h = post._halo_target[0].size
+    data = np.frombuffer(post._halo_target[0].read(), dtype=np.float16).reshape(h, w, 4).astype(np.float64)
+    full = np.frombuffer(renderer._targets.distance.read(), dtype=np.float32).reshape(90, 160)
+    # the shader's distance: the nearest of each HALO_SCALE x HALO_SCALE block, clamped
+    blocks = np.full((h * HALO_SCALE, w * HALO_SCALE), np.inf)
+    blocks[:90, :160] = full
+    D = blocks.reshape(h, HALO_SCALE, w, HALO_SCALE).min(axis=(1, 3))
+    D = np.clip(D, 1e-3, uniforms["u_halo_far"])
+    view = frame.view
+    left, right, bottom, top = view.tangents
+    rot = np.asarray(view.rotation, dtype=np.float64)
+    u = (np.arange(w) + 0.5) / w
+    v = (np.arange(h) + 0.5) / h
+    dirs = (rot[:, 1][None, None] + (left + (right - left) * u)[None, :, None] * rot[:, 0]
+            + (bottom + (top - bottom) * v)[:, None, None] * rot[:, 2])
+    dirs /= np.linalg.norm(dirs, axis=-1, keepdims=True)
+    beta, omega, g = uniforms["u_halo_beta"], uniforms["u_halo_omega"], uniforms["u_halo_g"]
+    expected = np.zeros((h, w, 3))
+    tails = [0, 0]
+    for p, c in zip(pos, col):
+        t0 = dirs @ p[:3]
+        hh = np.maximum(np.linalg.norm(p[:3] - t0[..., None] * dirs, axis=-1), 0.05)
+        expected += c * (omega * beta / hh * _mirror_factor(t0, hh, D, p[3], beta, g))[..., None]
+        tails[0] += int(np.sum(np.arctan2(-t0, hh) > halos.PHI_TAIL))
+        tails[1] += int(np.sum(np.arctan2(D - t0, hh) > halos.PHI_TAIL))
+    expected *= frame.exposure
+    assert min(tails) > 0, "both ends of some rays must lie in the table's tail"
+    err = np.abs(data[..., :3] - expected)
+    assert np.all(err <= 0.01 * expected + 1e-3 * expected.max())
+
+
 @pytest.mark.parametrize("size", [(101, 57), (160, 90)])
 def test_meter_holds_the_block_means_of_the_frame(renderer, size):
     # The exposure meter (post/meter.glsl) reads 2x2 texel groups through one bilinear fetch at their

@@ -11,43 +11,50 @@
 // from the ray, t0 its closest point along it, phi0 = atan(-t0, h), phi1 = atan(D - t0, h),
 //   L = omega beta I / h [exp(K(phi0) - beta d) - exp(K(phi1) - beta (D + r1))],
 // d the camera-light distance, r1 the surface point-light distance, K(phi, beta h, g) the table.
+// The table's phi axis is u = T / (1 + T), T = tan(phi/2 + pi/4) = (s + r) / h at an end of the ray
+// (s its signed distance along the ray from t0, r its distance from the light): no inverse tangent,
+// and the tail's scaling (halos.py) folds into h_eff: no logarithm but the one of a.
 #define MAX_HALOS 8
-uniform int u_halo_count;
-uniform vec4 u_halo_pos[MAX_HALOS];        // camera-relative m
+// HALO_COUNT (1..MAX_HALOS, post.py): the loop below unrolls into exactly that many bodies, where
+// a uniform count let the compiler unroll it into MAX_HALOS bodies (its array indexing) run masked.
+#ifndef HALO_COUNT
+#define HALO_COUNT MAX_HALOS
+#endif
+uniform vec4 u_halo_pos[MAX_HALOS];        // camera-relative m; w: its length d
 uniform vec4 u_halo_intensity[MAX_HALOS];  // cd, linear rgb
 uniform float u_halo_beta;                 // 1/m
 uniform float u_halo_omega;
-uniform sampler2D u_halo_table;            // K(phi, log10 a) at the frame's g (post/halos.py), bilinear
-uniform vec4 u_halo_table_map;             // (phi, log10 a) -> texture coordinates: scale, offset, scale, offset
+uniform sampler2D u_halo_table;            // K(u, log10 a) at the frame's g (post/halos.py), bilinear
+uniform vec4 u_halo_table_map;             // (u, log2 h_eff) -> texture coordinates: scale, offset, scale, offset (log10 beta in it)
+uniform vec2 u_halo_tail;                  // the table's tail near phi = pi/2: its first u, 1 / its first T (halos.py)
 
-uniform vec2 u_halo_tail;                   // the table's tail near phi = pi/2: its first phi, 1 / its width (halos.py)
-
-// In the tail (the light nearly straight behind the ray's start, eps = pi/2 - phi under TAIL)
-// K(phi, a) = K(tail's start, a TAIL / eps) + log(eps / TAIL) (halos.py: K ~ log eps + F(a / eps)).
-float halo_k(float phi, float log_a) {
-    float ratio = clamp((0.5 * PI - phi) * u_halo_tail.y, 1e-30, 1.0);
-    float k = texture(u_halo_table, vec2(min(phi, u_halo_tail.x) * u_halo_table_map.x + u_halo_table_map.y,
-                                         (log_a - log2(ratio) * 0.30102999566) * u_halo_table_map.z + u_halo_table_map.w)).r;
-    return k + log(ratio);
+// exp(K(phi, beta h) - beta path) / h at an end of the ray (s, r as above, h floored): T = (s + r) / h
+// taken as h / (r - s) where s < 0 (no cancellation), so u = 1 - v or v, v = h / (r + |s| + h). In
+// the tail (T over 1 / u_halo_tail.y: the light nearly straight behind this end) K(phi, beta h) =
+// K(tail's start, beta h_eff) + log(h / h_eff), h_eff = (s + r) u_halo_tail.y (halos.py); before
+// it h_eff = h, and the max below is that.
+float halo_end(float s, float r, float h, float path) {
+    float v = h / (r + abs(s) + h);
+    float u = s >= 0.0 ? 1.0 - v : v;
+    float h_eff = max(h, (s + r) * u_halo_tail.y);
+    float k = texture(u_halo_table, vec2(min(u, u_halo_tail.x) * u_halo_table_map.x + u_halo_table_map.y,
+                                         log2(h_eff) * u_halo_table_map.z + u_halo_table_map.w)).r;
+    return exp(k - u_halo_beta * path) / h_eff;
 }
 
 // D: the surface distance, at most u_halo_far (past 20 optical depths nothing more is seen).
 vec3 light_halos(vec3 dir, float D) {
     vec3 sum = vec3(0.0);
-    for (int i = 0; i < MAX_HALOS; ++i) {
-        if (i >= u_halo_count) break;
+    for (int i = 0; i < HALO_COUNT; ++i) {
         vec3 p = u_halo_pos[i].xyz;
+        float d = u_halo_pos[i].w;
         float t0 = dot(p, dir);
         float h = max(length(p - t0 * dir), 0.05);
-        float phi0 = atan(-t0, h), phi1 = atan(D - t0, h);
-        if (phi1 <= phi0) continue;
-        float log_a = log2(u_halo_beta * h) * 0.30102999566;  // log10
-        float d = length(p);
-        float r1 = length(vec2(D - t0, h));
-        float j = exp(halo_k(phi0, log_a) - u_halo_beta * d);
-        // The far end's term is at most exp(-beta (D + r1)) pi max(p): skip it past 30 optical depths.
-        if (u_halo_beta * (D + r1) < 30.0) j -= exp(halo_k(phi1, log_a) - u_halo_beta * (D + r1));
-        sum += u_halo_intensity[i].rgb * (u_halo_omega * u_halo_beta / h * max(j, 0.0));
+        float s1 = D - t0;
+        float r1 = length(vec2(s1, h));
+        // Both ends unconditionally: llvmpipe runs a skipped branch's body anyway.
+        float j = halo_end(-t0, d, h, d) - halo_end(s1, r1, h, D + r1);
+        sum += u_halo_intensity[i].rgb * (u_halo_omega * u_halo_beta * max(j, 0.0));
     }
     return sum;
 }

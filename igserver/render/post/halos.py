@@ -13,6 +13,13 @@ float64 here. It spans hundreds of decades, so the table holds K = log H + a T(p
 function of moderate size, and since beta t0 + a T(phi) is beta times the path camera -> point
 -> light, each end becomes exp(K - beta * path): at the camera the path is the light's distance
 d, at the surface D + r1. No term overflows, whatever side of the camera the light is on.
+
+The table's phi axis is u = T(phi) / (1 + T(phi)) (nodes uniform in u): an end of the ray at signed
+distance s along it from the light's closest point and r from the light has T = (s + r) / h, so
+    u = 1 - h / (r + |s| + h)  (s >= 0),   u = h / (r + |s| + h)  (s < 0)
+with no cancellation and no inverse tangent (halos.frag.glsl). du/dphi = 1 / (2 (sin x + cos x)^2),
+x = phi/2 + pi/4, lies in [1/4, 1/2]: the nodes are 0.64x as far apart in phi as uniform ones at
+both ends (the HG forward peak is at phi = pi/2) and 1.27x in the middle.
 """
 
 from __future__ import annotations
@@ -25,7 +32,7 @@ import numpy as np
 
 from ..bindings import use_texture
 
-N_PHI = 256  # nodes over [-pi/2, pi/2]
+N_PHI = 256  # nodes over u in [0, 1] (phi in [-pi/2, pi/2])
 N_A = 64  # nodes of log10(a) over [A_LOG_MIN, A_LOG_MAX]
 A_LOG_MIN, A_LOG_MAX = -5.0, 3.0  # a = beta h below 1e-5: H no longer depends on a; above 1e3: exp(-a) is 0
 # The fog model's asymmetry (render/sky/haze.py: g = 0.7 + 0.15 fog, fog in [0, 1]) spans this range.
@@ -43,8 +50,18 @@ def path_factor(psi: np.ndarray) -> np.ndarray:
     return np.tan(0.5 * psi + 0.25 * math.pi)
 
 
+def phi_of_u(u: np.ndarray) -> np.ndarray:
+    """The table's phi axis: u = T / (1 + T), T(phi) = tan(phi/2 + pi/4)."""
+    return 2.0 * np.arctan2(u, 1.0 - u) - 0.5 * math.pi
+
+
+def u_of_phi(phi: np.ndarray) -> np.ndarray:
+    x = 0.5 * phi + 0.25 * math.pi
+    return np.sin(x) / (np.sin(x) + np.cos(x))
+
+
 def axes() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    phi = np.linspace(-0.5 * math.pi, 0.5 * math.pi, N_PHI)
+    phi = phi_of_u(np.linspace(0.0, 1.0, N_PHI))
     a = 10.0 ** np.linspace(A_LOG_MIN, A_LOG_MAX, N_A)
     g = np.linspace(G_MIN, G_MAX, N_G)
     return phi, a, g
@@ -68,21 +85,26 @@ def build_table() -> np.ndarray:
     return np.concatenate([k, k[..., -1:]], axis=-1)
 
 
-# The tail, phi in [PHI_TAIL, pi/2] (the light nearly straight behind the ray's start). With
+# The tail, phi in [PHI_TAIL, pi/2] (the light nearly straight behind the ray's end). With
 # eps = pi/2 - phi small, T(psi) ~ 2 / (pi/2 - psi) and p_g(sin psi) ~ p_g(1) there; with
 # psi = pi/2 - eps u:
 #   H(phi, a) ~ eps p_g(1) integral_0^1 exp(-(2 a / eps) / u) du,   K = log H + a T ~ log eps + F(a / eps),
-# so K(phi, a) = K(PHI_TAIL, a TAIL / eps) + log(eps / TAIL): the tail's first node at a scaled a.
+# so K(phi, a) = K(PHI_TAIL, a / ratio) + log(ratio), ratio = eps / TAIL: the tail's first node at a
+# scaled a. The shader takes ratio = T(PHI_TAIL) / T(phi) = tan(eps/2) / tan(TAIL/2) (within
+# TAIL^2 / 12 = 3e-4 of eps / TAIL), which is h / h_eff with h_eff = max(h, (s + r) / T(PHI_TAIL)):
+# the lookup's a is beta h_eff, and exp(K) = ratio exp(K(PHI_TAIL, beta h_eff)) takes no logarithm.
 # K ~ log eps is far from linear there: linear interpolation was 9-13 % low one degree from the
 # light's antipode, and the linear continuation to pi/2 6x high within 0.1 deg of it (a bright dot
 # opposite a fire behind the camera). The tail's other nodes are not read.
-TAIL = 4.0 * math.pi / (N_PHI - 1)  # four cells: 2.8 deg
-PHI_TAIL = 0.5 * math.pi - TAIL
+U_TAIL = 1.0 - 4.0 / (N_PHI - 1)  # four cells
+T_TAIL = U_TAIL / (1.0 - U_TAIL)  # T(PHI_TAIL)
+PHI_TAIL = float(phi_of_u(U_TAIL))  # pi/2 - 1.8 deg
+TAIL = 0.5 * math.pi - PHI_TAIL
 
 
 def tail_ratio(phi: np.ndarray) -> np.ndarray:
-    """eps / TAIL in the tail, 1 before it (halos.frag.glsl halo_k)."""
-    return np.clip((0.5 * math.pi - phi) / TAIL, 1e-30, 1.0)
+    """T(PHI_TAIL) / T(phi) in the tail, 1 before it (halos.frag.glsl: h / h_eff)."""
+    return np.clip(T_TAIL / np.maximum(path_factor(np.minimum(phi, 0.5 * math.pi)), 1e-300), 1e-30, 1.0)
 
 
 _TABLE: np.ndarray | None = None
@@ -110,7 +132,7 @@ def lookup(phi: np.ndarray, a: np.ndarray, g: float) -> np.ndarray:
     slice at g, which is linear between the table's g nodes (trilinear in the table)."""
     t = _slice64(g)
     ratio = tail_ratio(phi)
-    x = np.clip((np.minimum(phi, PHI_TAIL) + 0.5 * math.pi) / math.pi * (N_PHI - 1), 0.0, N_PHI - 2.0)
+    x = np.clip(u_of_phi(np.minimum(phi, PHI_TAIL)) * (N_PHI - 1), 0.0, N_PHI - 2.0)
     y = np.clip((np.log10(np.maximum(a, 1e-30) / ratio) - A_LOG_MIN) / (A_LOG_MAX - A_LOG_MIN) * (N_A - 1), 0.0, N_A - 1.0)
     i, j = np.minimum(x.astype(np.int64), N_PHI - 2), np.minimum(y.astype(np.int64), N_A - 2)
     fx, fy = x - i, y - j
@@ -226,10 +248,11 @@ def halo_reference(t0: float, h: float, D: float, beta: float, g: float, n: int 
     return float(0.5 * (phi1 - phi0) * np.sum(w * f))
 
 
-def table_uniforms() -> dict:
-    """Map of halos.frag.glsl's lookups from (phi, log10 a) to texture coordinates (node i at
-    texel centre (i + 0.5) / N)."""
+def table_uniforms(beta: float) -> dict:
+    """Map of halos.frag.glsl's lookups from (u, log2 h_eff) to texture coordinates (node i at
+    texel centre (i + 0.5) / N; log10 a = log10 beta + log2 h_eff log10 2), and the tail's start."""
     a_span = A_LOG_MAX - A_LOG_MIN
-    return {"u_halo_table_map": ((N_PHI - 1) / (math.pi * N_PHI), 0.5,
-                                 (N_A - 1) / (a_span * N_A), (-A_LOG_MIN / a_span * (N_A - 1) + 0.5) / N_A),
-            "u_halo_tail": (PHI_TAIL, 1.0 / TAIL)}
+    y_scale = (N_A - 1) / (a_span * N_A)
+    return {"u_halo_table_map": ((N_PHI - 1) / N_PHI, 0.5 / N_PHI, y_scale * math.log10(2.0),
+                                 ((math.log10(beta) - A_LOG_MIN) / a_span * (N_A - 1) + 0.5) / N_A),
+            "u_halo_tail": (U_TAIL, 1.0 / T_TAIL)}

@@ -89,10 +89,11 @@ def halo_uniforms(frame, exposure_correction: float = 1.0) -> dict:
     col = np.zeros((MAX_HALOS, 4), np.float32)
     for i, light in enumerate(lights):
         pos[i, :3] = view.relative(light.position)
+        pos[i, 3] = math.sqrt(float(pos[i, :3] @ pos[i, :3]))
         col[i, :3] = light.color
     return {"u_halo_count": len(lights), "u_halo_pos": pos.tobytes(), "u_halo_intensity": col.tobytes(),
             "u_halo_beta": beta, "u_halo_omega": float(haze.omega), "u_halo_g": float(haze.g), "u_halo_far": 20.0 / beta,
-            **table_uniforms()}
+            **table_uniforms(beta)}
 
 
 _cones: dict = {}
@@ -154,7 +155,9 @@ class PostPass(RenderPass):
         self._halo_target = self.held_target("halos", size, "f2")
         if getattr(self, "_halo_table", None) is None:
             self._halo_table = HaloTable(self.ctx)
-        program = self.programs.program("common/fullscreen.vert.glsl", "post/halos.frag.glsl", {"HALO_SCALE": HALO_SCALE})
+        # One variant per count of lights (1..MAX_HALOS): its loop unrolls to exactly that many.
+        program = self.programs.program("common/fullscreen.vert.glsl", "post/halos.frag.glsl",
+                                        {"HALO_SCALE": HALO_SCALE, "HALO_COUNT": halos["u_halo_count"]})
         set_uniforms(program, frame.uniforms)
         set_uniforms(program, halos)
         set_uniforms(program, {"u_distance": 1, "u_halo_table": HALO_TABLE_UNIT})
