@@ -4,10 +4,13 @@ table against a float64 quadrature, and the GPU pass against the table's numpy m
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
+import moderngl
 import numpy as np
 import pytest
 
+from igserver.render import bindings
 from igserver.render.frame import build_frame
 from igserver.render.post import halos
 from igserver.render.camera import cone_on_screen, make_view
@@ -311,3 +314,42 @@ def test_radius_kept_per_light_and_fog_follows_intensity_and_threshold_exactly()
     # another distance or fog is another profile
     assert any(halos.halo_radius(d * 3, beta, omega, g, 1e5, t, pixel) != halos.halo_radius(d, beta, omega, g, 1e5, t, pixel)
                for t in np.geomspace(1e-3, 1e2, 11))
+
+
+@pytest.mark.parametrize("size", [(9, 7), (8, 6)])
+def test_nearest_distance_of_a_block(renderer, size):
+    # common/nearest_distance.glsl at scale 2 (the halos' and the volumes' reduced passes) takes the
+    # block's 2x2 by one gather around its shared corner: it must return the plain minimum of the
+    # block, the frame's last row and column (odd sizes) clamped as the fetches of other scales.
+    source = (Path(halos.__file__).resolve().parents[1] / "common" / "nearest_distance.glsl").read_text()
+    ctx = renderer.ctx
+    w, h = size
+    values = np.random.default_rng(7).uniform(1.0, 1000.0, (h, w)).astype(np.float32)
+    src = ctx.texture((w, h), 1, values.tobytes(), dtype="f4")
+    src.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    src.repeat_x = src.repeat_y = False
+    lw, lh = -(-w // 2), -(-h // 2)
+    out = ctx.texture((lw, lh), 2, dtype="f4")
+    fbo = ctx.framebuffer([out])
+    program = ctx.program(
+        vertex_shader="#version 430\nvoid main() { vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2);"
+                      " gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0); }",
+        fragment_shader="#version 430\nuniform sampler2D u_d;\nout vec2 o;\n" + source +
+                        "void main() { ivec2 q = ivec2(gl_FragCoord.xy); o = vec2(nearest_distance(u_d, q, 2),"
+                        " nearest_distance(u_d, q, 3)); }")
+    program["u_d"].value = 7
+    src.use(7)
+    fbo.use()
+    ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+    vao = ctx.vertex_array(program, [])
+    vao.render(moderngl.TRIANGLES, vertices=3)
+    got = np.frombuffer(out.read(), np.float32).reshape(lh, lw, 2)
+    padded = np.pad(values, ((0, 2 * lh - h), (0, 2 * lw - w)), mode="edge")
+    expected = padded.reshape(lh, 2, lw, 2).min(axis=(1, 3))
+    for obj in (vao, program, fbo, out, src):
+        obj.release()
+    bindings.forget_bindings(ctx)  # unit 7 was bound behind the record's back
+    assert np.array_equal(got[..., 0], expected)
+    # scale 3 through the clamped fetches covers a 3x3 block: a second, independent path
+    p3 = np.pad(values, ((0, 3 * lh - h), (0, 3 * lw - w)), mode="edge")
+    assert np.array_equal(got[..., 1], p3[:3 * lh, :3 * lw].reshape(lh, 3, lw, 3).min(axis=(1, 3)))
