@@ -72,19 +72,21 @@ def test_standby_while_starting_then_operate(ig):
 
 
 def test_emulator_scenario_drives_the_state(ig):
-    summary = cigi_host.run(("127.0.0.1", ig.cigi_port), seconds=3.0, rate=30.0, sock=ig.host_sock)
+    # 5 s: the fire starts at 2 s, and its first frame compiles the fire's programs (1.5 s on llvmpipe
+    # with a cold shader cache, more on a loaded machine): no frame, so no answer, until it is drawn
+    summary = cigi_host.run(("127.0.0.1", ig.cigi_port), seconds=5.0, rate=30.0, sock=ig.host_sock)
     scene = ig.runtime.store.scene
     assert [e.id for e in scene.entities] == ["cigi.1", "cigi.2"] and scene.entities[0].model == "patrol_boat"
     assert [e.id for e in scene.effects] == ["cigi.2.fx1"] and scene.effects[0].active
     assert scene.weather.precipitation.type == "rain" and scene.atmosphere.visibility == 3000.0
-    assert scene.host_frame == 89 and scene.camera.position[1] < scene.entities[0].position[1]
+    assert scene.host_frame == 149 and scene.camera.position[1] < scene.entities[0].position[1]
     assert summary.sof and summary.sof[-1].ig_mode == 1 and summary.sof[-1].last_host_frame >= 60
     ids = sorted({r.request_id for r in summary.responses})
     assert len(ids) >= 25 and all(r.valid and r.material_code == 1 for r in summary.responses)
     state = httpx.get(ig.url + "/v1/state").json()  # the same state over REST
     assert [e["id"] for e in state["entities"]] == ["cigi.1", "cigi.2"]
     metrics = ig.runtime.metrics
-    assert metrics.value("igserver_cigi_datagrams_total", result="accepted") >= 90
+    assert metrics.value("igserver_cigi_datagrams_total", result="accepted") >= 150
     assert metrics.value("igserver_cigi_packets_total", packet="Component Control") == 1
     # Every SOF's delay from its frame start is measured into /metrics (the figure itself is a
     # benchmark's: a loaded machine makes the event loop wait for the CPU or the GIL, so no bound here)

@@ -1,5 +1,5 @@
 """Screen-tile light lists: for each LIGHT_TILE_PX x LIGHT_TILE_PX tile of the view, which point and
-spot lights can reach a point seen in it (docs/design.md#lights).
+spot lights can reach a point seen in it (docs/design.md#surfaces-materials-lights-shadows).
 
 A light contributes exactly 0 beyond its range (common/lights.glsl range_window), so the lights whose
 range sphere misses a tile's frustum slice are left out of its list and a pixel's light loop runs over
