@@ -121,3 +121,13 @@ def with_and_without_skip(renderer, scene, switch: str) -> tuple[np.ndarray, np.
         setattr(water, switch, True)
     return fast, full, stats
 
+
+def forcing_defines(monkeypatch, **forced) -> None:
+    """Every program and compute shader compiled with ``forced`` defines over the pass's own."""
+    from igserver.render import shaders
+
+    program, compute = shaders.ProgramCache.program, shaders.ProgramCache.compute
+    monkeypatch.setattr(shaders.ProgramCache, "program",
+                        lambda self, vertex, fragment, defines=None: program(self, vertex, fragment, {**(defines or {}), **forced}))
+    monkeypatch.setattr(shaders.ProgramCache, "compute",
+                        lambda self, path, defines=None: compute(self, path, {**(defines or {}), **forced}))

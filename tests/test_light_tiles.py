@@ -9,7 +9,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from igserver.render import light_tiles, shaders
+from helpers import forcing_defines
+
+from igserver.render import light_tiles
 from igserver.render.camera import make_view
 from igserver.render.frame import _view_uniforms
 from igserver.render.frame_block import MAX_LIGHTS
@@ -18,15 +20,6 @@ from igserver.scene import apply_patch, load_scene
 from igserver.scene.model import Scene
 
 SMALL = {"camera": {"width": 160, "height": 90}}
-
-
-def _forcing(monkeypatch, **forced):
-    """Every program and compute shader compiled with ``forced`` defines over the pass's own."""
-    program, compute = shaders.ProgramCache.program, shaders.ProgramCache.compute
-    monkeypatch.setattr(shaders.ProgramCache, "program",
-                        lambda self, vertex, fragment, defines=None: program(self, vertex, fragment, {**(defines or {}), **forced}))
-    monkeypatch.setattr(shaders.ProgramCache, "compute",
-                        lambda self, path, defines=None: compute(self, path, {**(defines or {}), **forced}))
 
 
 @pytest.fixture
@@ -98,7 +91,7 @@ def test_lamps_frame_is_tiled_and_the_same_as_the_full_loop(renderer, monkeypatc
     per_tile = np.unpackbits(masks.view(np.uint8), axis=-1).sum(axis=-1)
     assert per_tile.mean() < 0.5 * len(pos)  # the point of the lists: most tiles see few lamps
     tiled = _hdr(renderer, scene)
-    _forcing(monkeypatch, LIGHT_TILES=0)
+    forcing_defines(monkeypatch, LIGHT_TILES=0)
     assert np.array_equal(_hdr(renderer, scene), tiled)
 
 
@@ -174,7 +167,7 @@ def test_channels_each_read_their_own_lists(renderer, monkeypatch):
                                                 dict(id="r", heading=25.0, width=160, height=90)]})
     renderer.render(scene)
     tiled = {cid: part.rgba for cid, part in renderer.render(scene).channels.items()}
-    _forcing(monkeypatch, LIGHT_TILES=0)
+    forcing_defines(monkeypatch, LIGHT_TILES=0)
     renderer.render(scene)
     plain = {cid: part.rgba for cid, part in renderer.render(scene).channels.items()}
     assert all(np.array_equal(tiled[cid], plain[cid]) for cid in ("l", "r"))

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from igserver.render import shaders
+from helpers import forcing_defines
+
 from igserver.render.frame import local_light_defines
 from igserver.render.lights import PointLight
 from igserver.scene import apply_patch, load_scene
@@ -26,15 +27,6 @@ def test_local_light_defines():
     assert local_light_defines([_point(), _spot()]) == {"LOCAL_LIGHTS": 1, "SPOT_LIGHTS": 1, "LIGHT_TILES": 0}
 
 
-def _forcing(monkeypatch, **forced):
-    """Every program and compute shader compiled with ``forced`` defines over the pass's own."""
-    program, compute = shaders.ProgramCache.program, shaders.ProgramCache.compute
-    monkeypatch.setattr(shaders.ProgramCache, "program",
-                        lambda self, vertex, fragment, defines=None: program(self, vertex, fragment, {**(defines or {}), **forced}))
-    monkeypatch.setattr(shaders.ProgramCache, "compute",
-                        lambda self, path, defines=None: compute(self, path, {**(defines or {}), **forced}))
-
-
 def _frame(renderer, scene) -> np.ndarray:
     renderer.render(scene)  # the frame before: particles and eye adaptation settled at this instant
     return renderer.render(scene).rgba.astype(int)
@@ -45,7 +37,7 @@ def test_leaving_the_spot_cone_out_changes_no_pixel(renderer, monkeypatch):
     # compiles no cone test, and the picture is bit-identical to one that compiles it.
     scene = apply_patch(load_scene("demo"), {"camera": {"width": 160, "height": 90}})
     without = _frame(renderer, scene)
-    _forcing(monkeypatch, SPOT_LIGHTS=1)
+    forcing_defines(monkeypatch, SPOT_LIGHTS=1)
     assert np.array_equal(_frame(renderer, scene), without)
 
 
@@ -54,6 +46,6 @@ def test_a_frame_with_a_spot_compiles_its_cone(renderer, monkeypatch):
     # spill all round the boat).
     scene = apply_patch(load_scene("harbour_night"), {"camera": {"width": 160, "height": 90}})
     with_cone = _frame(renderer, scene)
-    _forcing(monkeypatch, SPOT_LIGHTS=0)
+    forcing_defines(monkeypatch, SPOT_LIGHTS=0)
     without_cone = _frame(renderer, scene)
     assert np.abs(with_cone - without_cone).max() > 20
