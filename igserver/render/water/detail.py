@@ -149,11 +149,9 @@ class DetailLattice:
 
 
 def still_means(tiles, pairs) -> list[int]:
-    """The maps whose average is the same at every t: a map's average follows t only through its pairs
-    on opposite points (½ cos(φ_i + φ_j)) or of unequal ω; two waves on one point share ω (one k), and
-    their ½ cos(φ_i − φ_j) stays (detail_synth.SynthTables.varies, for the levels)."""
-    return [c for c, ((_, _, omega, _), p) in enumerate(zip(tiles, pairs))
-            if p is not None and not np.any((p.sign > 0.0) | (omega[p.i] != omega[p.j]))]
+    """The maps whose average is the same at every t: it follows t only through its pairs' weights
+    (detail_synth.TilePairs.turning)."""
+    return [c for c, ((_, _, omega, _), p) in enumerate(zip(tiles, pairs)) if p is not None and not np.any(p.turning(omega))]
 
 
 def _lattice_fill(variance: float, azimuth_to: float) -> tuple[np.ndarray, np.ndarray]:

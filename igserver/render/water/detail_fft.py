@@ -5,8 +5,7 @@ point of them a vec4 or mat2x4 (DETAIL_C: two or four complex values) read by on
 barrier's invocations as coroutines). On llvmpipe each storage load or store is a loop over the 8
 lanes, its cost mostly per access, not per value (measured at 128²: dropping the columns' input load,
 one of four accesses a point, saved 22 % of the pass; widening it to a vec4 cost 7 %): two transforms
-an invocation take half the accesses (columns 0.60 -> 0.44 ms, rows 0.25 -> 0.21 for the demo), four
-columns in dvec4s (8 floats) a quarter (0.35 ms).
+an invocation take half the accesses, four columns in dvec4s (8 floats) a quarter.
 
 Why generated: a DFT in a local array indexed by loop counters runs on llvmpipe as a search over the
 array per access (~36 ns per radix-2 butterfly of 8 lanes); unrolled, each point is a variable of its

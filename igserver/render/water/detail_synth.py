@@ -26,10 +26,9 @@ levels' r is a constant of the table).
 
 The same values as detail_mips.py ``band_limited_levels`` (the tests' reference) within float32's
 rounding, 3e-7 of the map's largest slope: the phases are reduced in double precision, their sines
-and the DFTs run in float. On llvmpipe (its one compute thread) the demo's two 128² maps take ~0.9 ms:
-waves 0.03, bins 0.13, rows 0.21, columns 0.35, copies 0.06; the calling thread's Python ~0.1 ms.
-There a storage access costs a loop over the lanes whatever its width: the rows' pass reads pairs
-(vec4), the columns' pass quads and pairs of texels (8 floats, a dvec4 of their bits).
+and the DFTs run in float. On llvmpipe a storage access costs a loop over the lanes whatever its
+width: the rows' pass reads pairs (vec4), the columns' pass quads and pairs of texels (8 floats, a
+dvec4 of their bits).
 """
 
 from __future__ import annotations
@@ -63,6 +62,12 @@ class TilePairs:
         i, j, self.sign = _pairs(mn)
         self.i, self.j = i, j
         self.gg = np.stack([self.g[i, 0] * self.g[j, 0], self.g[i, 1] * self.g[j, 1]])
+
+    def turning(self, omega: np.ndarray) -> np.ndarray:
+        """Per pair, whether its w_ij follows t for the waves' ω (rad/s): a pair on opposite points
+        (φ_i + φ_j = φ0_i + φ0_j − (ω_i + ω_j) t) or of unequal ω. Two waves on one lattice point share
+        ω (one k): their φ_i − φ_j, and so w_ij, is the same at every t."""
+        return (self.sign > 0.0) | (omega[self.i] != omega[self.j])
 
     def weights(self, phase: np.ndarray) -> np.ndarray:
         """Per pair of two waves (``i``, ``j``), w_ij = the tile average of cos θ_i cos θ_j."""
@@ -195,12 +200,9 @@ class SynthTables:
                 pair["i"] = base + tile.i[used]
                 pair["j"] = np.where(tile.sign[used] < 0.0, base + tile.j[used], ~(base + tile.j[used]))
                 record["pair_first"], record["pair_end"] = count["pairs"], count["pairs"] + len(pair)
-                # A level changes with t when it holds a wave, or a pair on opposite points (its term
-                # follows φ_i + φ_j = φ0_i + φ0_j − (ω_i + ω_j) t) or of unequal ω; two waves on one
-                # lattice point share ω (one k), their φ_i − φ_j is constant, and a level of such pairs
-                # only, (0, 0, removed), is the same at every t.
-                i, j = tile.i[used], tile.j[used]
-                map_varies.append(bool(len(keep)) or bool(np.any((tile.sign[used] > 0.0) | (omega[i] != omega[j]))))
+                # A level changes with t when it holds a wave or a pair whose weight turns; one of
+                # still pairs only, (0, 0, removed), is the same at every t.
+                map_varies.append(bool(len(keep)) or bool(np.any(tile.turning(omega)[used])))
                 count["pairs"] += len(pair)
                 pairs.append(pair)
                 levels.append(record)
