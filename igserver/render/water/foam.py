@@ -191,17 +191,24 @@ FOAM_NOISE_UNIT = FRAME_UNITS["FOAM_NOISE"]
 def wave_lags(sea: SeaSurface, max_waves: int) -> bytes:
     """Per mesh wave (1 − cos ωL₁, sin ωL₁, 1 − cos ωL₂, sin ωL₂) for the lags FOAM_LAG: the phase
     turns gerstner.glsl needs for J at t − L (u_wave_lag). Once per sea state (held with the sea)."""
-    held = _LAGS.get((id(sea), max_waves))
+    return held_per_sea(_LAGS, sea, max_waves, lambda: _wave_lags(sea, max_waves))
+
+
+_LAGS: dict = {}
+
+
+def held_per_sea(cache: dict, sea: SeaSurface, extra, compute):
+    """``compute()`` kept in ``cache`` per sea state object and ``extra``: the sea is held with its value,
+    so its id cannot be reused by another sea meanwhile; at most 16 kept."""
+    key = (id(sea), extra)
+    held = cache.get(key)
     if held is not None and held[0] is sea:
         return held[1]
-    if len(_LAGS) > 16:
-        _LAGS.clear()
-    table = _wave_lags(sea, max_waves)
-    _LAGS[(id(sea), max_waves)] = (sea, table)
-    return table
-
-
-_LAGS: dict[tuple[int, int], tuple[SeaSurface, bytes]] = {}
+    if len(cache) > 16:
+        cache.clear()
+    value = compute()
+    cache[key] = (sea, value)
+    return value
 
 
 def _wave_lags(sea: SeaSurface, max_waves: int) -> bytes:
@@ -250,7 +257,7 @@ class FoamCalibration:
     freshness: float  # share of the drawn foam that is fresh (u_foam_unresolved.y)
 
 
-_FOAM_CACHE: dict[tuple, tuple[SeaSurface, FoamCalibration]] = {}
+_FOAM_CACHE: dict = {}
 
 
 def drawn_foam_threshold(sea: SeaSurface, wind: float) -> float:
@@ -279,12 +286,10 @@ def foam_calibration(sea: SeaSurface, wind: float) -> FoamCalibration:
     J (its mean and variance) gives the same brightness-weighted W with the resolved foam's share of
     fresh foam — the chances of the lagged and the fresh foam are not independent (J 1.5 s and 4 s
     apart correlate by +0.4 and −0.7 at Beaufort 9), so they are not combined."""
-    key = id(sea), float(wind)
-    held = _FOAM_CACHE.get(key)
-    if held is not None and held[0] is sea:  # the sea is held with it: its id cannot be reused meanwhile
-        return held[1]
-    if len(_FOAM_CACHE) > 16:
-        _FOAM_CACHE.clear()
+    return held_per_sea(_FOAM_CACHE, sea, float(wind), lambda: _foam_calibration(sea, wind))
+
+
+def _foam_calibration(sea: SeaSurface, wind: float) -> FoamCalibration:
     coverage = whitecap_coverage(wind)
     calibration = FoamCalibration(-1.0, -1.0, 1.0)
     if coverage > 0.0 and sea.n > 0:
@@ -308,7 +313,6 @@ def foam_calibration(sea: SeaSurface, wind: float) -> FoamCalibration:
         want = coverage / (FOAM_OLD_BRIGHTNESS + (1.0 - FOAM_OLD_BRIGHTNESS) * freshness)
         centre = mean + polya_inverse(want) * math.sqrt(edge2 + 4.84 * var)
         calibration = FoamCalibration(threshold, centre, freshness)
-    _FOAM_CACHE[key] = (sea, calibration)
     return calibration
 
 
