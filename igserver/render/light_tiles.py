@@ -138,20 +138,16 @@ class LightTiles:
         key = _lookup(self._quantized, exact, _quantized_key)
         if key is None:
             return False
-        texture = self._lists.get(key, _MISSING)
-        if texture is _MISSING:
-            texture = self._build(key)
-            self._lists[key] = texture
-            while len(self._lists) > HELD_VIEWS:
-                dropped = self._lists.popitem(last=False)[1]
-                if dropped is not None:
-                    self._spare.setdefault(dropped.size, dropped)
-        else:
-            self._lists.move_to_end(key)
+        texture = _lookup(self._lists, key, self._build, self._keep_spare)
         if texture is None:
             return False
         use_texture(texture, FRAME_UNITS["LIGHT_TILES"])
         return True
+
+    def _keep_spare(self, dropped) -> None:
+        """A dropped view's texture, kept to be written again by a view of its size."""
+        if dropped is not None:
+            self._spare.setdefault(dropped.size, dropped)
 
     def _build(self, key):
         positions, ranges, count, right, up, forward, tangents, width, height = key
@@ -190,12 +186,14 @@ def _quantized_key(exact: tuple) -> tuple | None:
             int(resolution[0]), int(resolution[1]))
 
 
-def _lookup(held: OrderedDict, key, compute):
+def _lookup(held: OrderedDict, key, compute, dropped=lambda value: None):
+    """``held[key]``, made by ``compute(key)`` when absent; the HELD_VIEWS most recently used kept (each
+    one dropped handed to ``dropped``)."""
     value = held.get(key, _MISSING)
     if value is _MISSING:
         value = held[key] = compute(key)
         while len(held) > HELD_VIEWS:
-            held.popitem(last=False)
+            dropped(held.popitem(last=False)[1])
     else:
         held.move_to_end(key)
     return value
