@@ -72,6 +72,7 @@ class IGRuntime:
         self._watchdog_task: asyncio.Task | None = None
         self.stopping = asyncio.Event()  # set at shutdown: open streams end so the server can exit
         self.provisional = False  # the picture shown is the start preview (simplified sky), not the scene
+        self.rehearsing = False  # compiling ahead after the first frame (render/rehearsal.py)
         self.queries = Gate(self.settings.max_concurrent_queries, "water-height queries")
         # queries run on threads of their own, as many as may run at once: each thread that allocates
         # gets a malloc arena of its own, which keeps what it freed; a bounded pool bounds the arenas
@@ -107,6 +108,21 @@ class IGRuntime:
         log.info("first picture (simplified sky) %.1f s after start; precomputing the atmosphere tables",
                  time.perf_counter() - t0)
 
+    async def _rehearse(self, scene) -> None:
+        """Compile ahead what a fire, lights or precipitation would need (render/rehearsal.py), before
+        /v1/ready: a host that starts one at once gets a frame, not a frozen stream."""
+        if not self.settings.rehearse or not callable(getattr(self.service, "rehearse", None)):
+            return
+        self.rehearsing = True
+        try:
+            done = await self.gateway.call(self.service.rehearse, scene)
+            log.info("rehearsed %d scenes unseen in %.1f s: %d programs compiled ahead",
+                     done["scenes"], done["seconds"], done["programs"])
+        except Exception as exc:  # only ahead of time: a program not compiled now is compiled when needed
+            log.warning("no rehearsal: %s", exc)
+        finally:
+            self.rehearsing = False
+
     def _register_gauges(self) -> None:
         m = self.metrics
         m.gauge("igserver_render_process_restarts", "Render-process restarts since the server started",
@@ -136,6 +152,8 @@ class IGRuntime:
             if self.provisional:
                 return "precomputing the atmosphere tables" + shown
             return "rendering the first frame"
+        if self.rehearsing:
+            return "compiling ahead the programs of fires, lights, rain and snow"
         return None
 
     def unresponsive_now(self) -> str | None:
@@ -160,6 +178,7 @@ class IGRuntime:
                 encoded = await self.gateway.render(store.scene, store.revision, store.accepted_at)
                 self.provisional = False
                 self.pump.publish(encoded)
+                await self._rehearse(store.scene)
                 log.info("ready: first frame rendered %.1f s after start", time.perf_counter() - t0)
             except Exception as exc:  # ready stays false; the next render retries the start
                 self.start_error = f"{type(exc).__name__}: {exc}"

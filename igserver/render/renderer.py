@@ -15,7 +15,7 @@ import moderngl
 import numpy as np
 
 from ..scene.model import Scene
-from . import bindings, depth, gl_calls, presets
+from . import bindings, depth, gl_calls, presets, rehearsal
 from .context import capabilities, create_context, make_current, release_context
 from .frame import FrameState, build_frame
 from .graph import FrameGraph
@@ -177,6 +177,12 @@ class Renderer:
         if not timed:  # a timed frame waits for every pass: not the cost of a frame
             self.frame_quality.observe(result.total_ms, result.passes)
         return result
+
+    def rehearse(self, scene: Scene) -> dict:
+        """Draw ``scene`` unseen with the changes a host most often makes (a fire, lights, rain, snow), so
+        that their programs are compiled before a stream needs them; the stream's state is put back
+        (render/rehearsal.py). Returns {"scenes", "programs", "seconds"}."""
+        return rehearsal.rehearse(self, scene)
 
     def submit(self, scene: Scene, timed: bool = False) -> RenderResult | None:
         """Draw ``scene`` and queue its readback without waiting for it; return the oldest frame in

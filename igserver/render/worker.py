@@ -167,6 +167,12 @@ def _render_process_main(conn, device_index: int | None, stamp=None) -> None:
         kind = message[0]
         if kind == "stop":
             break
+        if kind == "rehearse":  # (scene,) -> what the rehearsal compiled (render/rehearsal.py); no frame
+            try:
+                conn.send(("rehearsed", renderer.rehearse(message[1])))
+            except Exception as exc:
+                conn.send(("error", f"rehearsal failed ({type(exc).__name__})", traceback.format_exc(limit=8)))
+            continue
         if kind not in ("render", "submit", "collect"):
             conn.send(("error", f"unknown command {kind!r}", ""))
             continue
@@ -407,6 +413,28 @@ class RenderService:
             if not self._in_flight:
                 return None
             return self._with_restart(self._exchange, "collect", None, False, None)
+
+    def rehearse(self, scene: Scene | None = None) -> dict:
+        """Compile ahead, in the render process, the programs a stream of ``scene`` (default: the current
+        state) would need when a fire, lights or precipitation appear (render/rehearsal.py): nothing is
+        shown, the stream's state is kept. Returns {"scenes", "programs", "seconds"}."""
+        with self._lock:
+            return self._with_restart(self._rehearse_once, scene or self._state)
+
+    def _rehearse_once(self, scene: Scene) -> dict:
+        if not self.alive:
+            raise _Dead()
+        self._conn.send(("rehearse", scene))
+        self.rendering_since = time.monotonic()
+        try:
+            reply = self._await_reply()
+        finally:
+            self.rendering_since = None
+        if reply[0] == "error":
+            if len(reply) > 2 and reply[2]:
+                log.error("rehearsal failed:\n%s", reply[2])
+            raise RenderError(reply[1])
+        return reply[1]
 
     @property
     def in_flight(self) -> int:

@@ -1,0 +1,115 @@
+"""Compiling ahead the programs a stream will need when its scene changes: a rehearsal.
+
+A GL driver turns a program into machine code the first time it is drawn with, and a compile is
+long next to a frame: on llvmpipe a fire appearing in a stream costs ~1.5 s of compiling (LLVM,
+with a cold shader cache; ~0.15 s with a warm one), on NVIDIA's driver tens to hundreds of
+milliseconds. A simulator's host starts a fire or the rain whenever its exercise says so, and a
+picture frozen that long is what a trainee sees. So a real IG compiles what a scene may come to
+need before it is asked to show it.
+
+The programs are variants chosen by ``#define``: what a frame draws (volumes of each effect kind,
+rain or snow), whether local lights are compiled in (``LOCAL_LIGHTS``, ``SPOT_LIGHTS``) and the
+fog halos' count (``HALO_COUNT``). Which variants a scene will meet cannot be listed without
+drawing it, since the passes decide them from the frame, so the rehearsal draws: the stream's scene
+with the changes a host most often makes (``rehearsals``), at the scene's own size, into the
+stream's own targets, and waits for each to finish (llvmpipe compiles while it rasterises). The
+stream's state - its exposure adaptation, eased fog, meter cells, overload controller, frame count -
+is put back afterwards, and no frame is read or returned: what the host sees next is as if the
+rehearsal had not happened, except that its first fire costs a frame, not a compile.
+"""
+
+from __future__ import annotations
+
+import time
+
+from ..effect_kinds import EFFECT_KINDS
+from ..scene.model import MAX_EFFECTS, Effect, Light, Scene
+from .camera import make_view
+from .frame import FrameState
+from .frame_block import MAX_LIGHTS
+from .multiview import release_view_state, swap_view_state
+from .overload import FrameQuality
+
+# Where the rehearsal's effects and lights stand: this far ahead of the camera (m), a little
+# below its eye, so that every pass that would draw them does (in the frustum, not fogged out).
+AHEAD_M = 25.0
+BELOW_EYE_M = 1.5
+
+
+def _ahead(scene: Scene, forward_m: float, right_m: float = 0.0) -> tuple[float, float, float]:
+    view = make_view(scene.camera)
+    p = view.position + forward_m * view.forward + right_m * view.rotation[:, 0]
+    return (float(p[0]), float(p[1]), float(p[2] - BELOW_EYE_M))
+
+
+def rehearsals(scene: Scene) -> list[Scene]:
+    """The scenes drawn to compile ahead: ``scene`` with one more fire (smoking: its plume too);
+    with one more effect of every kind, a point and a spot light and the rain; with one more fire
+    and the snow; in a scene without local lights, with the rain alone. Lights and effects are
+    added only while the renderer's limits leave room."""
+    base = scene.model_copy(update={
+        "channels": [],  # every channel draws with the same programs: the camera's view compiles them
+        "quality": scene.quality.model_copy(update={"target_fps": 0.0}),
+    })
+    room_effects = MAX_EFFECTS - len(scene.effects)
+    room_lights = MAX_LIGHTS - len(scene.lights) - len(scene.effects) - len(EFFECT_KINDS)
+
+    def effect(i: int, kind: str) -> Effect:
+        return Effect(id=f"rehearsal-{kind}-{i}", type=kind, position=_ahead(scene, AHEAD_M, 4.0 * i),
+                      diameter=2.0, fade=0.0, emits_smoke=kind == "fire")
+
+    def weather(kind: str):
+        fall = scene.weather.precipitation.model_copy(update={"type": kind, "rate": 4.0})
+        return scene.weather.model_copy(update={"precipitation": fall})
+
+    out = []
+    if room_effects >= 1:
+        out.append(base.model_copy(update={"effects": [*scene.effects, effect(0, "fire")]}))
+    kinds = list(EFFECT_KINDS)[: max(room_effects, 0)]
+    lights = [Light(id="rehearsal-point", position=_ahead(scene, 10.0, -3.0), range=40.0),
+              Light(id="rehearsal-spot", type="spot", position=_ahead(scene, 10.0, 3.0), range=40.0,
+                    heading=scene.camera.heading, pitch=-30.0)] if room_lights >= 2 else []
+    out.append(base.model_copy(update={"effects": [*scene.effects, *(effect(i, k) for i, k in enumerate(kinds))],
+                                       "lights": [*scene.lights, *lights], "weather": weather("rain")}))
+    if room_effects >= 1:
+        out.append(base.model_copy(update={"effects": [*scene.effects, effect(0, "fire")], "weather": weather("snow")}))
+    if not scene.lights and not any(EFFECT_KINDS[e.type].casts_light for e in scene.effects):
+        out.append(base.model_copy(update={"weather": weather("rain")}))  # the rain unlit by local lights
+    return out
+
+
+def rehearse(renderer, scene: Scene) -> dict:
+    """Draw ``rehearsals(scene)`` on ``renderer`` and put its stream's state back. Returns what it
+    did: {"scenes": drawn, "programs": compiled by them, "seconds": wall time}."""
+    t0 = time.perf_counter()
+    compiled = len(renderer.programs)
+    # The stream's state, set aside: what the frames carry from one to the next (adaptation, fog,
+    # meter, controller, count), the passes' per-view state (multiview.swap_view_state: a fresh
+    # view's for the rehearsal, released after it), the camera's targets and the channels'.
+    kept = {name: getattr(renderer, name) for name in STREAM_STATE}
+    channels = {name: getattr(renderer, name) for name in CHANNEL_STATE}
+    for name in CHANNEL_STATE:  # the rehearsal draws no channels: theirs are not "gone" for it
+        setattr(renderer, name, {})
+    if scene.channels:  # the camera's targets are the rehearsal's alone
+        renderer._targets = None
+    held = swap_view_state(renderer.ctx, renderer.graph.passes, {})
+    drawn = 0
+    try:
+        for rehearsal in rehearsals(scene):
+            renderer.frame_state, renderer.frame_quality = FrameState(), FrameQuality()
+            renderer._draw(rehearsal, timed=False)
+            renderer.ctx.finish()
+            drawn += 1
+    finally:
+        release_view_state(swap_view_state(renderer.ctx, renderer.graph.passes, held))
+        if renderer._targets is not kept["_targets"] and renderer._targets is not None:
+            renderer._targets.release()
+        for name, value in {**kept, **channels}.items():
+            setattr(renderer, name, value)
+    return {"scenes": drawn, "programs": len(renderer.programs) - compiled,
+            "seconds": time.perf_counter() - t0}
+
+
+# The renderer's attributes a rehearsal puts back (render/renderer.py).
+STREAM_STATE = ("frame_state", "frame_quality", "frames_rendered", "_targets")
+CHANNEL_STATE = ("_channel_targets", "channel_meters", "channel_meter_copies", "view_states", "_channel_upscalers")

@@ -1,0 +1,111 @@
+"""The rehearsal (render/rehearsal.py): the programs a host's usual changes need are compiled before the
+host makes them, and the stream it ran beside is unchanged by it. Fresh renderers: the session's shared
+one has compiled everything other tests drew, so a program it lacks would prove nothing."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from helpers import tiny
+from igserver.render.gl_count import GLCallCounter
+from igserver.render.rehearsal import rehearsals
+from igserver.render.renderer import Renderer
+from igserver.scene import apply_patch
+
+SEA = tiny({"ocean": {"enabled": True}, "camera": {"position": [0, -40, 12], "pitch": -8.0},
+            "atmosphere": {"model": "gradient", "visibility": 3000.0}, "time": {"sim_time": 10.0}})
+FIRE = {"id": "f", "type": "fire", "position": [0, 60, 0], "diameter": 2.0}
+# What a host does to a running exercise, one change at a time.
+CHANGES = {
+    "a fire": {"effects": [FIRE]},
+    "a smoking fire": {"effects": [{**FIRE, "emits_smoke": True}]},
+    "smoke": {"effects": [{**FIRE, "type": "smoke"}]},
+    "a gas burner": {"effects": [{**FIRE, "type": "gas_burner"}]},
+    "a lamp": {"lights": [{"id": "l", "position": [0, 20, 3], "range": 30.0}]},
+    "a searchlight": {"lights": [{"id": "s", "type": "spot", "position": [0, 20, 3], "range": 30.0, "pitch": -20}]},
+    "rain": {"weather": {"precipitation": {"type": "rain", "rate": 3.0}}},
+    "snow": {"weather": {"precipitation": {"type": "snow", "rate": 2.0}}},
+}
+
+
+@pytest.fixture(scope="module")
+def fresh():
+    """A renderer that has drawn the sea scene only, then rehearsed it; and one that has not rehearsed."""
+    rehearsed, bare = Renderer(), Renderer()
+    for r in (rehearsed, bare):
+        r.render(SEA)
+    done = rehearsed.rehearse(SEA)
+    yield rehearsed, bare, done
+    rehearsed.release()
+    bare.release()
+
+
+def test_the_rehearsal_draws_a_fire_lights_rain_and_snow_beside_the_scene():
+    scenes = rehearsals(SEA)
+    assert any(s.effects and s.effects[-1].type == "fire" and s.effects[-1].emits_smoke for s in scenes)
+    assert {e.type for s in scenes for e in s.effects} == {"fire", "smoke", "gas_burner"}
+    assert {light.type for s in scenes for light in s.lights} == {"point", "spot"}
+    assert {s.weather.precipitation.type for s in scenes} >= {"rain", "snow"}
+    assert all(not s.channels and s.quality.target_fps == 0 for s in scenes)
+    # a scene already at the model's limit of effects gets no more (nor a light past the frame block's)
+    full = apply_patch(SEA, {"effects": [{**FIRE, "id": f"e{i}"} for i in range(64)]})
+    assert all(len(s.effects) == 64 for s in rehearsals(full))
+
+
+@pytest.mark.parametrize("change", list(CHANGES))
+def test_a_change_after_the_rehearsal_compiles_no_program(fresh, change):
+    rehearsed, _, done = fresh
+    assert done["scenes"] == 4 and done["programs"] > 0
+    before = len(rehearsed.programs)
+    rehearsed.render(apply_patch(SEA, {**CHANGES[change], "time": {"sim_time": 10.5}}))
+    assert len(rehearsed.programs) == before, f"{change}: compiled after the rehearsal"
+
+
+def test_without_a_rehearsal_a_first_fire_compiles(fresh):
+    """What the rehearsal is for: the same first change on a renderer that did not rehearse."""
+    _, bare, done = fresh
+    before = len(bare.programs)
+    bare.render(apply_patch(SEA, {**CHANGES["a smoking fire"], "time": {"sim_time": 10.5}}))
+    assert len(bare.programs) - before >= 4  # the volumes' programs at least, and the lit variants
+
+
+@pytest.mark.parametrize("channels", [False, True], ids=["camera", "two channels"])
+def test_the_stream_beside_a_rehearsal_is_unchanged(channels):
+    """The same stream with and without a rehearsal between its frames: bit-identical frames (its eye
+    adaptation, eased fog and meter cells carried on, not taken from the rehearsal's fire; a channel's
+    targets, meter and per-view state kept)."""
+    night = apply_patch(SEA, {"time": {"sun_override": {"elevation": -8.0, "azimuth": 270.0}}, "effects": [FIRE]})
+    if channels:
+        night = apply_patch(night, {"channels": [dict(id=cid, heading=h, width=48, height=36)
+                                                 for cid, h in (("port", -30.0), ("ahead", 0.0))]})
+    frames = {}
+    for rehearse in (False, True):
+        r = Renderer()
+        try:
+            out = [r.render(apply_patch(night, {"time": {"sim_time": 10.0 + i / 30}})).rgba for i in range(2)]
+            if rehearse:
+                count = r.frames_rendered
+                r.rehearse(apply_patch(night, {"time": {"sim_time": 10.0 + 1 / 30}}))
+                assert r.frames_rendered == count
+            with GLCallCounter() as calls:  # nothing of the stream's was dropped and made again
+                out.append(r.render(apply_patch(night, {"time": {"sim_time": 10.0 + 2 / 30}})).rgba)
+            assert calls.created() == 0, calls.by_name
+            out += [r.render(apply_patch(night, {"time": {"sim_time": 10.0 + i / 30}})).rgba for i in range(3, 5)]
+            frames[rehearse] = out
+        finally:
+            r.release()
+    for i, (a, b) in enumerate(zip(frames[False], frames[True])):
+        assert np.array_equal(a, b), f"frame {i} differs after a rehearsal"
+
+
+def test_the_render_process_rehearses_on_request():
+    from igserver.render.worker import RenderService
+
+    with RenderService() as service:
+        first = service.render(SEA)
+        done = service.rehearse(SEA)
+        assert done["scenes"] == 4 and done["programs"] > 0 and done["seconds"] > 0
+        assert service.ig_frame == first.ig_frame  # no frame came back for it
+        after = service.render(apply_patch(SEA, {**CHANGES["a smoking fire"], "time": {"sim_time": 10.5}}))
+        assert after.ig_frame == first.ig_frame + 1
