@@ -11,7 +11,7 @@ import time
 
 import anyio.to_thread
 
-from ..render.worker import release_free_memory
+from ..render.memory import release_free_memory
 from ..scene.model import Scene
 from .frames import FramePump, RenderGateway
 from .limits import Gate, guard_accept_loop

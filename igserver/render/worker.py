@@ -1,4 +1,4 @@
-"""The render process and its client, ``RenderService``.
+"""The client of the render process (render/render_process.py), ``RenderService``.
 
 One spawned process creates the EGL context and keeps every pipeline resident. Commands go in
 over a pipe; finished pixels come back through a ring of ``multiprocessing.shared_memory`` slots
@@ -15,7 +15,6 @@ import os
 import signal
 import threading
 import time
-import traceback
 from dataclasses import dataclass, field
 from multiprocessing import shared_memory
 
@@ -23,14 +22,12 @@ import numpy as np
 
 from ..scene.channels import mosaic_layout
 from ..scene.model import Scene
+from .memory import release_free_memory
+from .render_process import FRAMES_IN_FLIGHT, HEARTBEAT_S, render_process_main
 
 RING_SLOTS = 3
-# submit(): frames drawn and not yet returned. One lets the render process read frame N while it draws
-# N+1 and the server encode N meanwhile, for one frame interval more from a state to its frame.
-FRAMES_IN_FLIGHT = 1
 START_TIMEOUT_S = 300.0  # first start compiles shaders (tables are built by the first render, with progress)
 RENDER_TIMEOUT_S = 30.0  # a frame silent for this long (no frame, no progress message) is abandoned
-HEARTBEAT_S = 0.25  # the render process stamps a shared clock this often while it waits for work
 STALL_S = 2.0  # an idle render process whose heartbeat is this old is not responding
 
 log = logging.getLogger("igserver.render")
@@ -76,139 +73,6 @@ class Frame:
         return int(self.rgba.shape[0])
 
 
-def release_free_memory() -> None:
-    """Give freed heap back to the OS (glibc ``malloc_trim``). After a big frame, glibc's dynamic mmap
-    threshold has risen to the frame's size, so later frame-sized buffers come from the heap, and freed
-    heap stays in the process: RSS would stay at the big frame's level. Called when the frame size changes."""
-    try:
-        import ctypes
-
-        ctypes.CDLL("libc.so.6").malloc_trim(0)
-    except (OSError, AttributeError):  # not glibc: nothing to do
-        pass
-
-
-# --------------------------------------------------------------------------- render process side
-
-def _attach(name: str) -> shared_memory.SharedMemory:
-    """Attach to a slot the parent created (and will unlink). A spawned child shares the parent's
-    resource tracker, so attaching here registers nothing new and leaks nothing."""
-    return shared_memory.SharedMemory(name=name)
-
-
-def _heartbeat(stamp) -> None:
-    """Stamp ``time.monotonic()`` while the process runs Python; a stopped (SIGSTOP) process stops stamping.
-    During a GL call the GIL is held, so the parent judges the heartbeat only between renders."""
-    while True:
-        stamp.value = time.monotonic()
-        time.sleep(HEARTBEAT_S)
-
-
-def _report_table_progress(conn) -> None:
-    """Send ("progress", phase, fraction, elapsed_s) while the atmosphere tables are precomputed.
-
-    The precompute runs 3 compute stages plus 3 per scattering order above one; counting the
-    dispatches gives the fraction done (an estimate that cannot pass 1). The messages also prove the
-    process alive, so a long first precompute is not mistaken for a hang.
-    """
-    import moderngl
-
-    from .sky import tables
-
-    original_init = tables.AtmosphereTables.__init__
-    original_run = moderngl.ComputeShader.run
-    current: dict = {}
-
-    def counted_run(self, *args, **kwargs):
-        if current and not current["done"]:  # the first dispatch: the tables are computed, not loaded
-            conn.send(("progress", "atmosphere tables", 0.0, 0.0))
-        result = original_run(self, *args, **kwargs)
-        if current:
-            current["done"] += 1
-            fraction = min(current["done"] / current["total"], 0.99)
-            conn.send(("progress", "atmosphere tables", fraction, time.perf_counter() - current["t0"]))
-        return result
-
-    def reporting_init(self, ctx, params):
-        orders = getattr(getattr(params, "sizes", None), "orders", 4)
-        current.update(done=0, total=3 + 3 * max(int(orders) - 1, 0), t0=time.perf_counter())
-        try:
-            original_init(self, ctx, params)
-        finally:
-            elapsed, computed = time.perf_counter() - current["t0"], current["done"] > 0
-            current.clear()
-            if computed:  # loaded from the disk cache: nothing was precomputed, nothing to report
-                conn.send(("progress", "atmosphere tables", 1.0, elapsed))
-
-    tables.AtmosphereTables.__init__ = reporting_init
-    moderngl.ComputeShader.run = counted_run
-
-
-def _render_process_main(conn, device_index: int | None, stamp=None) -> None:
-    """Entry point of the spawned render process: owns the GL context for its whole life."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when we stop
-    if stamp is not None:
-        threading.Thread(target=_heartbeat, args=(stamp,), daemon=True, name="heartbeat").start()
-    from .renderer import Renderer
-
-    try:
-        renderer = Renderer(device_index=device_index, frames_in_flight=FRAMES_IN_FLIGHT)
-    except Exception as exc:
-        conn.send(("error", f"{type(exc).__name__}: {exc}", traceback.format_exc(limit=8)))
-        return
-    _report_table_progress(conn)
-    attached: dict[str, shared_memory.SharedMemory] = {}
-    conn.send(("ready", renderer.caps.as_dict()))
-    while True:
-        try:
-            message = conn.recv()
-        except (EOFError, OSError):
-            break
-        kind = message[0]
-        if kind == "stop":
-            break
-        if kind == "rehearse":  # (scene,) -> what the rehearsal compiled (render/rehearsal.py); no frame
-            try:
-                conn.send(("rehearsed", renderer.rehearse(message[1])))
-            except Exception as exc:
-                conn.send(("error", f"rehearsal failed ({type(exc).__name__})", traceback.format_exc(limit=8)))
-            continue
-        if kind not in ("render", "submit", "collect"):
-            conn.send(("error", f"unknown command {kind!r}", ""))
-            continue
-        # render: (scene, timed, slot, ring) -> that scene's frame. submit: (scene, timed, slot, ring) -> the
-        # frame in flight before it, or none yet (slot: where that frame goes). collect: (slot, ring) -> the
-        # frame in flight, or none.
-        *args, shm_name, ring_names = message[1:]
-        # the parent replaced its ring (frame size changed): unmap the slots it has unlinked
-        stale = [n for n in attached if n not in ring_names]
-        for name in stale:
-            attached.pop(name).close()
-        try:
-            if kind == "render":
-                result = renderer.render(*args)
-            elif kind == "submit":
-                result = renderer.submit(*args)
-            else:
-                result = renderer.collect()
-            if result is None:
-                conn.send(("none",))
-                continue
-            if shm_name not in attached:
-                attached[shm_name] = _attach(shm_name)
-            np.ndarray(result.rgba.shape, np.uint8, buffer=attached[shm_name].buf)[...] = result.rgba
-            # host_frame and sim_time from the scene the frame was drawn from: exact with frames in flight
-            conn.send(("frame", result.rgba.shape, result.total_ms, result.pass_ms, result.passes,
-                       result.ev100, result.illuminance_lux, result.host_frame, result.sim_time, result.overload))
-            if stale:  # the frame size changed: the old ring and render targets are free now, after the frame
-                release_free_memory()
-        except Exception as exc:
-            # the client gets the kind of failure; the traceback (with server paths) goes to the log
-            conn.send(("error", f"render failed ({type(exc).__name__})", traceback.format_exc(limit=8)))
-    for shm in attached.values():
-        shm.close()
-
-
 # --------------------------------------------------------------------------- client side
 
 class RenderService:
@@ -251,7 +115,7 @@ class RenderService:
             parent, child = self._mp.Pipe()
             self._heartbeat.value = time.monotonic()
             self._process = self._mp.Process(
-                target=_render_process_main, args=(child, self._device_index, self._heartbeat), daemon=True,
+                target=render_process_main, args=(child, self._device_index, self._heartbeat), daemon=True,
                 name="igserver-render",
             )
             self._process.start()

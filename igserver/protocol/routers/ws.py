@@ -40,7 +40,7 @@ from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 
 from ..codec import MSGPACK, decode, encode
 from ..dependencies import get_runtime
-from ...render.worker import release_free_memory
+from ...render.memory import release_free_memory
 from ..flow import drained, transport_of
 from ..problems import ProblemError
 from ..channels import choose, state_channel_ids
