@@ -281,6 +281,14 @@ def test_frames_are_frame_locked_and_the_spread_is_reported(cluster):
         assert "igserver_cluster_barrier_misses_total" in http.get("/metrics").text
 
 
+def test_every_worker_rehearsed_before_the_server_was_ready(cluster):
+    """The front's start compiled ahead on every worker (render/rehearsal.py): a second rehearsal of the
+    same state compiles nothing on any of them."""
+    _, service = cluster
+    done = service.rehearse()
+    assert done["scenes"] >= 3 and done["programs"] == 0, done
+
+
 def png(response: httpx.Response) -> np.ndarray:
     response.raise_for_status()
     return np.asarray(Image.open(io.BytesIO(response.content)).convert("RGBA")).astype(float)

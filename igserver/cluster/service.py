@@ -170,6 +170,22 @@ class ClusterService:
     def os_state(self) -> str | None:
         return None
 
+    def rehearse(self, scene: Scene | None = None) -> dict:
+        """Every worker compiles ahead what a fire, lights or precipitation in ``scene`` (default: the
+        current state) would need (render/rehearsal.py), all at once. Returns the slowest worker's
+        {"scenes", "programs", "seconds"}."""
+        import ray
+
+        with self._lock:
+            scene = scene or self._state
+            self.rendering_since = time.monotonic()
+            try:
+                done = ray.get([w.actor.rehearse.remote(scene) for w in self._workers if not w.dead],
+                               timeout=self.config.start_timeout_s)
+            finally:
+                self.rendering_since = None
+        return max(done, key=lambda d: d["seconds"], default={"scenes": 0, "programs": 0, "seconds": 0.0})
+
     # -- state
     @property
     def state(self) -> Scene:

@@ -61,5 +61,10 @@ class ChannelWorker:
             "overload": result.overload, "cells": None if cells is None else cells.astype(np.float32),
         }
 
+    def rehearse(self, scene: Scene) -> dict:
+        """Compile ahead what a fire, lights or precipitation in ``scene`` would need (render/rehearsal.py);
+        the frames this worker draws are unchanged by it."""
+        return self.renderer.rehearse(scene)
+
     def pid(self) -> int:
         return os.getpid()
