@@ -26,6 +26,9 @@ CHANGES = {
     "a searchlight": {"lights": [{"id": "s", "type": "spot", "position": [0, 20, 3], "range": 30.0, "pitch": -20}]},
     "rain": {"weather": {"precipitation": {"type": "rain", "rate": 3.0}}},
     "snow": {"weather": {"precipitation": {"type": "snow", "rate": 2.0}}},
+    "a rising wind": {"weather": {"wind_speed": 15.0}},
+    "a calm": {"weather": {"wind_speed": 1.5}},
+    "the eye under water": {"camera": {"position": [0, -40, -2]}},
 }
 
 
@@ -48,6 +51,11 @@ def test_the_rehearsal_draws_a_fire_lights_rain_and_snow_beside_the_scene():
     assert {light.type for s in scenes for light in s.lights} == {"point", "spot"}
     assert {s.weather.precipitation.type for s in scenes} >= {"rain", "snow"}
     assert all(not s.channels and s.quality.target_fps == 0 for s in scenes)
+    # with a sea: a rough one, a calm one, the eye under its surface; without, none of them
+    assert {s.weather.wind_speed for s in scenes} >= {14.0, 2.0}
+    assert any(s.camera.position[2] < SEA.ocean.level for s in scenes)
+    dry = rehearsals(apply_patch(SEA, {"ocean": {"enabled": False}}))
+    assert len(dry) == len(scenes) - 3 and all(s.camera == SEA.camera for s in dry)
     # a scene already at the model's limit of effects gets no more (nor a light past the frame block's)
     full = apply_patch(SEA, {"effects": [{**FIRE, "id": f"e{i}"} for i in range(64)]})
     assert all(len(s.effects) == 64 for s in rehearsals(full))
@@ -56,7 +64,7 @@ def test_the_rehearsal_draws_a_fire_lights_rain_and_snow_beside_the_scene():
 @pytest.mark.parametrize("change", list(CHANGES))
 def test_a_change_after_the_rehearsal_compiles_no_program(fresh, change):
     rehearsed, _, done = fresh
-    assert done["scenes"] == 4 and done["programs"] > 0
+    assert done["scenes"] == 7 and done["programs"] > 0
     before = len(rehearsed.programs)
     rehearsed.render(apply_patch(SEA, {**CHANGES[change], "time": {"sim_time": 10.5}}))
     assert len(rehearsed.programs) == before, f"{change}: compiled after the rehearsal"
@@ -105,7 +113,7 @@ def test_the_render_process_rehearses_on_request():
     with RenderService() as service:
         first = service.render(SEA)
         done = service.rehearse(SEA)
-        assert done["scenes"] == 4 and done["programs"] > 0 and done["seconds"] > 0
+        assert done["scenes"] == 7 and done["programs"] > 0 and done["seconds"] > 0
         assert service.ig_frame == first.ig_frame  # no frame came back for it
         after = service.render(apply_patch(SEA, {**CHANGES["a smoking fire"], "time": {"sim_time": 10.5}}))
         assert after.ig_frame == first.ig_frame + 1

@@ -163,3 +163,16 @@ def test_a_sea_too_calm_for_whitecaps_leaves_the_foam_out(renderer, monkeypatch)
     monkeypatch.undo()
     renderer.render(foam_scene(4.0, 15.0, -3.0, size=(320, 180)))
     assert water.stats["foam"] is True
+
+
+def test_without_foam_the_streak_and_dot_choices_are_one_program(renderer):
+    """The streaks' and the dots' variants are parts of the foam: a sea drawn without it compiles one
+    program whatever the frame's values would pick for them (each would be another compile, the
+    same code), and a sea with foam keeps them apart."""
+    water = renderer.graph.passes["water"]
+    renderer.ctx  # made current: the programs compile on it, whatever context a test used last
+    rows = {"u_foam_octaves": (0.5, 0.5, 0.7)}  # wind rows: no dots
+    calm = {water._program(False, foam=False, foam_streaks=s, values=v) for s in (0, 1, 2) for v in ({}, rows)}
+    assert len(calm) == 1
+    foamy = {water._program(False, foam=True, foam_streaks=s, values=v) for s in (0, 1, 2) for v in ({}, rows)}
+    assert len(foamy) == 6

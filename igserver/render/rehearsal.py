@@ -8,8 +8,9 @@ picture frozen that long is what a trainee sees. So a real IG compiles what a sc
 need before it is asked to show it.
 
 The programs are variants chosen by ``#define``: what a frame draws (volumes of each effect kind,
-rain or snow), whether local lights are compiled in (``LOCAL_LIGHTS``, ``SPOT_LIGHTS``) and the
-fog halos' count (``HALO_COUNT``). Which variants a scene will meet cannot be listed without
+rain or snow, the underwater passes), whether local lights are compiled in (``LOCAL_LIGHTS``,
+``SPOT_LIGHTS``), the fog halos' count (``HALO_COUNT``) and the sea's foam (none in a calm, wind
+rows in a rough sea). Which variants a scene will meet cannot be listed without
 drawing it, since the passes decide them from the frame, so the rehearsal draws: the stream's scene
 with the changes a host most often makes (``rehearsals``), at the scene's own size, into the
 stream's own targets, and waits for each to finish (llvmpipe compiles while it rasterises). The
@@ -34,6 +35,8 @@ from .overload import FrameQuality
 # below its eye, so that every pass that would draw them does (in the frustum, not fogged out).
 AHEAD_M = 25.0
 BELOW_EYE_M = 1.5
+ROUGH_WIND, CALM_WIND = 14.0, 2.0  # m/s: Beaufort 7 (wind rows), Beaufort 2 (glassy crests, no foam)
+UNDER_M = 3.0  # m below the mean water level: the eye under the surface
 
 
 def _ahead(scene: Scene, forward_m: float, right_m: float = 0.0) -> tuple[float, float, float]:
@@ -45,8 +48,9 @@ def _ahead(scene: Scene, forward_m: float, right_m: float = 0.0) -> tuple[float,
 def rehearsals(scene: Scene) -> list[Scene]:
     """The scenes drawn to compile ahead: ``scene`` with one more fire (smoking: its plume too);
     with one more effect of every kind, a point and a spot light and the rain; with one more fire
-    and the snow; in a scene without local lights, with the rain alone. Lights and effects are
-    added only while the renderer's limits leave room."""
+    and the snow; in a scene without local lights, with the rain alone; in a scene with a sea, with
+    a rough sea, a calm one and the eye under the surface. Lights and effects are added only while
+    the renderer's limits leave room."""
     base = scene.model_copy(update={
         "channels": [],  # every channel draws with the same programs: the camera's view compiles them
         "quality": scene.quality.model_copy(update={"target_fps": 0.0}),
@@ -75,6 +79,16 @@ def rehearsals(scene: Scene) -> list[Scene]:
         out.append(base.model_copy(update={"effects": [*scene.effects, effect(0, "fire")], "weather": weather("snow")}))
     if not scene.lights and not any(EFFECT_KINDS[e.type].casts_light for e in scene.effects):
         out.append(base.model_copy(update={"weather": weather("rain")}))  # the rain unlit by local lights
+    if scene.ocean.enabled:
+        # The sea's programs follow its state: wind rows from Beaufort 6, no foam below Beaufort 3, and
+        # the eye under the surface draws the underwater passes.
+        for wind in (ROUGH_WIND, CALM_WIND):
+            out.append(base.model_copy(update={
+                "weather": scene.weather.model_copy(update={"wind_speed": wind}),
+                "ocean": scene.ocean.model_copy(update={"sea_state": None, "fetch_km": None, "duration_h": None})}))
+        x, y, _ = scene.camera.position
+        out.append(base.model_copy(update={"camera": scene.camera.model_copy(
+            update={"position": (x, y, scene.ocean.level - UNDER_M)})}))
     return out
 
 

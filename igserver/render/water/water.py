@@ -141,7 +141,10 @@ class WaterPass(UnderwaterDraws, SeaInputs, RenderPass):
         values = values or {}
         defines["WATER_DETAIL_MOTION"] = int(tuple(values.get("u_detail_motion", (0.0, 0.0))) != (0.0, 0.0))
         defines["FOG_RELIEF"] = int(values.get("u_fog_relief", (0.0, 0.0, 1.0, 0.0))[2] > 0.0)
-        defines.update(dots_defines(values))
+        if foam:
+            defines.update(dots_defines(values))
+        else:  # the streaks and the dots are the foam's: without it every choice of them is one program
+            defines.update({"WATER_FOAM_STREAKS": 0, "WATER_FOAM_DOTS": 0})
         return self.programs.program("water/water.vert.glsl", "water/water.frag.glsl", defines)
 
     def _atmosphere_define(self) -> dict:
@@ -349,9 +352,12 @@ class WaterPass(UnderwaterDraws, SeaInputs, RenderPass):
 
     def capture(self, scene: Scene, mesh: str = "default") -> tuple[lod.LodSelection, np.ndarray]:
         """The displaced mesh the GPU would draw for ``scene``: the water vertex shader run by transform
-        feedback on every selected block. Returns (selection, camera-relative positions (N, G+1, G+1, 3))."""
+        feedback on every selected block. Returns (selection, camera-relative positions (N, G+1, G+1, 3)).
+        Called outside a frame (tests, quality studies): the pass's context is made current first."""
         from ..camera import make_view
+        from ..context import make_current
 
+        make_current(self.ctx)
         view = make_view(scene.camera)
         sea = sea_surface(scene.ocean, scene.weather)
         selection = self.select(sea, scene, view, mesh=mesh)
