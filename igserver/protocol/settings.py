@@ -65,8 +65,9 @@ class ServerSettings(BaseSettings):
     ws_max_credits: int = Field(16, ge=1, le=1024, description="most credits a WebSocket client may hold")
     timed_passes: bool = Field(True, description="time each render pass for /metrics, on one frame in 30")
     rehearse: bool = Field(
-        True, description="before /v1/ready, draw the start scene unseen with a fire, every effect kind, lights, rain "
-        "and snow added, so their shader programs are compiled before a host asks for them (render/rehearsal.py); "
+        True, description="before /v1/ready, draw the start scene unseen with a fire, every effect kind, lights, rain, "
+        "snow, a rough and a calm sea and the eye under water, so their shader programs are compiled before a host "
+        "asks for them (render/rehearsal.py); "
         "off: the first fire in a stream freezes it while they compile (0.15-1.5 s on llvmpipe)")
     animation_fps: float = Field(
         30.0, gt=0, le=1000, description="stream render rate while the IG clock runs (sim_time animates the scene); a scene's "
