@@ -77,3 +77,23 @@ def test_viewer_shows_the_channels_side_by_side(server):
         page.wait_for("document.getElementById('channels').offsetParent === null && "
                       "document.getElementById('stream').offsetParent !== null "
                       "&& document.getElementById('stream').naturalWidth === 64", timeout=30)
+
+
+def test_a_closed_channel_socket_reopens_and_the_pictures_stay(server):
+    """The channels' WebSocket closes (a server restart, a proxy's timeout): the page opens it again on
+    its next look at the channels, and meanwhile each image keeps its last frame - the same elements,
+    not blanked and rebuilt."""
+    httpx.put(server.url + "/v1/state", json=SCENE).raise_for_status()
+    with Browser() as page:
+        page.open(server.url + "/")
+        page.wait_for("document.querySelectorAll('#channels figure img').length === 3 && Array.from("
+                      "document.querySelectorAll('#channels figure img')).every((i) => i.naturalWidth > 0)", timeout=60)
+        page.evaluate("document.querySelectorAll('#channels img').forEach((i) => { i.dataset.kept = '1'; }); "
+                      "channelView.socket.close()")
+        page.wait_for("channelView.socket === null")
+        assert all(s["w"] > 0 for s in images(page))
+        page.wait_for("channelView.socket !== null && channelView.socket.readyState === 1", timeout=30)
+        httpx.patch(server.url + "/v1/state", json={"host_frame": 91}).raise_for_status()
+        page.wait_for("document.getElementById('channels').dataset.hostFrame === '91'", timeout=30)
+        assert page.evaluate("Array.from(document.querySelectorAll('#channels img'))"
+                             ".every((i) => i.dataset.kept === '1' && i.naturalWidth > 0)")
