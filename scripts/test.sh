@@ -19,5 +19,11 @@ if ! command -v tshark >/dev/null 2>&1 && [ "$(id -u)" = 0 ] && command -v apt-g
   { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends tshark >&2; } \
     || echo "test.sh: could not install tshark: the CIGI cross-check will be skipped" >&2
 fi
+# the shaders are checked by the Khronos reference compiler as well as Mesa's: Debian's glslang-tools
+if ! command -v glslangValidator >/dev/null 2>&1 && [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+  echo "test.sh: installing glslang-tools (shader check)" >&2
+  { apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends glslang-tools >&2; } \
+    || echo "test.sh: could not install glslang-tools: the reference compiler's check will be skipped" >&2
+fi
 cd "$root"
 exec .venv/bin/python -m pytest -q "$@"
