@@ -1,11 +1,10 @@
 """Compiling ahead the programs a stream will need when its scene changes: a rehearsal.
 
 A GL driver turns a program into machine code the first time it is drawn with, and a compile is
-long next to a frame: on llvmpipe a fire appearing in a stream costs ~1.5 s of compiling (LLVM,
-with a cold shader cache; ~0.15 s with a warm one), on NVIDIA's driver tens to hundreds of
-milliseconds. A simulator's host starts a fire or the rain whenever its exercise says so, and a
-picture frozen that long is what a trainee sees. So a real IG compiles what a scene may come to
-need before it is asked to show it.
+long next to a frame: many frames' time with a warm shader cache, over a second of LLVM work on
+llvmpipe with a cold one (docs/operations.md has the figures). A simulator's host starts a fire or
+the rain whenever its exercise says so, and a picture frozen that long is what a trainee sees. So
+the IG compiles what a scene may come to need before it is asked to show it.
 
 The programs are variants chosen by ``#define``: what a frame draws (volumes of each effect kind,
 rain or snow, the underwater passes), whether local lights are compiled in (``LOCAL_LIGHTS``,
