@@ -107,6 +107,28 @@ def test_the_stream_beside_a_rehearsal_is_unchanged(channels):
         assert np.array_equal(a, b), f"frame {i} differs after a rehearsal"
 
 
+def test_a_held_streams_rehearsal_keeps_its_targets_and_scale():
+    """A scene that holds a frame rate is rehearsed at the full size and at the controller's smallest
+    scale too (render/overload.py SCALES), in targets of its own: the stream's targets, upscaler and
+    scale are the ones it had, none of them released."""
+    import moderngl
+
+    held = apply_patch(SEA, {"quality": {"target_fps": 25.0}})
+    r = Renderer()
+    try:
+        r.render_scale = 0.75
+        r.render(apply_patch(held, {"quality": {"target_fps": 0.0}}))  # drawn at 0.75: targets and upscaler
+        targets, upscaler = r._targets, r._upscaler
+        assert targets is not None and upscaler is not None
+        done = r.rehearse(held)
+        assert done["scenes"] == 2 * len(rehearsals(held))
+        assert (r._targets, r._upscaler, r.render_scale) == (targets, upscaler, 0.75)
+        alive = (targets.hdr, targets.scene_fbo, targets.ldr_fbo, upscaler._out.texture)
+        assert not any(isinstance(o.mglo, moderngl.mgl.InvalidObject) for o in alive)
+    finally:
+        r.release()
+
+
 def test_the_render_process_rehearses_on_request():
     from igserver.render.worker import RenderService
 

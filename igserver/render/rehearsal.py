@@ -28,7 +28,7 @@ from .camera import make_view
 from .frame import FrameState
 from .frame_block import MAX_LIGHTS
 from .multiview import release_view_state, swap_view_state
-from .overload import FrameQuality
+from .overload import SCALES, FrameQuality
 
 # Where the rehearsal's effects and lights stand: this far ahead of the camera (m), a little
 # below its eye, so that every pass that would draw them does (in the frustum, not fogged out).
@@ -97,32 +97,43 @@ def rehearse(renderer, scene: Scene) -> dict:
     t0 = time.perf_counter()
     compiled = len(renderer.programs)
     # The stream's state, set aside: what the frames carry from one to the next (adaptation, fog,
-    # meter, controller, count), the passes' per-view state (multiview.swap_view_state: a fresh
-    # view's for the rehearsal, released after it), the camera's targets and the channels'.
+    # meter, controller, count, scale), the passes' per-view state (multiview.swap_view_state: a
+    # fresh view's for the rehearsal, released after it), the targets and the channels'. The
+    # rehearsal draws into targets of its own, released after it.
     kept = {name: getattr(renderer, name) for name in STREAM_STATE}
     channels = {name: getattr(renderer, name) for name in CHANNEL_STATE}
     for name in CHANNEL_STATE:  # the rehearsal draws no channels: theirs are not "gone" for it
         setattr(renderer, name, {})
-    if scene.channels:  # the camera's targets are the rehearsal's alone
-        renderer._targets = None
+    renderer._targets = renderer._upscaler = None  # its own (a scaled draw would replace the stream's)
     held = swap_view_state(renderer.ctx, renderer.graph.passes, {})
     drawn = 0
     try:
-        for rehearsal in rehearsals(scene):
-            renderer.frame_state, renderer.frame_quality = FrameState(), FrameQuality()
-            renderer._draw(rehearsal, timed=False)
-            renderer.ctx.finish()
-            drawn += 1
+        for scale in rehearsal_scales(scene):
+            renderer.render_scale = scale
+            for rehearsal in rehearsals(scene):
+                renderer.frame_state, renderer.frame_quality = FrameState(), FrameQuality()
+                renderer._draw(rehearsal, timed=False)
+                renderer.ctx.finish()
+                drawn += 1
     finally:
         release_view_state(swap_view_state(renderer.ctx, renderer.graph.passes, held))
-        if renderer._targets is not kept["_targets"] and renderer._targets is not None:
-            renderer._targets.release()
+        for made in (renderer._targets, renderer._upscaler):
+            if made is not None:
+                made.release()
         for name, value in {**kept, **channels}.items():
             setattr(renderer, name, value)
     return {"scenes": drawn, "programs": len(renderer.programs) - compiled,
             "seconds": time.perf_counter() - t0}
 
 
+def rehearsal_scales(scene: Scene) -> tuple[float, ...]:
+    """The internal render scales to rehearse at: the full size, and for a scene that holds a frame
+    rate (whose controller may draw it smaller: render/overload.py) the smallest scale too - a frame
+    of fewer pixels than the aerial-perspective table has nodes compiles the exact variants, and
+    the upscale pass is drawn."""
+    return (1.0, min(SCALES)) if scene.quality.target_fps > 0 else (1.0,)
+
+
 # The renderer's attributes a rehearsal puts back (render/renderer.py).
-STREAM_STATE = ("frame_state", "frame_quality", "frames_rendered", "_targets")
+STREAM_STATE = ("frame_state", "frame_quality", "frames_rendered", "_targets", "_upscaler", "render_scale")
 CHANNEL_STATE = ("_channel_targets", "channel_meters", "channel_meter_copies", "view_states", "_channel_upscalers")
