@@ -117,3 +117,27 @@ def test_a_running_clock_animates_at_the_target_rate_when_it_is_higher():
         assert mjpeg_rate(srv.url, frames=27, warmup=3)["fps"] >= 10.0
         http.patch("/v1/state", json={"quality": {"target_fps": 0}}).raise_for_status()
         assert mjpeg_rate(srv.url, frames=9, warmup=3)["fps"] <= 7.0
+
+
+def test_fire_ahead_stands_in_front_of_the_camera():
+    from igserver.client.latency import FIRE_AHEAD_M, fire_ahead
+
+    east = Scene.model_validate({"camera": {"position": [100.0, 200.0, 10.0], "heading": 90.0, "pitch": 0.0}})
+    assert fire_ahead(east)["position"] == pytest.approx([100.0 + FIRE_AHEAD_M, 200.0, 8.5])
+    down = Scene.model_validate({"camera": {"position": [0.0, 0.0, 30.0], "heading": 0.0, "pitch": -30.0}})
+    x, y, z = fire_ahead(down)["position"]
+    assert (x, y, z) == pytest.approx((0.0, FIRE_AHEAD_M * 3**0.5 / 2, 30.0 - FIRE_AHEAD_M / 2 - 1.5))
+
+
+def test_the_fire_bench_starts_a_fire_halfway_and_times_the_stream_around_it(server):
+    """``igserver bench --service --modes mjpeg-fire``: the stream before and after a host starts a fire
+    (the bench's figures are measured on a quiet machine; here only what it reports)."""
+    from igserver.client.latency import mjpeg_fire, summarize
+
+    result = mjpeg_fire(server.url, frames=30, warmup=3)
+    summary = summarize(result)
+    assert summary["fps_before"] > 0 and result["after_ms"] and summary["longest_after"] > 0
+    assert len(result["interval_ms"]) >= 10  # the fire came halfway: half the frames before it
+    effects = httpx.get(server.url + "/v1/effects", timeout=30).json()
+    assert any(e["id"] == "bench-fire" and e["type"] == "fire" for e in effects), effects
+    httpx.delete(server.url + "/v1/effects/bench-fire", params={"immediate": True}, timeout=30)

@@ -119,4 +119,7 @@ def test_service_bench_starts_its_server_with_the_preset():
     command = server_command(640, 360, "demo", 8123, "auto")
     assert command[command.index("--preset") + 1] == "auto" and command[command.index("--scene") + 1] == "demo"
     assert "--preset" not in server_command(640, 360, None, 8123)
+    # --no-rehearse reaches the server it starts (the fire bench's comparison), rehearsing by default
+    assert "--no-rehearse" in server_command(640, 360, None, 8123, rehearse=False)
+    assert "--no-rehearse" not in command
     assert tuple(PRESET_CHOICES) == PRESET_NAMES == ("low", "medium", "high", "auto")

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import math
 import re
 import statistics
 import threading
@@ -34,10 +35,13 @@ def latency_bench(url: str, frames: int = 200, warmup: int = 10, mode: str = "ws
     sending of the state it shows.
     mjpeg: GET /v1/stream.mjpg as a viewer reads it; per part, its arrival and its ``X-IG-Quality``
     header (the operating point the overload controller chose). No state is sent: only the rate counts.
+    mjpeg-fire: the same stream, a fire started halfway through (``mjpeg_fire``).
     Returns e2e, render (render process) and encode (server) times in ms, per frame.
     """
     if mode == "mjpeg":
         return mjpeg_rate(url, frames, warmup, token)
+    if mode == "mjpeg-fire":
+        return mjpeg_fire(url, frames, warmup, token)
     e2e, render, encode = [], [], []
     with IGClient(url, token=token) as ig:
         base = ig.get_state().host_frame + 1
@@ -100,21 +104,24 @@ def latency_bench(url: str, frames: int = 200, warmup: int = 10, mode: str = "ws
     return result
 
 
+def mjpeg_parts(ig: IGClient, frames: int):
+    """(arrival perf_counter s, X-IG-Quality header) of each part of ``frames`` parts of the MJPEG stream,
+    as a viewer reads it."""
+    with ig.http.stream("GET", "/v1/stream.mjpg", params={"frames": frames}, headers=MJPEG_HEADERS) as response:
+        response.raise_for_status()
+        pending = b""
+        for chunk in response.iter_bytes():
+            pending += chunk
+            while (match := _PART_QUALITY.search(pending)) is not None:
+                yield time.perf_counter(), match.group(1).decode()
+                pending = pending[match.end():]
+
+
 def mjpeg_rate(url: str, frames: int, warmup: int, token: str | None = None) -> dict:
     """The MJPEG stream's frame intervals as a viewer sees them, and the operating points it showed."""
-    arrivals, points = [], []
     with IGClient(url, token=token) as ig:
-        params = {"frames": frames + warmup}
-        with ig.http.stream("GET", "/v1/stream.mjpg", params=params, headers=MJPEG_HEADERS) as response:
-            response.raise_for_status()
-            pending = b""
-            for chunk in response.iter_bytes():
-                pending += chunk
-                while (match := _PART_QUALITY.search(pending)) is not None:
-                    arrivals.append(time.perf_counter())
-                    points.append(match.group(1).decode())
-                    pending = pending[match.end():]
-    arrivals, points = arrivals[warmup:], points[warmup:]
+        parts = list(mjpeg_parts(ig, frames + warmup))[warmup:]
+    arrivals, points = [t for t, _ in parts], [q for _, q in parts]
     intervals = [(b - a) * 1e3 for a, b in zip(arrivals, arrivals[1:])]
     result = {"mode": "mjpeg", "e2e_ms": [], "render_ms": [], "encode_ms": [], "interval_ms": intervals,
               "operating_points": Counter(points).most_common(3)}
@@ -123,7 +130,48 @@ def mjpeg_rate(url: str, frames: int, warmup: int, token: str | None = None) -> 
     return result
 
 
+FIRE_AHEAD_M = 60.0  # mjpeg-fire: where the fire starts, ahead of the camera (m), at its feet
+FIRE_WINDOW_S = 3.0  # and how long after it the intervals are summed up
+
+
+def fire_ahead(state) -> dict:
+    """A smoking pool fire, lit at once, FIRE_AHEAD_M ahead of ``state``'s camera and 1.5 m below its eye
+    (heading clockwise from north, pitch up: ENU)."""
+    cam = state.camera
+    h, p = math.radians(cam.heading), math.radians(cam.pitch)
+    forward = (math.sin(h) * math.cos(p), math.cos(h) * math.cos(p), math.sin(p))
+    x, y, z = (c + FIRE_AHEAD_M * f for c, f in zip(cam.position, forward))
+    return {"id": "bench-fire", "type": "fire", "position": [x, y, z - 1.5], "diameter": 3.0,
+            "emits_smoke": True, "fade": 0.0}
+
+
+def mjpeg_fire(url: str, frames: int, warmup: int, token: str | None = None) -> dict:
+    """The MJPEG stream's intervals when a host starts a fire halfway through (``fire_ahead``): the
+    programs a new effect needs are compiled when it is first drawn unless the server compiled them
+    ahead (render/rehearsal.py), and a frozen stream shows here as a long interval."""
+    arrivals: list[float] = []
+    start = float("inf")
+    with IGClient(url, token=token) as ig:
+        fire = fire_ahead(ig.get_state())
+        for arrival, _ in mjpeg_parts(ig, frames + warmup):
+            arrivals.append(arrival)
+            if len(arrivals) == warmup + frames // 2:
+                start = time.perf_counter()
+                ig.add_effect(fire)
+    before = [t for t in arrivals[warmup:] if t < start]
+    after = [t for t in arrivals if start <= t < start + FIRE_WINDOW_S]
+    intervals = [(b - a) * 1e3 for a, b in zip(before[-1:] + after, after)]
+    return {"mode": "mjpeg-fire", "e2e_ms": [], "render_ms": [], "encode_ms": [],
+            "interval_ms": [(b - a) * 1e3 for a, b in zip(before, before[1:])], "after_ms": intervals,
+            "fps_before": (len(before) - 1) / (before[-1] - before[0]) if len(before) > 1 else float("nan"),
+            "fps_after": len(after) / FIRE_WINDOW_S}
+
+
 def summarize(result: dict) -> dict:
+    if result["mode"] == "mjpeg-fire":
+        return {"mode": "mjpeg-fire", "frames": len(result["interval_ms"]) + len(result["after_ms"]) + 1,
+                "fps_before": result["fps_before"], "interval_p95_before": percentile(result["interval_ms"], 95),
+                "fps_after": result["fps_after"], "longest_after": max(result["after_ms"], default=float("nan"))}
     if result["mode"] == "mjpeg":
         intervals = result["interval_ms"]
         return {"mode": "mjpeg", "frames": len(intervals) + 1, "interval_p50": percentile(intervals, 50),
@@ -147,6 +195,10 @@ def summarize(result: dict) -> dict:
 
 
 def format_summary(s: dict) -> str:
+    if s["mode"] == "mjpeg-fire":
+        return (f"mjpeg-fire: before the fire {s['fps_before']:.1f} frames/s, interval p95 "
+                f"{s['interval_p95_before']:.1f} ms | the {FIRE_WINDOW_S:g} s after it {s['fps_after']:.1f} frames/s, "
+                f"longest interval {s['longest_after']:.1f} ms")
     if s["mode"] == "mjpeg":
         shown = "; ".join(f"{n}x {point}" for point, n in s["operating_points"])
         return (f"mjpeg: {s['frames']} frames  {s['fps']:.1f} frames/s  interval p50 {s['interval_p50']:.1f} ms  "

@@ -32,10 +32,13 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def server_command(width: int, height: int, scene: str | None, port: int, preset: str | None = None) -> list[str]:
+def server_command(width: int, height: int, scene: str | None, port: int, preset: str | None = None,
+                   rehearse: bool = True) -> list[str]:
     """The command line of the benched server (``igserver serve`` on loopback)."""
     command = [sys.executable, "-m", "igserver.protocol", "--port", str(port), "--width", str(width),
                "--height", str(height)]
+    if not rehearse:
+        command.append("--no-rehearse")
     if scene:
         command += ["--scene", scene]
     if preset:
@@ -45,12 +48,12 @@ def server_command(width: int, height: int, scene: str | None, port: int, preset
 
 @contextlib.contextmanager
 def server_process(width: int, height: int, scene: str | None = None, port: int | None = None,
-                   target_fps: float = 0.0, preset: str | None = None):
+                   target_fps: float = 0.0, preset: str | None = None, rehearse: bool = True):
     """A real igserver on loopback in a child process; yields its URL once /v1/ready says so."""
     from igserver.client import IGClient
 
     port = port or free_port()
-    command = server_command(width, height, scene, port, preset)
+    command = server_command(width, height, scene, port, preset, rehearse)
     env = os.environ.copy()
     if target_fps:  # the server's setting for the scene's quality.target_fps
         env["IGSERVER_TARGET_FPS"] = str(target_fps)
@@ -91,19 +94,23 @@ def run_service_bench(argv: list[str] | None = None) -> int:
     parser.add_argument("--frames", type=int, default=300)
     parser.add_argument("--scene", default=None, help="scene file or name (default: built-in defaults)")
     parser.add_argument("--modes", default="ws,http,ws-stream",
-                        help="comma-separated: ws, http, ws-stream, mjpeg (the stream's rate and operating points)")
+                        help="comma-separated: ws, http, ws-stream, mjpeg (the stream's rate and operating points), "
+                        "mjpeg-fire (the stream when a fire starts halfway through)")
     parser.add_argument("--target-fps", type=float, default=0.0,
                         help="the frame rate the started server holds (quality.target_fps; 0 = off)")
     parser.add_argument("--preset", choices=PRESET_NAMES, default=None,
                         help="the started server's quality preset for its scene (auto: the controller's rungs too)")
     parser.add_argument("--rate", type=float, default=60.0, help="ws-stream: states sent per second")
+    parser.add_argument("--no-rehearse", dest="rehearse", action="store_false",
+                        help="the started server skips compiling ahead (its setting rehearse = false)")
     parser.add_argument("--url", default=None, help="bench a running server instead of starting one")
     parser.add_argument("--json", action="store_true", help="print the summaries as JSON")
     args = parser.parse_args(argv)
 
     with contextlib.ExitStack() as stack:
         url = args.url or stack.enter_context(
-            server_process(args.width, args.height, args.scene, target_fps=args.target_fps, preset=args.preset))
+            server_process(args.width, args.height, args.scene, target_fps=args.target_fps, preset=args.preset,
+                           rehearse=args.rehearse))
         with IGClient(url) as ig:
             ready = ig.wait_ready()
             raw = ig.get_frame("raw")
