@@ -70,6 +70,13 @@ def test_a_change_after_the_rehearsal_compiles_no_program(fresh, change):
     assert len(rehearsed.programs) == before, f"{change}: compiled after the rehearsal"
 
 
+def test_the_rehearsal_reports_each_scene_it_drew(fresh):
+    rehearsed, _, _ = fresh
+    calls = []
+    done = rehearsed.rehearse(SEA, lambda drawn, total: calls.append((drawn, total)))
+    assert calls == [(i, done["scenes"]) for i in range(1, done["scenes"] + 1)]
+
+
 def test_without_a_rehearsal_a_first_fire_compiles(fresh):
     """What the rehearsal is for: the same first change on a renderer that did not rehearse."""
     _, bare, done = fresh
@@ -132,9 +139,27 @@ def test_a_held_streams_rehearsal_keeps_its_targets_and_scale():
 def test_the_render_process_rehearses_on_request():
     from igserver.render.worker import RenderService
 
+    import threading
+    import time
+
     with RenderService() as service:
         first = service.render(SEA)
-        done = service.rehearse(SEA)
+        seen, stop = [], threading.Event()
+
+        def watch():  # the render process's progress messages, as /v1/ready shows them
+            while not stop.is_set():
+                seen.append(service.progress)
+                time.sleep(0.002)
+
+        watcher = threading.Thread(target=watch)
+        watcher.start()
+        try:
+            done = service.rehearse(SEA)
+        finally:
+            stop.set()
+            watcher.join()
+        phases = {p["phase"] for p in seen if p}
+        assert phases == {"compiling ahead"} and service.progress is None
         assert done["scenes"] == 7 and done["programs"] > 0 and done["seconds"] > 0
         assert service.ig_frame == first.ig_frame  # no frame came back for it
         after = service.render(apply_patch(SEA, {**CHANGES["a smoking fire"], "time": {"sim_time": 10.5}}))

@@ -108,10 +108,15 @@ class IGRuntime:
         log.info("first picture (simplified sky) %.1f s after start; precomputing the atmosphere tables",
                  time.perf_counter() - t0)
 
+    def _will_rehearse(self) -> bool:
+        return self.settings.rehearse and callable(getattr(self.service, "rehearse", None))
+
     async def _rehearse(self, scene) -> None:
-        """Compile ahead what a fire, lights or precipitation would need (render/rehearsal.py), before
-        /v1/ready: a host that starts one at once gets a frame, not a frozen stream."""
-        if not self.settings.rehearse or not callable(getattr(self.service, "rehearse", None)):
+        """Compile ahead what a fire, lights, precipitation or the sea's states would need
+        (render/rehearsal.py), before /v1/ready: a host that starts one at once gets a frame, not a
+        frozen stream. ``rehearsing`` is set before the first frame (the render process says it is warm
+        from another thread as that frame ends: /v1/ready must not see a ready moment between)."""
+        if not self._will_rehearse():
             return
         self.rehearsing = True
         try:
@@ -153,7 +158,9 @@ class IGRuntime:
                 return "precomputing the atmosphere tables" + shown
             return "rendering the first frame"
         if self.rehearsing:
-            return "compiling ahead the programs of fires, lights, rain and snow"
+            progress = self.service.progress
+            done = f" ({progress['fraction']:.0%})" if progress else ""
+            return f"compiling ahead the programs of fires, lights, rain, snow and the sea's states{done}"
         return None
 
     def unresponsive_now(self) -> str | None:
@@ -174,6 +181,7 @@ class IGRuntime:
                 await self.gateway.call(self.service.start)
                 log.info("render process up in %.1f s; rendering the first frame", time.perf_counter() - t0)
                 store = self.store
+                self.rehearsing = self._will_rehearse()  # see _rehearse
                 await self._show_a_first_picture_while_tables_compute(t0)
                 encoded = await self.gateway.render(store.scene, store.revision, store.accepted_at)
                 self.provisional = False
@@ -181,6 +189,7 @@ class IGRuntime:
                 await self._rehearse(store.scene)
                 log.info("ready: first frame rendered %.1f s after start", time.perf_counter() - t0)
             except Exception as exc:  # ready stays false; the next render retries the start
+                self.rehearsing = False
                 self.start_error = f"{type(exc).__name__}: {exc}"
                 log.error("render process failed to start: %s", self.start_error)
 

@@ -91,9 +91,10 @@ def rehearsals(scene: Scene) -> list[Scene]:
     return out
 
 
-def rehearse(renderer, scene: Scene) -> dict:
-    """Draw ``rehearsals(scene)`` on ``renderer`` and put its stream's state back. Returns what it
-    did: {"scenes": drawn, "programs": compiled by them, "seconds": wall time}."""
+def rehearse(renderer, scene: Scene, report=None) -> dict:
+    """Draw ``rehearsals(scene)`` on ``renderer`` and put its stream's state back; ``report(done, total)``
+    after each scene drawn (the render process's progress messages: a long rehearsal is alive). Returns
+    what it did: {"scenes": drawn, "programs": compiled by them, "seconds": wall time}."""
     t0 = time.perf_counter()
     compiled = len(renderer.programs)
     # The stream's state, set aside: what the frames carry from one to the next (adaptation, fog,
@@ -106,15 +107,17 @@ def rehearse(renderer, scene: Scene) -> dict:
         setattr(renderer, name, {})
     renderer._targets = renderer._upscaler = None  # its own (a scaled draw would replace the stream's)
     held = swap_view_state(renderer.ctx, renderer.graph.passes, {})
-    drawn = 0
+    drawn, scales, scenes = 0, rehearsal_scales(scene), rehearsals(scene)
     try:
-        for scale in rehearsal_scales(scene):
+        for scale in scales:
             renderer.render_scale = scale
-            for rehearsal in rehearsals(scene):
+            for rehearsal in scenes:
                 renderer.frame_state, renderer.frame_quality = FrameState(), FrameQuality()
                 renderer._draw(rehearsal, timed=False)
                 renderer.ctx.finish()
                 drawn += 1
+                if report is not None:
+                    report(drawn, len(scales) * len(scenes))
     finally:
         release_view_state(swap_view_state(renderer.ctx, renderer.graph.passes, held))
         for made in (renderer._targets, renderer._upscaler):

@@ -20,6 +20,7 @@ import numpy as np
 from .memory import release_free_memory
 
 HEARTBEAT_S = 0.25  # the render process stamps a shared clock this often while it waits for work
+REHEARSAL_PHASE = "compiling ahead"  # the progress messages' phase during a rehearsal
 # submit(): frames drawn and not yet returned. One lets the render process read frame N while it draws
 # N+1 and the server encode N meanwhile, for one frame interval more from a state to its frame.
 FRAMES_IN_FLIGHT = 1
@@ -103,8 +104,14 @@ def render_process_main(conn, device_index: int | None, stamp=None) -> None:
         if kind == "stop":
             break
         if kind == "rehearse":  # (scene,) -> what the rehearsal compiled (render/rehearsal.py); no frame
+            t0 = time.perf_counter()
+
+            def report(done: int, total: int) -> None:  # each scene drawn proves the process alive
+                if done < total:
+                    conn.send(("progress", REHEARSAL_PHASE, done / total, time.perf_counter() - t0))
+
             try:
-                conn.send(("rehearsed", renderer.rehearse(message[1])))
+                conn.send(("rehearsed", renderer.rehearse(message[1], report)))
             except Exception as exc:
                 conn.send(("error", f"rehearsal failed ({type(exc).__name__})", traceback.format_exc(limit=8)))
             continue

@@ -178,11 +178,12 @@ class Renderer:
             self.frame_quality.observe(result.total_ms, result.passes)
         return result
 
-    def rehearse(self, scene: Scene) -> dict:
-        """Draw ``scene`` unseen with the changes a host most often makes (a fire, lights, rain, snow), so
-        that their programs are compiled before a stream needs them; the stream's state is put back
-        (render/rehearsal.py). Returns {"scenes", "programs", "seconds"}."""
-        return rehearsal.rehearse(self, scene)
+    def rehearse(self, scene: Scene, report=None) -> dict:
+        """Draw ``scene`` unseen with the changes a host most often makes (a fire, lights, rain, snow, the
+        sea's states), so that their programs are compiled before a stream needs them; the stream's state
+        is put back; ``report(done, total)`` after each scene (render/rehearsal.py). Returns {"scenes",
+        "programs", "seconds"}."""
+        return rehearsal.rehearse(self, scene, report)
 
     def submit(self, scene: Scene, timed: bool = False) -> RenderResult | None:
         """Draw ``scene`` and queue its readback without waiting for it; return the oldest frame in

@@ -291,9 +291,10 @@ class RenderService:
         self._conn.send(("rehearse", scene))
         self.rendering_since = time.monotonic()
         try:
-            reply = self._await_reply()
+            reply = self._await_reply()  # a progress message after each scene: render_timeout_s per scene
         finally:
             self.rendering_since = None
+            self.progress = None
         if reply[0] == "error":
             if len(reply) > 2 and reply[2]:
                 log.error("rehearsal failed:\n%s", reply[2])

@@ -18,7 +18,7 @@ router = APIRouter(tags=["health"])
 class ReadyReport(Ready):
     """/v1/ready: ready means a frame can be served now within the normal frame time."""
 
-    progress: dict | None = Field(None, description="table precompute in progress: {phase, fraction 0..1, elapsed_s}")
+    progress: dict | None = Field(None, description="table precompute or compiling ahead in progress: {phase, fraction 0..1, elapsed_s}")
     last_precompute: dict | None = Field(None, description="the last finished precompute: {phase, elapsed_s}")
     unresponsive: str | None = Field(None, description="the watchdog's finding while the render process does not answer")
     fault: dict | None = Field(None, description="the last abandoned state: {revision, detail, fallback_revision}")
