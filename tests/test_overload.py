@@ -11,7 +11,7 @@ import pytest
 import igserver.render.precip.particles  # noqa: F401 - registers the precipitation knobs
 import igserver.render.volumes.volumes  # noqa: F401 - registers the volumes knobs
 import igserver.render.water.water  # noqa: F401 - registers the water knobs
-from igserver.render import overload, presets
+from igserver.render import operating_points, overload, presets
 from igserver.render.overload import Overload
 
 PIPES = frozenset({"water", "volumes"})
@@ -26,7 +26,7 @@ class FakeIG:
         self.load, self.noise = load, noise
         self.rng = random.Random(seed)
 
-    def true_ms(self, point: overload.OperatingPoint) -> float:
+    def true_ms(self, point: operating_points.OperatingPoint) -> float:
         s = point.scale
         extra = 1.0 + 0.3 * (1.0 - s)  # reduced scales save less than the seed says
         return self.load * point.seed_ms * extra * (1.15 if "volumes" in point.rung.name else 1.0)
@@ -50,7 +50,7 @@ def best_fitting(ctl: Overload, ig: FakeIG) -> int:
 
 
 def test_frontier_is_sorted_cheapest_first_and_errors_fall():
-    points = overload.frontier(PIPES)
+    points = operating_points.frontier(PIPES)
     assert len(points) > 5
     assert all(a.seed_ms <= b.seed_ms and a.error > b.error for a, b in zip(points, points[1:]))
     assert points[-1].scale == 1.0 and points[0].scale == 0.5
@@ -141,8 +141,8 @@ def test_header_and_fields():
 @pytest.mark.parametrize("name", [r.name for r in presets.ladder()])
 def test_every_rung_has_an_error_and_a_cost(name):
     rung = next(r for r in presets.ladder() if r.name == name)
-    p = overload.point_estimate(1.0, rung, frozenset(overload.PIPELINE_ERROR))
-    assert p.error > 0.0 and p.seed_ms > overload.BASE_MS
+    p = operating_points.point_estimate(1.0, rung, frozenset(operating_points.PIPELINE_ERROR))
+    assert p.error > 0.0 and p.seed_ms > operating_points.BASE_MS
 
 
 def test_target_fps_setting_of_serve():

@@ -109,7 +109,7 @@ def markdown(rows: list[dict], scene: str, width: int, height: int) -> str:
 
 
 def _parse(argv: list[str]) -> argparse.Namespace:
-    from ..render.overload import SCALES
+    from ..render.operating_points import SCALES
 
     ap = argparse.ArgumentParser(prog="igserver quality scaling")
     ap.add_argument("--scene", default="demo")
@@ -135,7 +135,7 @@ def run(argv: list[str]) -> int:
 
 def study(quick: bool = False) -> Study:
     """The combined report's points: error = 100 (1 - SSIM) against ms per frame, one curve per filter."""
-    from ..render.overload import SCALES
+    from ..render.operating_points import SCALES
 
     size = (320, 180) if quick else (640, 360)
     rows = measure("demo", *size, SCALES[1:], 2 if quick else 5)

@@ -1,24 +1,15 @@
 """Overload management: hold a frame rate by trading picture error for time.
 
-An **operating point** is an internal render scale (render/scaling.py) and a rung of the presets'
-ladder (render/presets.py: every pipeline's knobs, one knob changing between neighbouring rungs).
-Each point has
-
-- an **estimated error**, e (8-bit sRGB RMSE over the frame): the pipelines' errors at their
-  knobs, from the error-against-time studies (docs/quality-report.md, as the table ``PIPELINE_ERROR``
-  below), each weighted by the share of the frame that pipeline typically covers, and the scale's
-  measured upscale error (docs/quality.md, ``SCALE_ERROR``), added as independent errors:
-  ``e^2 = sum_p w_p e_p^2 + e_scale^2``;
-- an **estimated cost**, ms per frame: a seed from the same studies (each pipeline's ms at its
-  knobs, a fixed share of the frame's time that does not shrink with the pixels, the rest ~ scale^2)
-  times what the running IG sees: ``predicted(p) = L * seed(p) * k(p)``. L (the load) is the median
-  of the last LOAD_WINDOW frames' observed ms over their point's seed and correction: it follows the
-  scene (a fire starting, the camera turning to the sea) whatever the point, in half a window, and a
-  lone slow frame (another process taking the cores) does not move it. k(p) corrects a point's seed: learned
-  on the frames just after a step UP to p, against the load measured just before it, so the ratio
-  of two points' costs is measured, not assumed. A step up follows UP_FRAMES steady frames, so that
-  load is a fresh reference; a step down follows a change of the load, so its frames update L, not
-  k (a ratio measured across a changing load would be wrong and stay wrong).
+An **operating point** (render/operating_points.py) is an internal render scale and a rung of the
+presets' ladder, with an estimated error and a seed cost; the running IG's frame times turn the seed
+into a prediction: ``predicted(p) = L * seed(p) * k(p)``. L (the load) is the median
+of the last LOAD_WINDOW frames' observed ms over their point's seed and correction: it follows the
+scene (a fire starting, the camera turning to the sea) whatever the point, in half a window, and a
+lone slow frame (another process taking the cores) does not move it. k(p) corrects a point's seed: learned
+on the frames just after a step UP to p, against the load measured just before it, so the ratio
+of two points' costs is measured, not assumed. A step up follows UP_FRAMES steady frames, so that
+load is a fresh reference; a step down follows a change of the load, so its frames update L, not
+k (a ratio measured across a changing load would be wrong and stay wrong).
 
 Only the **frontier** is used: the points no other point beats on both seed cost and error, sorted
 from the cheapest (largest error) to the best. Per frame the controller (``Overload.observe``)
@@ -66,27 +57,10 @@ from __future__ import annotations
 import math
 import statistics
 from collections import deque
-from dataclasses import dataclass, fields, is_dataclass
+from dataclasses import dataclass
 
 from . import presets
-
-SCALES = (1.0, 0.85, 0.75, 0.67, 0.5)  # the internal render scales (render/scaling.py), best first
-
-# The error-against-time studies' preset points (docs/quality-report.md): error (8-bit sRGB RMSE of
-# the pipeline's pixels against its reference) and ms (the pipeline's pass at the study's size).
-PIPELINE_ERROR = {  # pipeline -> level -> (error, ms)
-    "volumes": {"low": (15.1, 7.42), "medium": (12.7, 20.5), "high": (6.36, 123.0)},
-    "water": {"low": (3.91, 24.2), "medium": (1.27, 36.9), "high": (1.18, 38.8)},
-    "precip": {"low": (2.6, 12.3), "medium": (2.15, 20.6), "high": (1.69, 36.7)},
-}
-# Share of a frame's pixels each pipeline typically covers (its error spreads over those only): the
-# sea fills the half below the horizon, a fire's plume a tenth, rain and snow the whole frame.
-COVERAGE = {"volumes": 0.1, "water": 0.5, "precip": 1.0}
-# The upscale's error against the full-resolution frame, 8-bit RMSE = 255 * 10^(-PSNR/20), from the
-# demo at 640x360 (docs/quality.md, Internal render scale).
-SCALE_ERROR = {1.0: 0.0, 0.85: 2.64, 0.75: 3.08, 0.67: 4.13, 0.5: 4.66}
-BASE_MS = 25.0  # ms, the rest of a frame at 640x360 (sky, surfaces, post, readback), seed only
-HOST_SHARE = 0.25  # of a frame's time that does not shrink with the pixels (demo: 0.5 scale = 0.42 x time)
+from .operating_points import PIPELINE_ERROR, SCALES, OperatingPoint, frontier, point_estimate
 
 MARGIN = 0.10  # a point fits when predicted within 90 % of the budget (frame-time noise)
 HEADROOM = 0.15  # step up only when frames take <= 85 % of the budget
@@ -102,89 +76,6 @@ TAIL_LIMIT = 1.1  # a held point's p95 frame time may exceed the budget by this 
 PROBE_FRAMES = 8  # an overrun this soon after a step up is the probed point's cost, not the scene's
 MAX_BACKOFF = 5  # doublings at most of a point's block: 32 x BLOCK_FRAMES (~2.5 min at 25 fps)
 MAX_PROBE_BACKOFF = 3  # doublings at most of the wait between probes: 8 x UP_FRAMES (~10 s at 25 fps)
-
-
-def level_of(pipeline: str, value) -> str:
-    """A pipeline's knobs as a level name: "low", "medium", "high", or "low>medium" between two."""
-    table = presets.registered()[pipeline]
-    for level in presets.LEVELS:
-        if table[level] == value:
-            return level
-    lo, hi = _between(pipeline, value)
-    return f"{lo}>{hi}"
-
-
-def _between(pipeline: str, value) -> tuple[str, str]:
-    """The two neighbouring levels whose knobs ``value`` mixes (the ladder changes one field at a time)."""
-    table = presets.registered()[pipeline]
-    for lo, hi in zip(presets.LEVELS, presets.LEVELS[1:]):
-        a, b = table[lo], table[hi]
-        if is_dataclass(value) and type(value) is type(a) and all(
-                getattr(value, f.name) in (getattr(a, f.name), getattr(b, f.name)) for f in fields(value)):
-            return lo, hi
-    return presets.LEVELS[0], presets.LEVELS[-1]
-
-
-def _progress(pipeline: str, value) -> tuple[str, str, float]:
-    """(lo, hi, t): ``value`` lies a fraction t of the knobs (those that differ) from lo to hi."""
-    table = presets.registered()[pipeline]
-    level = level_of(pipeline, value)
-    if level in presets.LEVELS:
-        return level, level, 0.0
-    lo, hi = _between(pipeline, value)
-    a, b = table[lo], table[hi]
-    differ = [f.name for f in fields(a) if getattr(a, f.name) != getattr(b, f.name)]
-    moved = sum(getattr(value, n) == getattr(b, n) for n in differ)
-    return lo, hi, moved / max(len(differ), 1)
-
-
-def pipeline_error_ms(pipeline: str, value) -> tuple[float, float]:
-    """(error, ms) of a pipeline at its knobs: the studies' preset points, linear between levels by
-    the share of the knobs that moved (the ladder's intermediate rungs)."""
-    if pipeline not in PIPELINE_ERROR:
-        return 0.0, 0.0
-    lo, hi, t = _progress(pipeline, value)
-    (e0, m0), (e1, m1) = PIPELINE_ERROR[pipeline][lo], PIPELINE_ERROR[pipeline][hi]
-    return e0 + t * (e1 - e0), m0 + t * (m1 - m0)
-
-
-@dataclass(frozen=True)
-class OperatingPoint:
-    scale: float
-    rung: presets.Rung
-    error: float  # estimated frame error, 8-bit RMSE
-    seed_ms: float  # seed cost (the studies' ms), before the learned load and correction
-
-    @property
-    def rungs(self) -> dict[str, str]:
-        """Each pipeline's level at this point (e.g. {"water": "low", "volumes": "medium"})."""
-        return {p: level_of(p, v) for p, v in self.rung.knobs.items()}
-
-    @property
-    def key(self) -> tuple[float, str]:
-        return self.scale, self.rung.name
-
-
-def point_estimate(scale: float, rung: presets.Rung, pipelines: frozenset[str]) -> OperatingPoint:
-    """The point's estimated error and seed cost, counting only the ``pipelines`` this frame draws."""
-    err2, ms = SCALE_ERROR.get(scale, 0.0) ** 2, BASE_MS
-    for pipeline, value in rung.knobs.items():
-        if pipeline in pipelines:
-            e, m = pipeline_error_ms(pipeline, value)
-            err2 += COVERAGE.get(pipeline, 1.0) * e * e
-            ms += m
-    return OperatingPoint(scale, rung, math.sqrt(err2), ms * (HOST_SHARE + (1.0 - HOST_SHARE) * scale * scale))
-
-
-def frontier(pipelines: frozenset[str], scales=SCALES, rungs=None) -> list[OperatingPoint]:
-    """The points no other beats on both seed cost and error, cheapest (largest error) first."""
-    points = [point_estimate(s, r, pipelines) for s in scales for r in (rungs or presets.ladder())]
-    points.sort(key=lambda p: (p.seed_ms, p.error))
-    out: list[OperatingPoint] = []
-    for p in points:
-        if not out or p.error < out[-1].error - 1e-9:
-            out.append(p)
-    return out
 
 
 @dataclass(frozen=True)

@@ -28,7 +28,8 @@ from .camera import make_view
 from .frame import FrameState
 from .frame_block import MAX_LIGHTS
 from .multiview import release_view_state, swap_view_state
-from .overload import SCALES, FrameQuality
+from .operating_points import SCALES
+from .overload import FrameQuality
 
 # Where the rehearsal's effects and lights stand: this far ahead of the camera (m), a little
 # below its eye, so that every pass that would draw them does (in the frustum, not fogged out).
