@@ -77,6 +77,23 @@ def test_a_size_change_in_flight_keeps_each_frame_its_size(renderer):
     assert np.array_equal(second.rgba, renderer.render(big).rgba)
 
 
+@pytest.mark.parametrize("change", ["channels to none", "none to channels", "other channels"])
+def test_views_changing_with_a_frame_in_flight(renderer, change):
+    """A host drops its channels (or adds them, or swaps them) while a frame of the old views is in
+    flight: the old views' meter copies go with them, and the frame in flight comes back whole (its
+    meter cells, read after their copy was released, count as lost: the next frame meters itself)."""
+    two = [dict(id=c, heading=h, width=48, height=36) for c, h in (("a", -30.0), ("b", 30.0))]
+    other = [dict(id="c", heading=0.0, width=40, height=30)]
+    views = {"channels to none": (two, []), "none to channels": ([], two), "other channels": (two, other)}[change]
+    renderer.collect()  # nothing left over from another test
+    base = tiny({"atmosphere": {"model": "gradient"}})
+    old = [apply_patch(base, {"channels": views[0], "host_frame": i, "time": {"sim_time": 1 + i / 30}}) for i in range(3)]
+    new = apply_patch(base, {"channels": views[1], "host_frame": 3, "time": {"sim_time": 1 + 3 / 30}})
+    got = [renderer.submit(s) for s in (*old, new)] + [renderer.collect()]
+    assert [f.host_frame for f in got if f is not None] == [0, 1, 2, 3]
+    assert got[-1].channels is None if not views[1] else set(got[-1].channels) == {c["id"] for c in views[1]}
+
+
 @pytest.fixture(scope="module")
 def service():
     with RenderService(tiny()) as svc:

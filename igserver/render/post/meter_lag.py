@@ -33,13 +33,15 @@ def finite_cells(raw: bytes, exposure: float) -> np.ndarray:
 class MeterCopy:
     """A meter texture's asynchronous copy: a framebuffer on the texture and a pixel-pack buffer.
     ``queue`` only queues the copy (the driver does it after the meter's dispatch); ``generation``
-    counts the copies, so a ticket knows when its data has been overwritten."""
+    counts the copies, so a ticket knows when its data has been overwritten, and ``released`` when
+    it is gone (a channel's copy, released with the channels while their last frame is in flight)."""
 
     def __init__(self, ctx, tex):
         self.tex = tex
         self.fbo = ctx.framebuffer(color_attachments=[tex])
         self.buffer = ctx.buffer(reserve=tex.width * tex.height * 16)
         self.generation = 0
+        self.released = False
 
     def queue(self) -> int:
         self.fbo.read_into(self.buffer, components=4, dtype="f4", alignment=1)
@@ -49,6 +51,7 @@ class MeterCopy:
     def release(self) -> None:
         self.fbo.release()
         self.buffer.release()
+        self.released = True
 
 
 def copy_for(held: MeterCopy | None, ctx, tex) -> MeterCopy:
@@ -70,11 +73,12 @@ class MeterTicket:
 
     def cells(self) -> np.ndarray | None:
         """The cells; None when a copy was overwritten before it was read (its frame's state was
-        dropped: the renderer's FrameState replaced)."""
+        dropped: the renderer's FrameState replaced) or released (its channels are gone: a frame of
+        other views follows, which meters itself)."""
         if self._cells is None:
             out = []
             for copy, generation, exposure in self._parts:
-                if copy.generation != generation:
+                if copy.released or copy.generation != generation:
                     return None
                 out.append(finite_cells(copy.buffer.read(), exposure))
             self._cells, self._parts = np.concatenate(out) if len(out) > 1 else out[0], []
