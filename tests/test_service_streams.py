@@ -402,3 +402,28 @@ def test_mjpeg_slow_reader_gets_the_newest_frame_not_a_backlog(server, ig):
     finally:
         fast.close()
         slow.close()
+
+
+def test_a_stream_whose_socket_closed_meanwhile_counts_as_drained_not_an_error():
+    """A viewer that goes away while its part is being sent leaves the transport a socket without a
+    descriptor (-1): the flow control's look at the kernel's queue gives nothing queued there, and the
+    stream ends as closed (it raised ValueError, answered as an unhandled error in the log)."""
+    import asyncio
+
+    from igserver.protocol.flow import drained, unsent_bytes
+
+    closed = socket.socket()
+    closed.close()
+
+    class Transport:
+        def get_write_buffer_size(self):
+            return 0
+
+        def get_extra_info(self, name):
+            return closed if name == "socket" else None
+
+        def is_closing(self):
+            return True
+
+    assert unsent_bytes(Transport()) == 0
+    assert asyncio.run(drained(Transport())) is False

@@ -132,7 +132,8 @@ def unsent_bytes(transport: asyncio.Transport) -> int:
     """Bytes of this connection still in the server: the transport's buffer plus the kernel's unsent queue."""
     pending = transport.get_write_buffer_size()
     sock = transport.get_extra_info("socket")
-    if sock is not None:
+    # a socket the peer's disconnect has closed meanwhile has no descriptor (-1): nothing in the kernel
+    if sock is not None and sock.fileno() >= 0:
         try:
             pending += struct.unpack("i", fcntl.ioctl(sock.fileno(), SIOCOUTQNSD, b"\0\0\0\0"))[0]
         except OSError:  # not a TCP socket on Linux (a Unix socket, another OS): the transport buffer alone
