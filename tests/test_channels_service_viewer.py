@@ -33,11 +33,18 @@ def server():
         yield srv
 
 
+IMAGES = """Array.from(document.querySelectorAll('#channels figure')).map((f) => {
+    const img = f.querySelector('img'), r = img.getBoundingClientRect();
+    return {id: f.dataset.channel, w: img.naturalWidth, h: img.naturalHeight, x: r.x, y: r.y, width: r.width,
+            kept: img.dataset.kept === '1'};
+})"""
+
+
 def images(page) -> list[dict]:
-    return page.evaluate("""Array.from(document.querySelectorAll('#channels figure')).map((f) => {
-        const img = f.querySelector('img'), r = img.getBoundingClientRect();
-        return {id: f.dataset.channel, w: img.naturalWidth, h: img.naturalHeight, x: r.x, y: r.y, width: r.width};
-    })""")
+    """Each channel's figure as shown at a moment when every image has a frame: frames keep coming, and
+    an image whose next frame is still decoding reports no size meanwhile (Chromium), so one look may
+    fall between two frames."""
+    return page.wait_for(f"(() => {{ const s = {IMAGES}; return s.length && s.every((i) => i.w > 0) ? s : null; }})()")
 
 
 def blueness(shot: np.ndarray) -> float:
@@ -91,9 +98,8 @@ def test_a_closed_channel_socket_reopens_and_the_pictures_stay(server):
         page.evaluate("document.querySelectorAll('#channels img').forEach((i) => { i.dataset.kept = '1'; }); "
                       "channelView.socket.close()")
         page.wait_for("channelView.socket === null")
-        assert all(s["w"] > 0 for s in images(page))
+        assert all(s["kept"] for s in images(page))
         page.wait_for("channelView.socket !== null && channelView.socket.readyState === 1", timeout=30)
         httpx.patch(server.url + "/v1/state", json={"host_frame": 91}).raise_for_status()
         page.wait_for("document.getElementById('channels').dataset.hostFrame === '91'", timeout=30)
-        assert page.evaluate("Array.from(document.querySelectorAll('#channels img'))"
-                             ".every((i) => i.dataset.kept === '1' && i.naturalWidth > 0)")
+        assert all(s["kept"] for s in images(page))
