@@ -4,7 +4,6 @@ profile images. Every limit is a setting; hitting it gives a problem answer or a
 
 from __future__ import annotations
 
-import asyncio
 import contextlib
 import socket
 import threading
