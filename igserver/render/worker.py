@@ -288,18 +288,24 @@ class RenderService:
     def _rehearse_once(self, scene: Scene) -> dict:
         if not self.alive:
             raise _Dead()
-        self._conn.send(("rehearse", scene))
+        # a progress message after each scene: render_timeout_s bounds one scene
+        return self._request(("rehearse", scene), "rehearsal")[1]
+
+    def _request(self, message: tuple, what: str) -> tuple:
+        """Send ``message`` to the render process and await its reply (timed as a render: the watchdog
+        and ``render_timeout_s``); an error reply raises RenderError, its traceback logged."""
+        self._conn.send(message)
         self.rendering_since = time.monotonic()
         try:
-            reply = self._await_reply()  # a progress message after each scene: render_timeout_s per scene
+            reply = self._await_reply()
         finally:
             self.rendering_since = None
             self.progress = None
         if reply[0] == "error":
             if len(reply) > 2 and reply[2]:
-                log.error("rehearsal failed:\n%s", reply[2])
+                log.error("%s failed:\n%s", what, reply[2])
             raise RenderError(reply[1])
-        return reply[1]
+        return reply
 
     @property
     def in_flight(self) -> int:
@@ -340,17 +346,7 @@ class RenderService:
         ring = [shm.name for shm in self._ring]
         slot_name = slot.name if slot is not None else None
         args = (scene, timed) if kind != "collect" else ()
-        self._conn.send((kind, *args, slot_name, ring))
-        self.rendering_since = time.monotonic()
-        try:
-            reply = self._await_reply()
-        finally:
-            self.rendering_since = None
-            self.progress = None
-        if reply[0] == "error":
-            if len(reply) > 2 and reply[2]:
-                log.error("render failed:\n%s", reply[2])
-            raise RenderError(reply[1])
+        reply = self._request((kind, *args, slot_name, ring), "render")
         if kind == "submit":
             self._in_flight.append((scene, tag))
         if reply[0] == "none":
