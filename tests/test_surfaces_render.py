@@ -282,7 +282,7 @@ def test_shadow_map_is_reused_only_while_nothing_changed(renderer):
 @pytest.mark.parametrize("view", [{}, {"camera": {"pitch": -20.0}}, {"camera": {"position": [4.0, 10.0, 30.0], "pitch": -35.0}}])
 def test_ground_drawn_with_the_shadow_lookup_only_under_the_casters_footprints(renderer, view, monkeypatch):
     # The snow scene's boxes on a clear day, sun 20 deg up: the ground is drawn without the key map's
-    # lookup, then again with it inside each caster's shadow footprint (surfaces.ground_shadow_rects:
+    # lookup, then again with it inside each caster's shadow footprint (shadow_footprints.ground_shadow_rects:
     # its bounding sphere grown by the lookup's reach, swept along the light onto the ground). Every
     # shadowed pixel must lie in a footprint: the frame is the same as the ground drawn with the
     # lookup everywhere (the shadows: up to ~100 levels on 200-1200 pixels of these views).
@@ -304,7 +304,7 @@ def test_ground_drawn_with_the_shadow_lookup_only_under_the_casters_footprints(r
 
 def test_ground_shadow_footprints_give_up_for_a_grazing_light():
     # Within 2 deg of the horizon a shadow runs to the horizon: no footprint rectangles.
-    from igserver.render.surfaces.surfaces import ground_shadow_rects
+    from igserver.render.surfaces.shadow_footprints import ground_shadow_rects
     from igserver.scene import load_scene
 
     view = make_view(load_scene("snow").camera)

@@ -16,7 +16,8 @@ from .post.post import PostPass
 from .precip.precip import PrecipPass
 from .shaders import ProgramCache
 from .sky.sky import SkyPass
-from .surfaces.surfaces import BlendedSurfacesPass, SurfacesPass
+from .surfaces.blended import BlendedSurfacesPass
+from .surfaces.surfaces import SurfacesPass
 from .volumes.volumes import VolumesPass
 from .water.water import WaterPass
 

@@ -12,23 +12,22 @@ the same sun reuses it).
 from __future__ import annotations
 
 import hashlib
-import math
-from dataclasses import dataclass, field
 
 import moderngl
 import numpy as np
 
-from ...assets.gltf import check_model
 from ...scene.model import Entity, Scene
 from .. import depth
 from ..bindings import FRAME_UNITS, use_texture
-from ..camera import CameraView, body_to_world, gl_matrix
+from ..camera import CameraView, gl_matrix
 from ..memo import Memo, view_key
 from ..common.aerial_table import frame_aerial_table
 from ..passes import RenderPass
 from ..shaders import set_uniforms
-from .gpu_models import INSTANCE_FLOATS, SAMPLER_UNITS, GpuModel, ModelCache, model_identity
+from .gpu_models import SAMPLER_UNITS, ModelCache
+from .instances import Batch, model_instances
 from .shadow_fit import ShadowProjection, fit_directional, fit_spot
+from .shadow_footprints import ground_shadow_rects
 
 SHADOW_UNIT_KEY = FRAME_UNITS["SHADOW_KEY"]  # the shadow maps' units (read by common/shadows.glsl)
 SHADOW_UNIT_SPOT = FRAME_UNITS["SHADOW_SPOT"]
@@ -39,66 +38,9 @@ SUN_LIGHT, MOON_LIGHT = -1, -2
 # removes acne on surfaces at a grazing light without a large constant bias (peter-panning).
 # Negative: depth is reversed (render/depth.py), so "away from the light" is smaller.
 POLYGON_OFFSET = (-2.0, -4.0)
-
-
-@dataclass
-class Batch:
-    """Instances of one model: rows (instances, primitives, 24) per use, 'view' (in the camera
-    frustum) and 'shadow' (casters near the camera), and the casters' bounds (n, 4: centre, radius)."""
-    model: GpuModel
-    rows: dict[str, np.ndarray] = field(default_factory=dict)
-    caster_bounds: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
-    _primitive_rows: dict = field(default_factory=dict)
-
-    def primitive_rows(self, use: str, p: int) -> np.ndarray:
-        """Primitive ``p``'s instance rows for ``use``, contiguous float32, made once per batch."""
-        key = (use, p)
-        if key not in self._primitive_rows:
-            self._primitive_rows[key] = np.ascontiguousarray(self.rows[use][:, p, :], dtype=np.float32)
-        return self._primitive_rows[key]
-
-
-def part_poses(entity: Entity) -> dict[str, np.ndarray]:
-    poses = {}
-    for name, pose in entity.parts.items():
-        m = np.eye(4)
-        m[:3, :3] = body_to_world(pose.heading, pose.pitch, pose.roll)
-        m[:3, 3] = pose.offset
-        poses[name] = m
-    return poses
-
-
-def model_instances(entities: list[Entity], model: GpuModel, view: CameraView) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Instance rows (entities, primitives, 24) float32, world bounding-sphere centres (n, 3) and
-    radii (n,) of the entities drawing ``model``, all entities of a model at once."""
-    data = model.model
-    prim_nodes = model.primitive_nodes
-    n, p = len(entities), len(prim_nodes)
-    scales = np.array([e.scale for e in entities], dtype=np.float64)
-    positions = np.array([e.position for e in entities], dtype=np.float64)
-    worlds = np.zeros((n, 4, 4))
-    worlds[:, 3, 3] = 1.0
-    for i, e in enumerate(entities):
-        worlds[i, :3, :3] = body_to_world(e.heading, e.pitch, e.roll) * scales[i]  # R @ diag(scale)
-    worlds[:, :3, 3] = positions - view.position  # float64 subtraction: camera-relative
-    posed = np.array([bool(e.parts) for e in entities])
-    nodes = np.broadcast_to(data.node_stack()[prim_nodes], (n, p, 4, 4))
-    if posed.any():
-        nodes = nodes.copy()
-        for i in np.nonzero(posed)[0]:
-            nodes[i] = data.node_stack(part_poses(entities[i]))[prim_nodes]
-    rows = np.empty((n, p, INSTANCE_FLOATS), np.float32)
-    # world @ node per entity and primitive, written column-major (transposed) into 16 floats
-    rows[..., :16] = np.einsum("eij,epjk->epki", worlds, nodes).reshape(n, p, 16)
-    if data.name == "box":  # the built-in box takes its material from the entity
-        rows[..., 16:20] = np.array([(*e.color, e.metallic) for e in entities])[:, None, :]
-        rows[..., 20] = np.array([e.roughness for e in entities])[:, None]
-    else:
-        rows[..., 16:21] = 1.0
-    rows[..., 21:] = 0.0
-    centres = positions + np.einsum("eij,j->ei", worlds[:, :3, :3], data.bounds_center)
-    radii = data.bounds_radius * scales.max(axis=1) * np.where(posed, 1.25, 1.0)
-    return rows, centres, radii
+# The ground is drawn in parts only when the casters' shadow footprints cover less than this share
+# of the frame (their rectangles are drawn twice).
+GROUND_SPLIT_MAX_AREA = 0.5
 
 
 class SurfacesPass(RenderPass):
@@ -420,81 +362,3 @@ class SurfacesPass(RenderPass):
             targets.color_fbo.depth_mask = True
             self.ctx.disable(moderngl.BLEND)
             targets.scene_fbo.use()
-
-
-# The ground is drawn in parts only when the casters' shadow footprints cover less than this share
-# of the frame (their rectangles are drawn twice).
-GROUND_SPLIT_MAX_AREA = 0.5
-
-
-def ground_shadow_rects(bounds: np.ndarray, direction: np.ndarray, level: float, margin: float, view,
-                        size: tuple[int, int]) -> list[tuple[int, int, int, int]] | None:
-    """Screen rectangles (x, y, w, h, GL's lower-left origin) holding every pixel of the ground
-    (world height ``level``) a caster's shadow can touch: each caster's bounding sphere (world
-    centre, radius; ``bounds`` (n, 4)), grown by ``margin``, swept along the light (unit
-    ``direction`` toward it) down to the ground: the corners of its box projected along the light
-    onto the ground, then onto the screen. None when that cannot bound them: the light within 2 deg
-    of the horizon (the sweep runs to the horizon) or a footprint reaching behind the camera. The
-    sweep of the box is the convex hull of its corners' (an affine map), so their projections bound
-    it on the screen."""
-    d = np.asarray(direction, dtype=np.float64)
-    if d[2] < math.sin(math.radians(2.0)):
-        return None
-    w, h = size
-    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
-    rects = []
-    for c, r in zip(np.asarray(bounds, dtype=np.float64)[:, :3], np.asarray(bounds, dtype=np.float64)[:, 3]):
-        box = c + (r + margin) * corners
-        # Nothing under the ground shadows it (the light comes from above: what lies below a ground
-        # point is behind it), so the box stops at the ground; each corner slid along the light onto
-        # the ground, and the box's own footprint there.
-        box[:, 2] = np.maximum(box[:, 2], level)
-        ground = box - d * ((box[:, 2] - level) / d[2])[:, None]
-        points = np.vstack([ground, np.column_stack([box[:, :2], np.full(8, level)])])
-        rel = points - view.position
-        clip = np.column_stack([rel, np.ones(len(rel))]) @ np.asarray(view.view_proj, dtype=np.float64).T
-        if np.any(clip[:, 3] <= view.near):
-            return None
-        px = (clip[:, :2] / clip[:, 3:4] * 0.5 + 0.5) * np.array([w, h])
-        x0, y0 = np.floor(px.min(axis=0)).astype(int) - 1
-        x1, y1 = np.ceil(px.max(axis=0)).astype(int) + 1
-        x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
-        if x1 > x0 and y1 > y0:
-            rects.append((int(x0), int(y0), int(x1 - x0), int(y1 - y0)))
-    return rects
-
-
-_BLENDS: dict[str, tuple[tuple, bool]] = {}  # name -> (file identity, has a BLEND material)
-
-
-def _model_blends(name: str) -> bool:
-    """Whether the model has a BLEND material, from its check, kept while its file's identity
-    (model_identity, read once a second) stays the same."""
-    try:
-        identity = model_identity(name)
-        held = _BLENDS.get(name)
-        if held is not None and held[0] == identity:
-            return held[1]
-        blends = check_model(name).blended
-    except Exception:  # a model that cannot be read draws nothing (the surfaces pass reports it)
-        return False
-    if len(_BLENDS) > 256:
-        _BLENDS.clear()
-    _BLENDS[name] = (identity, blends)
-    return blends
-
-
-class BlendedSurfacesPass(RenderPass):
-    """Surfaces of glTF materials with alphaMode BLEND (glass, windows, canopies), drawn after the
-    water and the sky so what lies behind them shows through them; the surfaces pass prepared their
-    program and instances this frame (frame.resources["blended_surfaces"])."""
-
-    name = "blended_surfaces"
-
-    def needed(self, scene: Scene, view: CameraView) -> bool:
-        return any(e.visible and _model_blends(e.model) for e in scene.entities)
-
-    def execute(self, frame, targets) -> None:
-        draw = frame.resources.get("blended_surfaces")
-        if draw is not None:
-            draw()
