@@ -4,7 +4,8 @@
 - ``spectrum``: wind / WMO sea state → a deterministic set of Gerstner waves (JONSWAP + spreading).
 - ``bathymetry``: depth from the scene (uniform, slope, height-map asset) and the per-wave phase /
   amplitude field over it (refraction, shoaling, breaking), integrated once per bathymetry + wave set.
-- ``surface``: displacement, height, normal and velocity at points and a sim_time.
+- ``surface``: displacement, height, normal and velocity at points and a sim_time; its wave sums in
+  ``wave_sums``, the field sampled at points in ``field_sampling``, scratch arrays in ``workspace``.
 """
 
 from .surface import SeaSurface, sea_surface

@@ -38,18 +38,19 @@ from __future__ import annotations
 
 import json
 import math
-import threading
-from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
 
 import numpy as np
 
 from ..scene.model import Ocean, Weather
-from .bathymetry import WaveField, depth_limit, reference_waves, shore_steepness, wave_field
+from .bathymetry import WaveField, reference_waves, shore_steepness, wave_field
 from .dispersion import wavenumber
+from .field_sampling import _field_nodes, _interpolate
 from .spectrum import (SeaSpectrum, WaveSet, calibrate_detail, sea_spectrum, second_order_coefficient,
                        wave_bands)
+from .wave_sums import N_COS, N_SIN, _answer, _chebyshev_step, _outputs, _weights
+from .workspace import _Work, _workspace
 
 DETAIL_WAVES = 36  # waves in the normal-map band
 TWO_PI = 2.0 * math.pi
@@ -263,149 +264,6 @@ class SeaSurface:
             c -= np.multiply(s0, sd, out=tmp)
 
 
-def _vertical(cs: np.ndarray, ss: np.ndarray, mu, depth) -> tuple[np.ndarray, ...]:
-    """Height, its gradient over the rest point (x, y) and its time derivative from the wave sums:
-    z = L(z₁ + z₂) (module docstring), X = Σ s sin θ (ss[6]), Y = Σ s cos θ (cs[9]), ∇X = cs[10:12],
-    ∇Y = −ss[7:9], ∂X/∂t = −cs[12], ∂Y/∂t = ss[9]."""
-    x, y = ss[6], cs[9]
-    z = ss[3] + 0.5 * (x * x + y * y) - mu
-    gx = cs[2] + x * cs[10] - y * ss[7]
-    gy = cs[3] + x * cs[11] - y * ss[8]
-    vz = -cs[4] - x * cs[12] + y * ss[9]
-    z, slope = depth_limit(z, depth)
-    return z, slope * gx, slope * gy, slope * vz
-
-
-def _answer(cs: np.ndarray, ss: np.ndarray, out: dict, idx: np.ndarray, mu, depth) -> None:
-    """Height, unit normal and velocity from the wave sums, written at ``idx`` of the query's arrays
-    (the same formulas as ``_outputs``)."""
-    jxx, jxy, jyy = 1.0 - ss[0], -ss[1], 1.0 - ss[2]
-    z, gx, gy, vz = _vertical(cs, ss, mu, depth)
-    normal = np.empty((len(jxx), 3))
-    np.multiply(jxy, gy, out=normal[:, 0])
-    normal[:, 0] -= gx * jyy
-    np.multiply(gx, jxy, out=normal[:, 1])
-    normal[:, 1] -= jxx * gy
-    np.multiply(jxx, jyy, out=normal[:, 2])
-    normal[:, 2] -= jxy * jxy
-    normal /= np.sqrt(np.einsum("ij,ij->i", normal, normal))[:, None]
-    out["height"][idx] = z
-    out["normal"][idx] = normal
-    velocity = out["velocity"]
-    velocity[idx, 0], velocity[idx, 1], velocity[idx, 2] = ss[4], ss[5], vz
-
-
-class _Work:
-    """Reusable scratch arrays by name: a query allocates nothing of size points x waves once warm (fresh
-    pages cost more than the arithmetic on this kind of machine)."""
-
-    def __init__(self):
-        self.buffers: dict[str, np.ndarray] = {}
-
-    def get(self, name: str, shape: tuple, dtype=np.float64) -> np.ndarray:
-        size = math.prod(shape)
-        b = self.buffers.get(name)
-        if b is None or b.size < size or b.dtype != dtype:
-            b = self.buffers[name] = np.empty(size, dtype)
-        return b[:size].reshape(shape)
-
-
-_WORKSPACES: list[_Work] = []
-_WORKSPACES_LOCK = threading.Lock()
-
-
-@contextmanager
-def _workspace():
-    """A scratch workspace for one query (queries run concurrently on the server's threads)."""
-    with _WORKSPACES_LOCK:
-        w = _WORKSPACES.pop() if _WORKSPACES else _Work()
-    try:
-        yield w
-    finally:
-        with _WORKSPACES_LOCK:
-            if len(_WORKSPACES) < 4:
-                _WORKSPACES.append(w)
-
-
-N_COS, N_SIN = 13, 10  # rows of the cosine- and sine-weighted wave sums
-
-
-def _weights(a, kx, ky, bk, omega, kmag, alpha: float, w: "_Work | None" = None) -> tuple:
-    """Weights of the wave sums, per wave (n,) → (13, n) and (10, n), or per wave and point (n, N) →
-    (13, n, N) and (10, n, N); and z₂'s mean ½ Σ s_i² (a number, or (N,)). Cosine-weighted: displacement x, y
-    (b K̂ = bk K); ∂z/∂x₀, ∂z/∂y₀ (a K); −∂z/∂t (a ω); the displacement's second derivatives
-    −∂²Δ/∂p² = Σ bk K K K cos θ (xxx, xxy, xyy, yyy); Y (s), ∇X (s K), −∂X/∂t (s ω). Sine-weighted:
-    M = Σ bk K Kᵀ sin θ (xx, xy, yy), z₁ (a), the horizontal velocity (bk K ω), X (s), −∇Y (s K),
-    ∂Y/∂t (s ω). s = a √(α |K|) (module docstring)."""
-    shape = np.shape(a)
-    wc = np.empty((N_COS, *shape)) if w is None else w.get("wc", (N_COS, *shape))
-    ws = np.empty((N_SIN, *shape)) if w is None else w.get("ws", (N_SIN, *shape))
-    mul = np.multiply
-    mul(bk, kx, out=wc[0])  # bkx
-    mul(bk, ky, out=wc[1])  # bky
-    mul(a, kx, out=wc[2])
-    mul(a, ky, out=wc[3])
-    mul(a, omega, out=wc[4])
-    mul(wc[0], kx, out=ws[0])  # bkx kx
-    mul(wc[0], ky, out=ws[1])  # bkx ky
-    mul(wc[1], ky, out=ws[2])  # bky ky
-    ws[3] = a
-    mul(wc[0], omega, out=ws[4])
-    mul(wc[1], omega, out=ws[5])
-    mul(ws[0], kx, out=wc[5])  # bkx kx kx
-    mul(ws[0], ky, out=wc[6])  # bkx kx ky
-    mul(ws[1], ky, out=wc[7])  # bkx ky ky
-    mul(ws[2], ky, out=wc[8])  # bky ky ky
-    sk = np.sqrt(np.multiply(kmag, alpha, out=ws[6]), out=ws[6])
-    mul(sk, a, out=ws[6])  # s
-    wc[9] = ws[6]
-    mul(ws[6], kx, out=wc[10])
-    mul(ws[6], ky, out=wc[11])
-    mul(ws[6], omega, out=wc[12])
-    ws[7], ws[8], ws[9] = wc[10], wc[11], wc[12]
-    mu = 0.5 * np.sum(ws[6] * ws[6], axis=0)  # z₂'s mean
-    return wc, ws, mu
-
-
-def _outputs(p0: np.ndarray, cs: np.ndarray, ss: np.ndarray, full: bool, mu=0.0, depth=np.inf) -> dict:
-    """Displaced point, horizontal Jacobian, normal and velocity from the wave sums cs (13, N), ss (10, N)."""
-    jxx, jxy, jyy = 1.0 - ss[0], -ss[1], 1.0 - ss[2]
-    out = {
-        "displaced_xy": p0 + cs[:2].T,
-        "horizontal_jacobian": np.stack([np.stack([jxx, jxy], -1), np.stack([jxy, jyy], -1)], -2),
-        "jacobian": jxx * jyy - jxy * jxy,
-    }
-    if not full:
-        return out
-    # ∂P/∂x0 = (jxx, jxy, gx), ∂P/∂y0 = (jxy, jyy, gy): their cross product, up while J > 0
-    z, gx, gy, vz = _vertical(cs, ss, mu, depth)
-    normal = np.stack([jxy * gy - gx * jyy, gx * jxy - jxx * gy, out["jacobian"]], axis=1)
-    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
-    out["position"] = np.concatenate([out["displaced_xy"], z[:, None]], axis=1)
-    out["normal"] = normal
-    out["velocity"] = np.stack([ss[4], ss[5], vz], axis=1)
-    return out
-
-
-def _chebyshev_step(err: np.ndarray, cs: np.ndarray, ss: np.ndarray) -> np.ndarray:
-    """Chebyshev's update for F(p) = p + Δ(p) − x = err (2, N): s = −J⁻¹F, then s − ½ J⁻¹ F″(s, s),
-    with F″ = −Σ bk K K K cos θ (third-order convergence; J symmetric)."""
-    jxx, jxy, jyy = 1.0 - ss[0], -ss[1], 1.0 - ss[2]
-    det = jxx * jyy - jxy * jxy
-    inv = 1.0 / np.where(np.abs(det) > 1e-9, det, 1e-9)
-    ex, ey = err
-    sx = (jxy * ey - jyy * ex) * inv
-    sy = (jxy * ex - jxx * ey) * inv
-    sxx, sxy, syy = sx * sx, 2.0 * sx * sy, sy * sy
-    # ½ F″(s, s) with F″ = −(cs[5..8]): h = −½ (t0 sx² + 2 t1 sx sy + t2 sy², t1 sx² + 2 t2 sx sy + t3 sy²)
-    hx = -0.5 * (cs[5] * sxx + cs[6] * sxy + cs[7] * syy)
-    hy = -0.5 * (cs[6] * sxx + cs[7] * sxy + cs[8] * syy)
-    step = np.empty_like(err)
-    step[0] = sx - (jyy * hx - jxy * hy) * inv
-    step[1] = sy - (jxx * hy - jxy * hx) * inv
-    return step
-
-
 def _sincos(theta: np.ndarray, w: "_Work") -> tuple[np.ndarray, np.ndarray]:
     """sin, cos (float32) of float64 phases (overwritten: reduced to [−π, π] in float64), evaluated in
     float32 (vectorised SIMD, ~20x faster than float64 here; 1.2e-7 rad, i.e. ~1 µm on metre waves —
@@ -418,62 +276,6 @@ def _sincos(theta: np.ndarray, w: "_Work") -> tuple[np.ndarray, np.ndarray]:
     np.copyto(reduced, theta, casting="same_kind")
     return (np.sin(reduced, out=w.get("s0a", theta.shape, np.float32)),
             np.cos(reduced, out=w.get("c0a", theta.shape, np.float32)))
-
-
-_NODES: dict[int, tuple[WaveField, tuple[np.ndarray, np.ndarray]]] = {}
-
-
-def _field_nodes(f: WaveField) -> tuple[np.ndarray, np.ndarray]:
-    """The field's per-wave node values node-major, (nu·nv, 4n + 2): R, F, Kx, Ky of every wave (n
-    each), then Q and the depth — one gather of rows fetches all of the points' parameters; and their differences
-    to the next node along u (the lerp's slope, the same float64 value it would compute)."""
-    cached = _NODES.get(id(f))
-    if cached is None or cached[0] is not f:
-        n, nu, nv = f.residual.shape
-        stacked = np.concatenate([f.residual, f.factor, f.kvec[..., 0], f.kvec[..., 1], f.steepness[None],
-                                  f.depth[None]])
-        nodes = np.ascontiguousarray(stacked.transpose(1, 2, 0))  # (nu, nv, 4n + 1)
-        slope = np.zeros_like(nodes)
-        slope[:-1] = nodes[1:] - nodes[:-1]  # the last node: clamped, i1 = i0 (never used with tu > 0)
-        cols = nodes.shape[-1]
-        if len(_NODES) > 8:
-            _NODES.clear()
-        _NODES[id(f)] = cached = (f, (nodes.reshape(nu * nv, cols), slope.reshape(nu * nv, cols)))
-    return cached[1]
-
-
-def _interpolate(table: tuple[np.ndarray, np.ndarray], grid: tuple[int, int], gu: np.ndarray, gv: np.ndarray,
-                 w: "_Work") -> np.ndarray:
-    """Bilinear interpolation of node values (nu·nv, m) at fractional node coordinates (N,) → (m, N),
-    wave-major — the grid clamped at its edges, as the shader's clamp-to-edge texel-centre fetch
-    (gerstner.glsl); linear along u alone on a one-row grid (the plane beach). Gathered point-major
-    (contiguous node rows; mode "clip": the indices are in range, and numpy buffers ``out`` under the
-    default "raise" — 3x slower), transposed once."""
-    values, slope = table
-    nu, nv = grid
-    npts, cols = len(gu), values.shape[1]
-    i0 = np.minimum(np.floor(gu).astype(np.intp), max(nu - 2, 0))
-    tu = (gu - i0)[:, None]
-    lo, hi = w.get("lerp_lo", (npts, cols)), w.get("lerp_hi", (npts, cols))
-    j0 = np.minimum(np.floor(gv).astype(np.intp), max(nv - 2, 0)) if nv > 1 else np.zeros(npts, np.intp)
-    np.take(values, i0 * nv + j0, axis=0, out=lo, mode="clip")
-    np.take(slope, i0 * nv + j0, axis=0, out=hi, mode="clip")
-    hi *= tu
-    lo += hi  # along u at j0
-    if nv > 1:
-        j1 = np.minimum(j0 + 1, nv - 1)
-        tv = (gv - j0)[:, None]
-        top = w.get("lerp_top", (npts, cols))
-        np.take(values, i0 * nv + j1, axis=0, out=top, mode="clip")
-        np.take(slope, i0 * nv + j1, axis=0, out=hi, mode="clip")
-        hi *= tu
-        top += hi  # along u at j1
-        top -= lo
-        top *= tv
-        lo += top
-    out = w.get("lerp", (cols, npts))
-    np.copyto(out, lo.T)
-    return out
 
 
 def surface_key(ocean: Ocean, weather: Weather) -> str:

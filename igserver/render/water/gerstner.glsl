@@ -43,8 +43,8 @@ struct SeaSample {
 };
 
 #ifdef WATER_FIELD
-// Texture coordinate of the bilinear sample between node corners, exactly as surface.py's
-// _bilinear_nodes: the node grid clamped at its edges (texel centres, clamp-to-edge), one filtered
+// Texture coordinate of the bilinear sample between node corners, exactly as water/field_sampling.py's
+// _interpolate: the node grid clamped at its edges (texel centres, clamp-to-edge), one filtered
 // fetch per wave instead of four texelFetch (the vertex shader's main cost on a CPU rasterizer).
 vec2 field_uv(vec2 p) {
     vec2 d = p - u_field_origin;
