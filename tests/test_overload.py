@@ -9,7 +9,7 @@ import random
 import pytest
 
 import igserver.render.precip.particles  # noqa: F401 - registers the precipitation knobs
-import igserver.render.volumes.volumes  # noqa: F401 - registers the volumes knobs
+import igserver.render.volumes.settings  # noqa: F401 - registers the volumes knobs
 import igserver.render.water.water  # noqa: F401 - registers the water knobs
 from igserver.render import operating_points, overload, presets
 from igserver.render.overload import Overload

@@ -9,7 +9,7 @@ from dataclasses import fields, is_dataclass
 import pytest
 from pydantic import ValidationError
 
-import igserver.render.volumes.volumes  # noqa: F401 - registers the volumes knobs
+import igserver.render.volumes.settings  # noqa: F401 - registers the volumes knobs
 from igserver.cli import _scene_from_args, build_parser
 from igserver.render import presets
 from igserver.scene import Scene

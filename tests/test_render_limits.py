@@ -39,7 +39,7 @@ def test_daylight_in_space_at_night_is_finite():
 
 
 def test_many_distinct_profiles_keep_a_bounded_texture_cache(renderer, tmp_path, monkeypatch):
-    from igserver.render.volumes.volumes import MAX_PROFILE_TEXTURES
+    from igserver.render.volumes.modelling import MAX_PROFILE_TEXTURES
 
     profiles = tmp_path / "profiles"
     profiles.mkdir()
@@ -59,7 +59,7 @@ def test_many_distinct_profiles_keep_a_bounded_texture_cache(renderer, tmp_path,
 
 def test_budget_mirrors_the_renderer_presets():
     from igserver.render.sky.atmosphere_model import PRESETS as TABLES
-    from igserver.render.volumes.volumes import PRESETS as VOLUMES
+    from igserver.render.volumes.settings import PRESETS as VOLUMES
 
     for name, knobs in budget.VOLUME_PRESETS.items():
         assert (VOLUMES[name].steps, VOLUMES[name].octaves, VOLUMES[name].resolution, VOLUMES[name].scale) == knobs

@@ -16,7 +16,7 @@ from igserver.quality.volumes import errors
 from igserver.render.bindings import use_texture
 from igserver.render.shaders import set_uniforms
 from igserver.render.volumes.effects import puffing_frequency, scene_volumes
-from igserver.render.volumes.volumes import PRESETS, VolumeSettings
+from igserver.render.volumes.settings import PRESETS, VolumeSettings
 from igserver.scene import apply_patch, load_scene
 
 MEDIUM = replace(PRESETS["medium"], lod=False)
@@ -188,7 +188,7 @@ def test_march_resolution_change_fades_instead_of_popping(renderer, volumes):
 
 def test_keyframes_modelled_ahead_in_slices_same_picture_no_spike(renderer, volumes):
     """The keyframe after next is modelled in slices over the frames before it is needed
-    (volumes.py model_ahead): the frames of a 30 Hz stream are bit-identical to modelling each
+    (modelling.py model_ahead): the frames of a 30 Hz stream are bit-identical to modelling each
     keyframe whole when it is needed (the same inputs, frozen at its first slice), and no frame
     after the first models more than half a keyframe (on demand, every third frame models a whole
     one: the spike in p99 frame time)."""
@@ -225,7 +225,7 @@ def test_keyframes_modelled_ahead_in_slices_same_picture_no_spike(renderer, volu
 
 def test_march_coarsens_only_where_voxels_are_large_on_screen(renderer, volumes):
     """With the screen-size LOD on, the march falls to quarter resolution where every voxel spans
-    several pixels (volumes.py footprint_scale): inside the plume at 640x360, not 12 m away."""
+    several pixels (march.py footprint_scale): inside the plume at 640x360, not 12 m away."""
     lod = replace(PRESETS["medium"], model_hz=0.0)  # lod on (the preset as used)
     scene = inside_plume(640, 360)
     quarter = render_with(renderer, volumes, scene, lod)
@@ -249,7 +249,7 @@ def test_march_coarsens_only_where_voxels_are_large_on_screen(renderer, volumes)
 
 def test_smoke_shadows_modelled_once_per_change_of_their_inputs(renderer, volumes):
     """A smoke keyframe reads its sun and sky transmittance from a texture modelled once per
-    change of its inputs (volumes.py _shadows): a stream of keyframes models it once, and after
+    change of its inputs (modelling.py _shadows): a stream of keyframes models it once, and after
     the sun moves the picture is the one modelled from scratch (no stale shadows)."""
     volumes.settings = replace(MEDIUM, model_hz=10.0)
     day = {"utc": "2026-06-21T08:00:00Z"}
@@ -435,14 +435,16 @@ def test_slabs_march_as_one_box_does(renderer, volumes, monkeypatch, view):
 
 def test_far_plume_texture_follows_the_march_resolution(renderer, volumes, monkeypatch):
     """A smoke texture holds about one voxel per 1.5 pixels of the preset's march, with one
-    turbulence octave fewer per halving (volumes.py texture_size, model_octaves): sea_harbour_fire's
+    turbulence octave fewer per halving (march.py texture_size, modelling.py model_octaves): sea_harbour_fire's
     plume at 111 m, marched at half resolution, is modelled at 16 x 16 x 25 voxels with 2 octaves
     (32 x 32 x 50 with 3 at full resolution), the flame at the full-resolution rule; the picture of
     the plume stays within 3.5 levels of low-passed error of a 64-voxel full-resolution march
     (measured 2.1 at t = 100 s, 1.7-3.0 over four sim times; 0.9 with the full-resolution rule)."""
     from igserver.render.camera import make_view
     from igserver.render.volumes import volumes as volumes_module
-    from igserver.render.volumes.volumes import model_octaves, texture_size, visible_volumes
+    from igserver.render.volumes.march import texture_size
+    from igserver.render.volumes.modelling import model_octaves
+    from igserver.render.volumes.volumes import visible_volumes
 
     scene = apply_patch(load_scene("sea_harbour_fire"), {
         "camera": {"width": 640, "height": 360, "exposure_ev": 6}, "time": {"sim_time": 100.0}})

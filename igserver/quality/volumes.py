@@ -119,7 +119,7 @@ def study(quick: bool = False, size: str | None = None, frames: int | None = Non
     from dataclasses import replace
 
     from ..render.renderer import Renderer
-    from ..render.volumes.volumes import PRESETS, VolumeSettings
+    from ..render.volumes.settings import PRESETS, VolumeSettings
     from ..scene import apply_patch
     from .report import Point, Study
 

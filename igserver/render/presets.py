@@ -9,8 +9,8 @@ Each pipeline registers its knobs per level (``register``), chosen from its erro
 
 No popping: the controller moves along a ladder of rungs from ``low`` to ``high`` in which
 neighbouring rungs differ in ONE knob of ONE pipeline (``ladder``), with hysteresis; volume
-textures blend between models (volumes.py), so a changed knob fades in, and a changed march
-resolution dissolves from the old to the new over a few frames (volumes.py).
+textures blend between models (volumes/modelling.py), so a changed knob fades in, and a changed march
+resolution dissolves from the old to the new over a few frames (volumes/volumes.py).
 """
 
 from __future__ import annotations

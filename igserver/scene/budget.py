@@ -39,7 +39,7 @@ FRAME_BUDGET = 1.0e9
 # Table precompute: "medium" with up to 30 orders or "high" with up to 8 fit; 32 orders at "high" do not.
 TABLE_BUDGET = 1.0e9
 
-# Mirrors of the renderer's presets (igserver.render.volumes.volumes.PRESETS and
+# Mirrors of the renderer's presets (igserver.render.volumes.settings.PRESETS and
 # igserver.render.sky.atmosphere_model.PRESETS); a test keeps them equal.
 # steps, octaves, resolution, scale (the march runs at 1/scale of the frame's resolution)
 VOLUME_PRESETS = {"low": (32, 2, 16, 4), "medium": (48, 3, 32, 2), "high": (96, 4, 48, 1)}

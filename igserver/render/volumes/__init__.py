@@ -1,1 +1,2 @@
-"""Fire and smoke: effect state (effects), profiles, the volume pass (volumes), fire flicker lights."""
+"""Fire and smoke: effect state (effects), profiles, the volume pass (volumes: its march;
+modelling: its 3D textures; settings: its knobs), fire flicker lights."""

@@ -11,7 +11,7 @@
 // further out it grows with the footprint (where neighbouring pixels see different voxels
 // anyway) up to the knob's step.
 // With BLEND the texture is a blend of two models of the turbulence (re-modelled at a capped
-// rate, keyframes at sim times k/rate and (k+1)/rate; volumes.py), weight u_blend of the second.
+// rate, keyframes at sim times k/rate and (k+1)/rate; modelling.py), weight u_blend of the second.
 // Front-to-back, energy conserving per segment of optical depth s = sigma * dt:
 //   L += T * S * (1 - exp(-s)),   T *= exp(-s)
 // with S the segment's source radiance: fire = emitted colour * luminance (optically thick fire

@@ -19,7 +19,7 @@ from .fire_lights import flame
 from .profiles import PLUME_VIRTUAL_ORIGIN, SMOKE_ALBEDO
 
 if TYPE_CHECKING:
-    from .volumes import VolumeSettings
+    from .settings import VolumeSettings
 
 FIRE_LUMINANCE = 2.0e4  # cd/m^2 of profile colour 1 at intensity 1 (a candle is ~1e4, large flames more)
 FIRE_SIGMA_D = 1.5  # extinction of a gas burner's density 1 times its diameter: a premixed flame, thin

@@ -13,7 +13,7 @@
 // smoke: r = transmittance toward the sun, g = toward the zenith (sky light), b = albedo, a = density;
 // the two shadow rays march the profile without turbulence (cheap, smooth, slightly soft). They do
 // not depend on the noise scroll, so SHADOWS models them alone into an rg16f texture once per
-// change of their inputs (size, extent, sun, extinction, opacity: volumes.py) and each smoke
+// change of their inputs (size, extent, sun, extinction, opacity: modelling.py) and each smoke
 // keyframe reads them back (u_shadows): ~40 % of a smoke keyframe's modelling.
 #include "common/noise.glsl"
 
@@ -33,7 +33,7 @@ uniform sampler3D u_shadows;  // (t_sun, t_sky) per voxel, from the SHADOWS vari
 #endif
 uniform sampler2D u_profile;
 uniform ivec3 u_size;
-uniform int u_z_first;       // first z slice of this dispatch (a keyframe is modelled in slices, volumes.py)
+uniform int u_z_first;       // first z slice of this dispatch (a keyframe is modelled in slices, modelling.py)
 uniform vec3 u_extent;       // m: (radius, radius, height) of the container now (after fade)
 uniform float u_wavelength;  // m per noise lattice unit (lambda)
 uniform float u_tau;         // noise scroll along P.z, lattice units, in [0, period)
