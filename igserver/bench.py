@@ -19,8 +19,10 @@ Besides, per scene, after those frames:
   copied out while the next is drawn), frames / wall s, readback included; ``fps_sync`` the same through
   ``render`` (draw, then read): blocks of each alternating twice, so both see the same machine load.
 - **GPU ms per pass** (``gpu_pass_ms``), where GL timer queries work: each pass bracketed by a
-  ``ctx.query(time=True)`` in one more pass of frames. llvmpipe has no GPU clock (its queries read 0):
-  there the row says why not (``gpu_timer``).
+  ``ctx.query(time=True)`` in one more pass of frames, each frame queued behind a GPU head start so
+  that the queries count the GPU's work and not its idling while the host issues commands
+  (``bench_gpu.py``; ``gpu_timing`` says how they were taken). llvmpipe has no GPU clock (its queries
+  read 0): there the row says why not (``gpu_timer``).
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ import time
 import numpy as np
 from pydantic import ValidationError
 
+from .bench_gpu import gpu_pass_ms, timer_queries_unusable
 from .render.gl_count import GLCallCounter
 from .scene import apply_patch, at_sim_time, load_scene
 from .scene.patch import patch_from_assignments
@@ -41,60 +44,6 @@ DEFAULT_SCENES = ["sky_only", "clear_noon_ocean", "demo", "night_fire", "high_al
 
 def percentile(values: list[float], q: float) -> float:
     return float(np.percentile(np.asarray(values), q)) if values else float("nan")
-
-
-def timer_queries_unusable(renderer) -> str | None:
-    """Why GL timer queries cannot time passes on this renderer, or None when they can."""
-    if "llvmpipe" in renderer.caps.renderer.lower():
-        return "llvmpipe has no GPU clock"
-    ctx = renderer.ctx
-    try:  # a query around a clear must read some nanoseconds where the driver implements them
-        texture = ctx.texture((64, 64), 4)
-        fbo = ctx.framebuffer([texture])
-        query = ctx.query(time=True)
-        with query:
-            fbo.use()
-            fbo.clear(0.5, 0.5, 0.5, 1.0)
-        elapsed = query.elapsed
-        for obj in (fbo, texture):  # moderngl 5's Query has no release: it lives with the context
-            obj.release()
-    except Exception as exc:  # no timer query extension
-        return f"timer queries failed ({type(exc).__name__})"
-    return None if elapsed > 0 else "timer queries read 0"
-
-
-class PassTimers:
-    """Each pass's ``execute`` bracketed by a GL timer query while the block runs (one query per pass,
-    made once and kept: moderngl 5 cannot release a query); ``read()`` after a frame gives GPU ms per
-    pass (waits for the GPU to finish them)."""
-
-    def __init__(self, renderer):
-        self.renderer = renderer
-        self.queries: dict = {}
-        self._ran: list[str] = []
-
-    def __enter__(self) -> "PassTimers":
-        for name, p in self.renderer.graph.passes.items():
-            p.execute = self._timed(name, p.execute)  # instance attribute: shadows the class's method
-        return self
-
-    def _timed(self, name: str, execute):
-        def timed(*args, **kwargs):
-            query = self.queries.get(name) or self.queries.setdefault(name, self.renderer.ctx.query(time=True))
-            with query:
-                result = execute(*args, **kwargs)
-            self._ran.append(name)
-            return result
-
-        return timed
-
-    def read(self) -> dict[str, float]:
-        ran, self._ran = self._ran, []
-        return {name: self.queries[name].elapsed / 1e6 for name in ran}  # ns -> ms
-
-    def __exit__(self, *exc) -> None:
-        for p in self.renderer.graph.passes.values():
-            p.__dict__.pop("execute", None)
 
 
 def _instrumented(renderer, scenes) -> dict:
@@ -170,13 +119,7 @@ def bench_scene(renderer, scene, frames: int, warmup: int = 3, gpu_timer: str | 
     stream = [at_sim_time(scene, t0 + (warmup + frames + i) / 30.0) for i in range(n)]
     extra["fps_sync"], extra["fps_in_flight"] = _throughput(renderer, stream)
     if gpu_timer is None:
-        gpu: dict[str, list[float]] = {}
-        with PassTimers(renderer) as timers:
-            for s in later:
-                renderer.render(s)
-                for name, ms in timers.read().items():
-                    gpu.setdefault(name, []).append(ms)
-        extra["gpu_pass_ms"] = {k: statistics.median(v) for k, v in gpu.items()}
+        extra.update(gpu_pass_ms(renderer, later, host_ms=statistics.median(frame_ms)))
     else:
         extra["gpu_timer"] = gpu_timer
     return {
@@ -269,7 +212,7 @@ def run(scenes: list[str], resolutions: list[tuple[int, int]], frames: int, assi
                 extra = "".join(f"  |  {k}: " + ", ".join(f"{sk} {sv:.4g}" if isinstance(sv, float) else f"{sk} {sv}"
                                                            for sk, sv in v.items()) for k, v in row["stats"].items())
                 cpu = "  ".join(f"{k} {v['calling_thread']:.1f}/{v['workers']:.1f}" for k, v in row["pass_cpu_ms"].items())
-                gpu = ("  |  GPU ms: " + "  ".join(f"{k} {v:.3f}" for k, v in row["gpu_pass_ms"].items())
+                gpu = (f"  |  GPU ms ({row['gpu_timing']}): " + "  ".join(f"{k} {v:.3f}" for k, v in row["gpu_pass_ms"].items())
                        if "gpu_pass_ms" in row else "")
                 print(f"{name:18s} {width}x{height} {preset:6s}  frame {row['frame_ms']['median']:.2f} "
                       f"({row['frame_ms']['p99']:.2f})  fps in flight {row['fps_in_flight']:.1f} (one after another "

@@ -4,7 +4,8 @@ import moderngl
 import numpy as np
 import pytest
 
-from igserver.bench import PassTimers, bench_scene, markdown_table, timer_queries_unusable
+from igserver.bench import bench_scene, markdown_table
+from igserver.bench_gpu import PassTimers, timer_queries_unusable
 from igserver.render.gl_count import GLCallCounter
 
 from helpers import tiny
@@ -124,3 +125,50 @@ def test_pass_timers_bracket_each_pass_and_leave_the_passes_as_they_were(rendere
     assert list(gpu_ms) == [n for n in result.passes if n in gpu_ms] and set(gpu_ms) == set(result.passes)
     assert all(ms >= 0 for ms in gpu_ms.values())  # llvmpipe's read 0
     assert all("execute" not in vars(p) for p in renderer.graph.passes.values())
+
+
+class _FakeHeadStart:
+    """A head start on a fake GPU clock: the busy job ends ``lead_ms`` after it is given, and the host
+    needs ``host_ms`` to issue a frame's passes."""
+
+    def __init__(self, host_ms: float):
+        self.host_ms, self.now_ns, self.end_ns, self.given = host_ms, 0, 0, []
+
+    def give(self, ms: float) -> None:
+        self.given.append(ms)
+        self.now_ns += 1_000_000_000
+        self.end_ns = self.now_ns + int(ms * 1e6)
+
+    def clock_ns(self) -> int:  # read as each pass has been issued: the host's work, spread over them
+        return self.now_ns + int(self.host_ms * 1e6)
+
+    def finished_ns(self) -> int:
+        return self.end_ns
+
+
+def test_a_frame_issued_after_the_gpu_caught_up_is_drawn_again_behind_a_longer_head_start(renderer):
+    from igserver.bench_gpu import queued_gpu_pass_ms
+
+    scenes = [tiny(), tiny()]
+    head = _FakeHeadStart(host_ms=30.0)
+    row = queued_gpu_pass_ms(renderer, scenes, host_ms=1.0, head_start=head)
+    # 2 x 1 + 2 = 4 -> the 5 ms floor, then 10, 20, 40 (> 30: confirmed); the second frame starts at 40
+    assert head.given == [5.0, 10.0, 20.0, 40.0, 40.0]
+    assert row["gpu_head_start_ms"] == 40.0 and row["gpu_frames_redrawn"] == 3 and row["gpu_frames_unconfirmed"] == 0
+    assert set(row["gpu_pass_ms"]) == set(renderer.render(tiny()).passes)
+    assert all("execute" not in vars(p) for p in renderer.graph.passes.values())
+    # A host slower than the longest head start: drawn at it once more, reported unconfirmed, no loop.
+    head = _FakeHeadStart(host_ms=5000.0)
+    row = queued_gpu_pass_ms(renderer, [tiny()], host_ms=400.0, head_start=head)
+    assert head.given == [802.0, 1000.0] and row["gpu_frames_unconfirmed"] == 1
+
+
+def test_gpu_pass_times_say_how_they_were_taken(renderer):
+    from igserver.bench_gpu import gpu_pass_ms
+
+    row = gpu_pass_ms(renderer, [tiny()], host_ms=5.0)
+    assert set(row["gpu_pass_ms"]) == set(renderer.render(tiny()).passes)
+    if "llvmpipe" in renderer.caps.renderer:  # its loops stop at 65,535 steps: no head start to give
+        assert row["gpu_timing"].startswith("as issued, GPU idling included (no head start: the busy job")
+    else:
+        assert row["gpu_timing"] == "queued behind a head start" and row["gpu_head_start_ms"] >= 5.0

@@ -60,6 +60,8 @@ STORAGE = {
     # the sea's detail-map synthesis (render/water/detail_synth.py)
     "SEA_DETAIL_WAVES": 0, "SEA_DETAIL_GRID": 1, "SEA_DETAIL_BINS": 2, "SEA_DETAIL_ENTRIES": 3,
     "SEA_DETAIL_ROWS": 4, "SEA_DETAIL_LEVELS": 5, "SEA_DETAIL_PAIRS": 6, "SEA_DETAIL_TEXELS": 7,
+    # the bench's GPU head start (bench_gpu.py), dispatched between frames
+    "GPU_HEAD_START": 0,
 }
 
 

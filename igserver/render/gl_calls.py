@@ -46,6 +46,13 @@ class GLFunctions:
         self.tex_image_2d = fn("glTexImage2D", None, u, i, i, i, i, i, u, u, ctypes.c_void_p)
         self.get_tex_level_parameteriv = fn("glGetTexLevelParameteriv", None, u, i, u, ctypes.POINTER(i))
         self.flush = fn("glFlush", None)
+        # Timestamps on the GPU's clock (the bench's GPU head start, bench_gpu.py): a query that records
+        # when the GPU reaches it, and the clock's reading as the driver receives a command.
+        u64 = ctypes.c_uint64
+        self.gen_queries = fn("glGenQueries", None, i, ctypes.POINTER(u))
+        self.query_counter = fn("glQueryCounter", None, u, u)
+        self.get_query_object_ui64v = fn("glGetQueryObjectui64v", None, u, u, ctypes.POINTER(u64))
+        self.get_integer64v = fn("glGetInteger64v", None, u, ctypes.POINTER(ctypes.c_int64))
 
     def integer(self, pname: int) -> int:
         value = ctypes.c_int(0)
