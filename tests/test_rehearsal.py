@@ -9,7 +9,7 @@ import pytest
 
 from helpers import tiny
 from igserver.render.gl_count import GLCallCounter
-from igserver.render.rehearsal import rehearsals
+from igserver.render.rehearsal import SEA_WINDS, rehearsals
 from igserver.render.renderer import Renderer
 from igserver.scene import apply_patch
 
@@ -52,10 +52,10 @@ def test_the_rehearsal_draws_a_fire_lights_rain_and_snow_beside_the_scene():
     assert {s.weather.precipitation.type for s in scenes} >= {"rain", "snow"}
     assert all(not s.channels and s.quality.target_fps == 0 for s in scenes)
     # with a sea: a rough one, a calm one, the eye under its surface; without, none of them
-    assert {s.weather.wind_speed for s in scenes} >= {14.0, 2.0}
+    assert {s.weather.wind_speed for s in scenes} >= {2.0, 28.0}
     assert any(s.camera.position[2] < SEA.ocean.level for s in scenes)
     dry = rehearsals(apply_patch(SEA, {"ocean": {"enabled": False}}))
-    assert len(dry) == len(scenes) - 3 and all(s.camera == SEA.camera for s in dry)
+    assert len(dry) == len(scenes) - len(SEA_WINDS) - 1 and all(s.camera == SEA.camera for s in dry)
     # a scene already at the model's limit of effects gets no more (nor a light past the frame block's)
     full = apply_patch(SEA, {"effects": [{**FIRE, "id": f"e{i}"} for i in range(64)]})
     assert all(len(s.effects) == 64 for s in rehearsals(full))
@@ -64,10 +64,20 @@ def test_the_rehearsal_draws_a_fire_lights_rain_and_snow_beside_the_scene():
 @pytest.mark.parametrize("change", list(CHANGES))
 def test_a_change_after_the_rehearsal_compiles_no_program(fresh, change):
     rehearsed, _, done = fresh
-    assert done["scenes"] == 7 and done["programs"] > 0
+    assert done["scenes"] == 5 + len(SEA_WINDS) and done["programs"] > 0
     before = len(rehearsed.programs)
     rehearsed.render(apply_patch(SEA, {**CHANGES[change], "time": {"sim_time": 10.5}}))
     assert len(rehearsed.programs) == before, f"{change}: compiled after the rehearsal"
+
+
+def test_a_wind_sweeping_from_a_calm_to_a_storm_compiles_no_program_after_the_rehearsal(fresh):
+    """The sea's programs follow its state (detail maps resolved, foam, its dots and wind rows): every
+    wind a host may send meets programs the rehearsal's few winds compiled."""
+    rehearsed, _, _ = fresh
+    before = len(rehearsed.programs)
+    for i, wind in enumerate((0.5, 1.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 16.0, 20.0, 26.0, 32.0)):
+        rehearsed.render(apply_patch(SEA, {"weather": {"wind_speed": wind}, "time": {"sim_time": 11.0 + i / 30}}))
+        assert len(rehearsed.programs) == before, f"{wind} m/s: compiled after the rehearsal"
 
 
 def test_the_rehearsal_reports_each_scene_it_drew(fresh):
@@ -160,7 +170,7 @@ def test_the_render_process_rehearses_on_request():
             watcher.join()
         phases = {p["phase"] for p in seen if p}
         assert phases == {"compiling ahead"} and service.progress is None
-        assert done["scenes"] == 7 and done["programs"] > 0 and done["seconds"] > 0
+        assert done["scenes"] == 5 + len(SEA_WINDS) and done["programs"] > 0 and done["seconds"] > 0
         assert service.ig_frame == first.ig_frame  # no frame came back for it
         after = service.render(apply_patch(SEA, {**CHANGES["a smoking fire"], "time": {"sim_time": 10.5}}))
         assert after.ig_frame == first.ig_frame + 1

@@ -35,7 +35,12 @@ from .overload import FrameQuality
 # below its eye, so that every pass that would draw them does (in the frustum, not fogged out).
 AHEAD_M = 25.0
 BELOW_EYE_M = 1.5
-ROUGH_WIND, CALM_WIND = 14.0, 2.0  # m/s: Beaufort 7 (wind rows), Beaufort 2 (glassy crests, no foam)
+# The winds a sea is rehearsed at (m/s): its programs follow its state, in steps no single wind shows
+# all of. A glassy calm (2: no foam, the fewest detail maps resolved), light airs whose ripples a
+# block already resolves in more maps (3), the foam's first dots and streaks (4), a fresh breeze's
+# foam without a second streak octave (10) and a storm's, with every detail map (28). Together
+# they meet every variant a sweep from 0.5 to 32 m/s meets in the example sea scenes.
+SEA_WINDS = (2.0, 3.0, 4.0, 10.0, 28.0)
 UNDER_M = 3.0  # m below the mean water level: the eye under the surface
 
 
@@ -49,7 +54,7 @@ def rehearsals(scene: Scene) -> list[Scene]:
     """The scenes drawn to compile ahead: ``scene`` with one more fire (smoking: its plume too);
     with one more effect of every kind, a point and a spot light and the rain; with one more fire
     and the snow; in a scene without local lights, with the rain alone; in a scene with a sea, with
-    a rough sea, a calm one and the eye under the surface. Lights and effects are added only while
+    each of ``SEA_WINDS`` and with the eye under the surface. Lights and effects are added only while
     the renderer's limits leave room."""
     base = scene.model_copy(update={
         "channels": [],  # every channel draws with the same programs: the camera's view compiles them
@@ -80,9 +85,9 @@ def rehearsals(scene: Scene) -> list[Scene]:
     if not scene.lights and not any(EFFECT_KINDS[e.type].casts_light for e in scene.effects):
         out.append(base.model_copy(update={"weather": weather("rain")}))  # the rain unlit by local lights
     if scene.ocean.enabled:
-        # The sea's programs follow its state: wind rows from Beaufort 6, no foam below Beaufort 3, and
-        # the eye under the surface draws the underwater passes.
-        for wind in (ROUGH_WIND, CALM_WIND):
+        # The sea's programs follow its state (SEA_WINDS), and the eye under the surface draws the
+        # underwater passes.
+        for wind in SEA_WINDS:
             out.append(base.model_copy(update={
                 "weather": scene.weather.model_copy(update={"wind_speed": wind}),
                 "ocean": scene.ocean.model_copy(update={"sea_state": None, "fetch_km": None, "duration_h": None})}))
