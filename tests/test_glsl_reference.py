@@ -17,12 +17,15 @@ from igserver.render import shaders
 from igserver.scene import apply_patch, load_scene
 
 SCENES = sorted(p.stem for p in (Path(__file__).resolve().parents[1] / "igserver" / "scenes").glob("*.toml"))
+# Scenes also rehearsed holding a frame rate: between them every pass at every scale and preset (the
+# variants that follow the pixel count and the knobs), without the time of all scenes held.
+HELD_SCENES = ("demo", "harbour_night", "snow")
 STAGE_SUFFIX = {"VERTEX": "vert", "FRAGMENT": "frag", "COMPUTE": "comp"}
 
 
 def variant_sources(monkeypatch) -> dict[tuple, str]:
     """(file, stage, defines) -> assembled source of every program a fresh renderer compiles for the
-    example scenes and their rehearsals."""
+    example scenes and their rehearsals (as they are, and some holding a frame rate)."""
     from igserver.render.renderer import Renderer
 
     seen: dict[tuple, str] = {}
@@ -40,6 +43,8 @@ def variant_sources(monkeypatch) -> dict[tuple, str]:
             scene = apply_patch(load_scene(name), {"camera": {"width": 32, "height": 18}})
             renderer.render(scene)
             renderer.rehearse(scene)
+            if name in HELD_SCENES:  # every scale and preset a controller may draw (rehearsal_draws)
+                renderer.rehearse(apply_patch(scene, {"quality": {"target_fps": 25.0, "preset": "auto"}}))
     finally:
         renderer.release()
     return seen

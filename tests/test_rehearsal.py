@@ -9,6 +9,7 @@ import pytest
 
 from helpers import tiny
 from igserver.render.gl_count import GLCallCounter
+from igserver.render.operating_points import SCALES
 from igserver.render.rehearsal import SEA_WINDS, rehearsals
 from igserver.render.renderer import Renderer
 from igserver.scene import apply_patch
@@ -138,10 +139,31 @@ def test_a_held_streams_rehearsal_keeps_its_targets_and_scale():
         targets, upscaler = r._targets, r._upscaler
         assert targets is not None and upscaler is not None
         done = r.rehearse(held)
-        assert done["scenes"] == 2 * len(rehearsals(held))
+        assert done["scenes"] == 2 * len(rehearsals(held)) + 3 * len(SCALES)  # + each preset at each scale
         assert (r._targets, r._upscaler, r.render_scale) == (targets, upscaler, 0.75)
         alive = (targets.hdr, targets.scene_fbo, targets.ldr_fbo, upscaler._out.texture)
         assert not any(isinstance(o.mglo, moderngl.mgl.InvalidObject) for o in alive)
+    finally:
+        r.release()
+
+
+def test_a_held_stream_meets_no_compile_at_any_point_its_controller_may_choose():
+    """The overload controller steps to smaller scales and lower rungs exactly when the machine is
+    short of time: after the rehearsal, drawing the held scene at every point of its frontier
+    compiles nothing."""
+    held = apply_patch(SEA, {"quality": {"target_fps": 25.0, "preset": "auto"}})
+    r = Renderer()
+    try:
+        r.render(held)
+        points = list(r.frame_quality.controller.points)
+        assert {p.scale for p in points} == set(SCALES) and len({p.rung.name for p in points}) > 3
+        r.rehearse(held)
+        before = len(r.programs)
+        controller_point = r.quality_for
+        for i, point in enumerate(points):  # the controller's decision, drawn at this point instead
+            r.quality_for = lambda scene, p=point: (p.rung, p.scale, controller_point(scene)[2])
+            r.render(apply_patch(held, {"time": {"sim_time": 10.0 + i / 30}}))
+            assert len(r.programs) == before, f"scale {point.scale}, {point.rung.name}: compiled after the rehearsal"
     finally:
         r.release()
 

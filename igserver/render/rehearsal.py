@@ -23,7 +23,7 @@ from __future__ import annotations
 import time
 
 from ..effect_kinds import EFFECT_KINDS
-from ..scene.model import MAX_EFFECTS, Effect, Light, Scene
+from ..scene.model import MAX_EFFECTS, PRESET_NAMES, Effect, Light, Scene
 from .camera import make_view
 from .frame import FrameState
 from .frame_block import MAX_LIGHTS
@@ -98,9 +98,9 @@ def rehearsals(scene: Scene) -> list[Scene]:
 
 
 def rehearse(renderer, scene: Scene, report=None) -> dict:
-    """Draw ``rehearsals(scene)`` on ``renderer`` and put its stream's state back; ``report(done, total)``
-    after each scene drawn (the render process's progress messages: a long rehearsal is alive). Returns
-    what it did: {"scenes": drawn, "programs": compiled by them, "seconds": wall time}."""
+    """Draw ``rehearsal_draws(scene)`` on ``renderer`` and put its stream's state back; ``report(done,
+    total)`` after each scene drawn (the render process's progress messages: a long rehearsal is alive).
+    Returns what it did: {"scenes": drawn, "programs": compiled by them, "seconds": wall time}."""
     t0 = time.perf_counter()
     compiled = len(renderer.programs)
     # The stream's state, set aside: what the frames carry from one to the next (adaptation, fog,
@@ -113,17 +113,15 @@ def rehearse(renderer, scene: Scene, report=None) -> dict:
         setattr(renderer, name, {})
     renderer._targets = renderer._upscaler = None  # its own (a scaled draw would replace the stream's)
     held = swap_view_state(renderer.ctx, renderer.graph.passes, {})
-    drawn, scales, scenes = 0, rehearsal_scales(scene), rehearsals(scene)
+    draws = rehearsal_draws(scene)
     try:
-        for scale in scales:
+        for drawn, (scale, rehearsal) in enumerate(draws, 1):
             renderer.render_scale = scale
-            for rehearsal in scenes:
-                renderer.frame_state, renderer.frame_quality = FrameState(), FrameQuality()
-                renderer._draw(rehearsal, timed=False)
-                renderer.ctx.finish()
-                drawn += 1
-                if report is not None:
-                    report(drawn, len(scales) * len(scenes))
+            renderer.frame_state, renderer.frame_quality = FrameState(), FrameQuality()
+            renderer._draw(rehearsal, timed=False)
+            renderer.ctx.finish()
+            if report is not None:
+                report(drawn, len(draws))
     finally:
         release_view_state(swap_view_state(renderer.ctx, renderer.graph.passes, held))
         for made in (renderer._targets, renderer._upscaler):
@@ -131,16 +129,26 @@ def rehearse(renderer, scene: Scene, report=None) -> dict:
                 made.release()
         for name, value in {**kept, **channels}.items():
             setattr(renderer, name, value)
-    return {"scenes": drawn, "programs": len(renderer.programs) - compiled,
+    return {"scenes": len(draws), "programs": len(renderer.programs) - compiled,
             "seconds": time.perf_counter() - t0}
 
 
-def rehearsal_scales(scene: Scene) -> tuple[float, ...]:
-    """The internal render scales to rehearse at: the full size, and for a scene that holds a frame
-    rate (whose controller may draw it smaller: render/overload.py) the smallest scale too - a frame
-    of fewer pixels than the aerial-perspective table has nodes compiles the exact variants, and
-    the upscale pass is drawn."""
-    return (1.0, min(SCALES)) if scene.quality.target_fps > 0 else (1.0,)
+def rehearsal_draws(scene: Scene) -> list[tuple[float, Scene]]:
+    """(internal render scale, scene) of each draw: ``rehearsals(scene)`` at the full size; for a
+    scene that holds a frame rate, whose controller may draw it smaller and at any rung of the
+    presets' ladder (render/overload.py), those again at the smallest scale, and the scene itself at
+    every scale with each preset. The programs follow the frame's pixel count (a frame of fewer
+    pixels than the aerial-perspective table has nodes compiles the exact variants, the post pass
+    downsamples in other steps) and the knobs (the sea's detail-map resolution, the volumes'), so a
+    controller that steps down under load does not meet a compile, the worst moment for one."""
+    changes = rehearsals(scene)
+    if scene.quality.target_fps <= 0:
+        return [(1.0, s) for s in changes]
+    still = scene.model_copy(update={"channels": []})
+    presets = [still.model_copy(update={"quality": still.quality.model_copy(update={"preset": p, "target_fps": 0.0})})
+               for p in PRESET_NAMES if p != "auto"]
+    return ([(scale, s) for scale in (1.0, min(SCALES)) for s in changes]
+            + [(scale, s) for scale in SCALES for s in presets])
 
 
 # The renderer's attributes a rehearsal puts back (render/renderer.py).
