@@ -192,12 +192,26 @@ def test_sync_mode_host_frames_drive_sim_time():
 
 
 def test_database_number_loads_a_scene():
+    def database(ready: bool = True) -> int:
+        return parse_ig_message(e.start_of_frame(ready)).packets[0].database_number
+
     e = engine()
     send(e, ship(), database_number=3)  # harbour_night
     assert e.store.scene.location == load_scene("harbour_night").location
     assert e.store.scene.camera.width == 64  # the server's frame size stays
-    send(e, frame=2, database_number=99)
-    assert parse_ig_message(e.start_of_frame(True)).packets[0].database_number == -99
+    # CIGI 3.3: Start of Frame reports the number negated while the database loads, until a frame of
+    # its state has rendered and the IG is ready (its programs compiled ahead), then the number
+    assert database() == -3
+    e.store.mark_rendered(e.store.revision)
+    assert database(ready=False) == -3
+    assert database() == 3
+    send(e, frame=2, database_number=99)  # no scene for it: not available, the scene unchanged
+    assert database() == -128 and e.store.scene.location == load_scene("harbour_night").location
+    send(e, frame=3, database_number=4)
+    e.store.mark_rendered(e.store.revision - 1)  # a frame of the state before the load: still loading
+    assert database() == -4
+    e.store.mark_rendered(e.store.revision)
+    assert database() == 4
 
 
 def test_rate_control_extrapolates_between_host_frames():

@@ -25,6 +25,7 @@ from igserver.cigi.packets_ig import IG_PACKETS, StartOfFrame
 from igserver.cigi.pcap import PcapWriter
 from igserver.protocol.settings import ServerSettings
 from igserver.protocol.testing import LoopbackServer
+from igserver.scene import load_scene
 from test_cigi_codec import random_packet
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "clients"))
@@ -118,6 +119,40 @@ def test_synchronous_lockstep_is_frame_exact(ig):
     assert summary.sof[-1].last_host_frame == first + rate - 1
     assert ig.runtime.store.clock.mode == "host"
     ig.runtime.store.clock.mode = "free"  # hand the clock back for the tests after this one
+
+
+def test_a_database_load_compiles_ahead_and_reports_its_progress():
+    """IG Control's Database Number loads a scene: while it loads (its first frame, then the programs it
+    may come to need compiled ahead, as at the start: render/rehearsal.py) Start of Frame says -N and
+    Standby, and /v1/ready says why; then N and Operate."""
+    sock = host_socket()
+    settings = ServerSettings(cigi=True, cigi_port=0, cigi_host="127.0.0.1", cigi_host_port=sock.getsockname()[1],
+                              cigi_allow=["127.0.0.1"])
+    server = LoopbackServer(tiny(), settings).start()
+    try:
+        port = server.runtime.cigi.transport.get_extra_info("sockname")[1]
+        deadline = time.monotonic() + 60
+        while not (drain(sock) or [None])[-1] or not server.runtime.ready():
+            assert time.monotonic() < deadline
+        rehearsals = []
+        rehearse = server.service.rehearse
+        server.service.rehearse = lambda scene=None: rehearsals.append(scene) or rehearse(scene)
+        sock.sendto(build([IGControl(host_frame=1, database_number=4)]), ("127.0.0.1", port))  # sea_beaufort5
+        seen, not_ready = [], set()
+        while not seen or (seen[-1].database_number, seen[-1].ig_mode) != (4, 1):
+            assert time.monotonic() < deadline + 120, seen[-5:]
+            seen += drain(sock)
+            reply = httpx.get(server.url + "/v1/ready", timeout=5)
+            if reply.status_code == 503:
+                not_ready.add(reply.json()["error"].split(" (")[0])
+        states = [(s.database_number, s.ig_mode) for s in seen]
+        assert states[0] == (-4, 0) and set(states) <= {(-4, 0), (-4, 1), (4, 1)}, states
+        assert (-4, 0) in states and not_ready <= {"compiling ahead the programs of fires, lights, rain, snow and "
+                                                    "the sea's states"}
+        assert len(rehearsals) == 1 and rehearsals[0].ocean == load_scene("sea_beaufort5").ocean  # the loaded scene
+    finally:
+        server.stop()
+        sock.close()
 
 
 def test_senders_not_allowed_are_dropped_and_counted(ig):

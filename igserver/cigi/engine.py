@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 from collections import deque
+from dataclasses import replace
 from typing import Callable
 
 from ..protocol.metrics import LabelledCounter, MillisecondHistogram, ServiceMetrics
@@ -20,7 +21,7 @@ from .datagram import MAX_DATAGRAM, parse
 from .mapping import Plan, map_message, place_everything, Work
 from .packets_ig import StartOfFrame
 from .queries import answer
-from .session import Session
+from .session import DATABASE_NOT_AVAILABLE, Session
 from .types import load_type_map
 
 log = logging.getLogger("igserver.cigi")
@@ -63,6 +64,7 @@ class CigiEngine:
         self.last_error: str | None = None
         self._logged: set[str] = set()
         self._dumped: tuple[int, dict] | None = None  # (revision, its scene as a JSON tree)
+        self._loading: int | None = None  # the state revision a database load made, until it is ready
 
     # -- host messages
     def handle(self, data: bytes, defer: bool = False) -> Plan | None:
@@ -85,6 +87,8 @@ class CigiEngine:
             return None
         self.store.set_validated(scene, plan.patch)
         self.session = plan.session
+        if plan.replaced:
+            self._loading = self.store.revision
         c = self.counters
         c.datagrams.inc(result="accepted")
         for packet_id, count in message.unknown.items():
@@ -129,9 +133,19 @@ class CigiEngine:
         """Standby while the IG cannot render yet (tables precompute) or the host asked for standby."""
         return OPERATE if ready and self.session.ig_mode in (1, 2) else STANDBY
 
+    def database_loaded(self, ready: bool) -> None:
+        """A database load ends when a frame of its state (or a later one) has rendered and the IG is
+        ready (its programs compiled ahead): Start of Frame then reports the number, not its negative."""
+        if self._loading is None or not ready or self.store.rendered_revision < self._loading:
+            return
+        self._loading = None
+        if self.session.database_status < 0 and self.session.database_status != DATABASE_NOT_AVAILABLE:
+            self.session = replace(self.session, database_status=self.session.database)
+
     def start_of_frame(self, ready: bool, sim_time: float | None = None) -> bytes:
         """One IG message: Start of Frame, then as many pending answers as fit in a datagram."""
         self.ig_frame = (self.ig_frame + 1) & 0xFFFFFFFF
+        self.database_loaded(ready)
         t = self.store.clock.sim_time() if sim_time is None else sim_time
         sof = StartOfFrame(database_number=self.session.database_status, ig_mode=self.ig_mode(ready),
                            ig_frame=self.ig_frame, timestamp=int(t * TICKS_PER_S) & 0xFFFFFFFF,

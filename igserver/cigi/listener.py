@@ -68,6 +68,8 @@ class CigiListener(asyncio.DatagramProtocol):
             return
         if plan is None:
             return
+        if plan.replaced and self.runtime.compile_ahead(self.engine.store.scene):
+            self.ready = False  # Standby from the next Start of Frame, not the next heartbeat
         if not self.fixed_host:
             self.host = (addr[0], self.host_port)
         self.last_message = time.monotonic()

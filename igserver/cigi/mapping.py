@@ -25,7 +25,7 @@ from .packets_host import (ArticulatedPartControl, ComponentControl, ConformalCl
                            EntityControl, HatHotRequest, IGControl, LosSegmentRequest, LosVectorRequest,
                            RateControl, ShortArticulatedPartControl, ShortComponentControl, ViewControl,
                            ViewDefinition)
-from .session import ENTITY_PREFIX, CigiEntity, Session, ViewAttachment, entity_id, owned_by
+from .session import DATABASE_NOT_AVAILABLE, ENTITY_PREFIX, CigiEntity, Session, ViewAttachment, entity_id, owned_by
 from .types import TypeMap
 
 ATTITUDE_KEYS = ("heading", "pitch", "roll")
@@ -119,7 +119,7 @@ def load_database(work: Work, number: int) -> None:
     name = work.types.database(number)
     session = work.session
     if name is None or work.load_scene is None:
-        session.database_status = -number  # SOF tells the host the database is not available
+        session.database_status = DATABASE_NOT_AVAILABLE
         return
     scene = work.load_scene(name)
     keep_camera_size = {k: work.tree["camera"][k] for k in ("width", "height")}
@@ -135,7 +135,8 @@ def load_database(work: Work, number: int) -> None:
     session.entities.clear()
     session.view = None
     session.views.clear()  # the database's scene brings its own channels
-    session.database = session.database_status = number
+    session.database = number
+    session.database_status = -number  # loading: the engine reports it loaded once its frames are ready
     work.plan.replaced = True
 
 

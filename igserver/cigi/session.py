@@ -58,6 +58,9 @@ class ViewSpec:
     far: float | None = None
 
 
+DATABASE_NOT_AVAILABLE = -128  # Start of Frame's Database Number for a database the IG cannot load
+
+
 @dataclass
 class Session:
     entities: dict[int, CigiEntity] = field(default_factory=dict)
@@ -71,7 +74,9 @@ class Session:
     host_frame: int = 0  # the last host frame received
     ig_mode: int = 1  # the mode the host asked for last
     database: int = 0  # the database number loaded (0 = the scene the server started with)
-    database_status: int = 0  # what SOF reports: the number, or its negative when it could not be loaded
+    # What Start of Frame reports (CIGI 3.3): the database loaded, its negative while it loads, or
+    # DATABASE_NOT_AVAILABLE for a number the IG has no scene for.
+    database_status: int = 0
     sync: bool = False  # the host's timestamps drive sim_time
     timestamp_wraps: int = 0  # the 32-bit 10 µs timestamp wraps every 11.9 h
     last_timestamp: int | None = None

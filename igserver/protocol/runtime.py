@@ -73,6 +73,9 @@ class IGRuntime:
         self.stopping = asyncio.Event()  # set at shutdown: open streams end so the server can exit
         self.provisional = False  # the picture shown is the start preview (simplified sky), not the scene
         self.rehearsing = False  # compiling ahead after the first frame (render/rehearsal.py)
+        self._loads_waiting = 0  # database loads whose rehearsal has not begun (compile_ahead)
+        self._rehearsals_running = 0
+        self._background: set[asyncio.Task] = set()  # compile_ahead's tasks (held: the loop keeps weak references)
         self.queries = Gate(self.settings.max_concurrent_queries, "water-height queries")
         # queries run on threads of their own, as many as may run at once: each thread that allocates
         # gets a malloc arena of its own, which keeps what it freed; a bounded pool bounds the arenas
@@ -119,6 +122,7 @@ class IGRuntime:
         if not self._will_rehearse():
             return
         self.rehearsing = True
+        self._rehearsals_running += 1
         try:
             done = await self.gateway.call(self.service.rehearse, scene)
             log.info("rehearsed %d scenes unseen in %.1f s: %d programs compiled ahead",
@@ -126,7 +130,27 @@ class IGRuntime:
         except Exception as exc:  # only ahead of time: a program not compiled now is compiled when needed
             log.warning("no rehearsal: %s", exc)
         finally:
-            self.rehearsing = False
+            self._rehearsals_running -= 1
+            self.rehearsing = self._rehearsals_running > 0 or self._loads_waiting > 0
+
+    def compile_ahead(self, scene) -> bool:
+        """A database load (CIGI's IG Control) replaced the whole scene: compile ahead what the new scene
+        may come to need, as at the start (the stream waits meanwhile, as a real IG's does while it loads,
+        and /v1/ready and CIGI's IG mode say so). Returns whether a rehearsal was started. A host's
+        whole-state message over protocol v1 does not start one: hosts may send every frame that way."""
+        if not self._will_rehearse():
+            return False
+        self._loads_waiting += 1
+        self.rehearsing = True
+
+        async def load():
+            self._loads_waiting -= 1
+            await self._rehearse(scene)
+
+        task = asyncio.get_running_loop().create_task(load(), name="igserver-compile-ahead")
+        self._background.add(task)
+        task.add_done_callback(self._background.discard)
+        return True
 
     def _register_gauges(self) -> None:
         m = self.metrics

@@ -52,6 +52,7 @@ class StateStore:
         self._changed = asyncio.Event()
         self._on_accept = on_accept
         self._good: tuple[int, Scene] | None = None  # the last revision that rendered, and its state
+        self.rendered_revision = -1  # the newest revision a frame has shown (-1 before the first)
         # DELETEd effects fading out: id -> the sim_time their fade ends, when they leave the state
         self._removing: dict[str, float] = {}
 
@@ -111,6 +112,7 @@ class StateStore:
 
     def mark_rendered(self, revision: int) -> None:
         """A frame of ``revision`` rendered: it is the state to fall back to if a later one cannot render."""
+        self.rendered_revision = max(self.rendered_revision, revision)
         if revision == self.revision:
             self._good = (revision, self._scene)
 
