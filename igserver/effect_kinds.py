@@ -73,7 +73,7 @@ class Fuel:
     Large-pool burning: q'' = m'' dH_c (1 - exp(-k beta D)) (Babrauskas 1983, "Estimating large
     pool fire burning rates", Fire Technology 19, and the SFPE Handbook's table of m'', dH_c, k beta;
     wood: a stacked fuel bed of pallets or cribs per its floor area). k beta is also the flame's soot
-    absorption per metre (render/volumes/volumes.py: the flame's optical depth k D). Soot yields
+    absorption per metre (render/volumes/march.py: the flame's optical depth k D). Soot yields
     (g of soot per g burnt) after Tewarson (SFPE Handbook): the smoke's extinction follows them
     (render/volumes/effects.py plume_soot_extinction); its albedo: black soot to grey wood smoke."""
 

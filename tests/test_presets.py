@@ -123,3 +123,17 @@ def test_service_bench_starts_its_server_with_the_preset():
     assert "--no-rehearse" in server_command(640, 360, None, 8123, rehearse=False)
     assert "--no-rehearse" not in command
     assert tuple(PRESET_CHOICES) == PRESET_NAMES == ("low", "medium", "high", "auto")
+
+
+def test_the_ladder_does_not_depend_on_the_order_pipelines_registered_in():
+    """A process that imports the volumes before the sea gets the same rungs (and so the same operating
+    points) as one that imports them the other way round."""
+    import igserver.render.precip.particles  # noqa: F401 - registers the precipitation knobs
+    import igserver.render.water.water  # noqa: F401 - registers the water knobs
+
+    before = [r.name for r in presets.ladder()]
+    first = next(iter(presets.registered()))
+    per_level = presets.registered()[first]
+    presets._KNOBS.pop(first)
+    presets.register(first, per_level)  # registered last this time
+    assert [r.name for r in presets.ladder()] == before

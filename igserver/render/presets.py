@@ -30,6 +30,11 @@ def register(pipeline: str, per_level: dict[str, Any]) -> None:
     if missing:
         raise ValueError(f"{pipeline}: knobs missing for {sorted(missing)}")
     _KNOBS[pipeline] = {level: per_level[level] for level in LEVELS}
+    # Pipelines in name order, whatever order their modules were imported in: the ladder's rungs (and
+    # so the overload controller's operating points) are the same in every process.
+    ordered = dict(sorted(_KNOBS.items()))
+    _KNOBS.clear()
+    _KNOBS.update(ordered)
 
 
 def registered() -> dict[str, dict[str, Any]]:
@@ -61,8 +66,8 @@ def _fields(value) -> list[str]:
 def ladder() -> list[Rung]:
     """Rungs from ``low`` to ``high``; between two levels, one knob changes per rung.
 
-    Knobs change in a fixed order per pipeline (the dataclass's field order), pipelines in
-    registration order; a non-dataclass knob changes as a whole.
+    Knobs change in a fixed order per pipeline (the dataclass's field order), pipelines in name
+    order; a non-dataclass knob changes as a whole.
     """
     rungs = [Rung(LEVELS[0], {p: v[LEVELS[0]] for p, v in _KNOBS.items()})]
     for lo, hi in zip(LEVELS, LEVELS[1:]):
