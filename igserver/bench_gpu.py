@@ -25,6 +25,7 @@ import time
 
 from .render import gl_calls
 from .render.bindings import STORAGE
+from .render.shaders import set_uniforms
 
 GL_TIMESTAMP = 0x8E28
 GL_QUERY_RESULT = 0x8866
@@ -106,7 +107,7 @@ class GPUHeadStart:
         self.iterations_per_ms = self._calibrate()
 
     def _run(self, iterations: int) -> None:
-        self.program["u_iterations"].value = int(iterations)
+        set_uniforms(self.program, {"u_iterations": int(iterations)})
         self.sink.bind_to_storage_buffer(STORAGE["GPU_HEAD_START"])
         self.program.run(1)
 
