@@ -87,7 +87,7 @@ def test_no_import_circle(a, b):
 
 def test_the_walk_sees_imports():
     # the graph is not vacuous: relative, absolute and lazy imports are all found
-    assert "igserver.assets.gltf" in GRAPH["igserver.scene.model"]
+    assert "igserver.assets.gltf" in GRAPH["igserver.scene.surfaces"]
     assert "igserver.render.volumes.fire_lights" in GRAPH["igserver.render.lights"]
     assert "igserver.protocol.app" in GRAPH["igserver.cli"]  # imported inside cmd_serve
 
