@@ -25,6 +25,11 @@ CHANGES = {
     "a gas burner": {"effects": [{**FIRE, "type": "gas_burner"}]},
     "a lamp": {"lights": [{"id": "l", "position": [0, 20, 3], "range": 30.0}]},
     "a searchlight": {"lights": [{"id": "s", "type": "spot", "position": [0, 20, 3], "range": 30.0, "pitch": -20}]},
+    "lamps lighting patches": {"lights": [{"id": f"l{i}", "position": [8.0 * i - 12, 15, 1], "range": 5.0}
+                                          for i in range(4)]},
+    "a lamp and a spot lighting patches": {"lights": [
+        {"id": "l", "position": [8, 15, 1], "range": 5.0},
+        {"id": "s", "type": "spot", "position": [-8, 15, 1], "range": 5.0, "pitch": -20}]},
     "rain": {"weather": {"precipitation": {"type": "rain", "rate": 3.0}}},
     "snow": {"weather": {"precipitation": {"type": "snow", "rate": 2.0}}},
     "a rising wind": {"weather": {"wind_speed": 15.0}},
@@ -65,7 +70,7 @@ def test_the_rehearsal_draws_a_fire_lights_rain_and_snow_beside_the_scene():
 @pytest.mark.parametrize("change", list(CHANGES))
 def test_a_change_after_the_rehearsal_compiles_no_program(fresh, change):
     rehearsed, _, done = fresh
-    assert done["scenes"] == 5 + len(SEA_WINDS) and done["programs"] > 0
+    assert done["scenes"] == 7 + len(SEA_WINDS) and done["programs"] > 0
     before = len(rehearsed.programs)
     rehearsed.render(apply_patch(SEA, {**CHANGES[change], "time": {"sim_time": 10.5}}))
     assert len(rehearsed.programs) == before, f"{change}: compiled after the rehearsal"
@@ -192,7 +197,7 @@ def test_the_render_process_rehearses_on_request():
             watcher.join()
         phases = {p["phase"] for p in seen if p}
         assert phases == {"compiling ahead"} and service.progress is None
-        assert done["scenes"] == 5 + len(SEA_WINDS) and done["programs"] > 0 and done["seconds"] > 0
+        assert done["scenes"] == 7 + len(SEA_WINDS) and done["programs"] > 0 and done["seconds"] > 0
         assert service.ig_frame == first.ig_frame  # no frame came back for it
         after = service.render(apply_patch(SEA, {**CHANGES["a smoking fire"], "time": {"sim_time": 10.5}}))
         assert after.ig_frame == first.ig_frame + 1

@@ -8,7 +8,7 @@ the IG compiles what a scene may come to need before it is asked to show it.
 
 The programs are variants chosen by ``#define``: what a frame draws (volumes of each effect kind,
 rain or snow, the underwater passes), whether local lights are compiled in (``LOCAL_LIGHTS``,
-``SPOT_LIGHTS``), the fog halos' count (``HALO_COUNT``) and the sea's foam (none in a calm, wind
+``SPOT_LIGHTS``) and looped per screen tile (``LIGHT_TILES``), the fog halos' count (``HALO_COUNT``) and the sea's foam (none in a calm, wind
 rows in a rough sea). Which variants a scene will meet cannot be listed without
 drawing it, since the passes decide them from the frame, so the rehearsal draws: the stream's scene
 with the changes a host most often makes (``rehearsals``), at the scene's own size, into the
@@ -42,6 +42,8 @@ BELOW_EYE_M = 1.5
 # they meet every variant a sweep from 0.5 to 32 m/s meets in the example sea scenes.
 SEA_WINDS = (2.0, 3.0, 4.0, 10.0, 28.0)
 UNDER_M = 3.0  # m below the mean water level: the eye under the surface
+# A lamp lighting a patch of the view only: 6 m of reach, 30 m ahead and 10 m aside.
+LAMP_AHEAD_M, LAMP_RIGHT_M, LAMP_RANGE_M = 30.0, 10.0, 6.0
 
 
 def _ahead(scene: Scene, forward_m: float, right_m: float = 0.0) -> tuple[float, float, float]:
@@ -52,8 +54,8 @@ def _ahead(scene: Scene, forward_m: float, right_m: float = 0.0) -> tuple[float,
 
 def rehearsals(scene: Scene) -> list[Scene]:
     """The scenes drawn to compile ahead: ``scene`` with one more fire (smoking: its plume too);
-    with one more effect of every kind, a point and a spot light and the rain; with one more fire
-    and the snow; in a scene without local lights, with the rain alone; in a scene with a sea, with
+    with one more effect of every kind, a point and a spot light and the rain; with a lamp, and a lamp
+    and a spot, that light a patch of the view; with one more fire and the snow; in a scene without local lights, with the rain alone; in a scene with a sea, with
     each of ``SEA_WINDS`` and with the eye under the surface. Lights and effects are added only while
     the renderer's limits leave room."""
     base = scene.model_copy(update={
@@ -80,6 +82,15 @@ def rehearsals(scene: Scene) -> list[Scene]:
                     heading=scene.camera.heading, pitch=-30.0)] if room_lights >= 2 else []
     out.append(base.model_copy(update={"effects": [*scene.effects, *(effect(i, k) for i, k in enumerate(kinds))],
                                        "lights": [*scene.lights, *lights], "weather": weather("rain")}))
+    if room_lights >= 2:
+        # Lamps whose reach covers part of the view: a pixel then loops over its screen tile's lights
+        # (light_tiles.py, LIGHT_TILES), with and without a spot among them. The fire's and the lights'
+        # above reach the whole view, which keeps the plain loop.
+        near = [Light(id="rehearsal-lamp", position=_ahead(scene, LAMP_AHEAD_M, LAMP_RIGHT_M), range=LAMP_RANGE_M)]
+        spot = Light(id="rehearsal-lamp-spot", type="spot", position=_ahead(scene, LAMP_AHEAD_M, -LAMP_RIGHT_M),
+                     range=LAMP_RANGE_M, heading=scene.camera.heading, pitch=-30.0)
+        out.append(base.model_copy(update={"lights": [*scene.lights, *near]}))
+        out.append(base.model_copy(update={"lights": [*scene.lights, *near, spot]}))
     if room_effects >= 1:
         out.append(base.model_copy(update={"effects": [*scene.effects, effect(0, "fire")], "weather": weather("snow")}))
     if not scene.lights and not any(EFFECT_KINDS[e.type].casts_light for e in scene.effects):
