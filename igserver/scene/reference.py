@@ -76,7 +76,7 @@ def _rows(model: type[BaseModel], prefix: str, rows: list[str]) -> None:
 def markdown_reference() -> str:
     rows = ["| field | type | default | range | unit and meaning |", "|---|---|---|---|---|"]
     _rows(Scene, "", rows)
-    return "# Scene format reference\n\nGenerated from `igserver/scene/model.py` by " \
+    return "# Scene format reference\n\nGenerated from the scene model (`igserver/scene/`: `Scene` in `model.py`, a module per section) by " \
            "`python -m igserver.scene.reference > docs/scene-format.md`; a test keeps it current.\n\n" + "\n".join(rows) + "\n"
 
 
