@@ -172,3 +172,16 @@ def test_gpu_pass_times_say_how_they_were_taken(renderer):
         assert row["gpu_timing"].startswith("as issued, GPU idling included (no head start: the busy job")
     else:
         assert row["gpu_timing"] == "queued behind a head start" and row["gpu_head_start_ms"] >= 5.0
+
+
+def test_a_head_start_that_fails_leaves_the_pass_times_as_issued(renderer, monkeypatch):
+    """The GPU session is short: a driver that lacks what the head start needs must still give figures."""
+    from igserver import bench_gpu
+
+    def broken(_renderer):
+        raise RuntimeError("no timestamp queries")
+
+    monkeypatch.setattr(bench_gpu, "GPUHeadStart", broken)
+    row = bench_gpu.gpu_pass_ms(renderer, [tiny()], host_ms=5.0)
+    assert row["gpu_timing"] == "as issued, GPU idling included (no head start: RuntimeError: no timestamp queries)"
+    assert set(row["gpu_pass_ms"]) == set(renderer.render(tiny()).passes)
