@@ -176,12 +176,13 @@ def gpu_pass_ms(renderer, scenes, host_ms: float) -> dict:
 
 def queued_gpu_pass_ms(renderer, scenes, host_ms: float, head_start=None) -> dict:
     """GPU ms per pass (medians over ``scenes``), each frame drawn behind a head start longer than
-    its host work (``host_ms``: the frame's wall time, an upper bound of it). Returns ``gpu_pass_ms``,
+    its host work: 1.25 x ``host_ms`` + 2 ms, ``host_ms`` being the frame's wall time (GPU and readback
+    included: an upper bound of the host's share), doubled for a frame the check finds it short for. Returns ``gpu_pass_ms``,
     the head start used last (``gpu_head_start_ms``), how many frames were drawn again because the
     head start was short (``gpu_frames_redrawn``) and how many were left unconfirmed after the longest
     (``gpu_frames_unconfirmed``)."""
     head = head_start or GPUHeadStart(renderer)
-    lead_ms = min(max(2.0 * host_ms + 2.0, 5.0), LONGEST_HEAD_START_MS)
+    lead_ms = min(max(1.25 * host_ms + 2.0, 5.0), LONGEST_HEAD_START_MS)
     gpu: dict[str, list[float]] = {}
     redrawn = unconfirmed = 0
     try:
