@@ -305,7 +305,7 @@ def test_snow_lowers_the_visibility_unless_the_host_already_did(renderer):
 # --- photometric read-out on the wire --------------------------------------------------------------
 
 def test_frame_reports_ev100_and_illuminance(renderer):
-    from igserver.protocol.frames import EncodedFrame
+    from igserver.protocol.encoded_frame import EncodedFrame
     from igserver.protocol.routers.frames import frame_message
     from igserver.render.worker import Frame
 

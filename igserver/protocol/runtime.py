@@ -13,9 +13,10 @@ import anyio.to_thread
 
 from ..render.memory import release_free_memory
 from ..scene.model import Scene
-from .frames import FramePump, RenderGateway
+from .frame_pump import FramePump
 from .limits import Gate, guard_accept_loop
 from .metrics import ServiceMetrics
+from .render_gateway import RenderGateway
 from .settings import ServerSettings  # noqa: F401  (re-exported: settings live in settings.py)
 from .state import StateStore
 

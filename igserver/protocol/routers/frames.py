@@ -13,8 +13,8 @@ from fastapi.responses import StreamingResponse
 from ..channels import choose, describe, state_channel_ids
 from ..codec import MSGPACK, encode, negotiate
 from ..dependencies import Message, ReplyFormat, Runtime, reply
+from ..encoded_frame import EncodedFrame, quality_headers
 from ..flow import drained, transport_of
-from ..frames import EncodedFrame, quality_headers
 from ..imaging import MEDIA_TYPES
 from ..models import PATCH_SCHEMA, PROBLEM_RESPONSES, ChannelList, QUALITY_HEADER_DOC, QueryBool, body_doc
 from ..problems import ProblemError
