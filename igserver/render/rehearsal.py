@@ -55,9 +55,9 @@ def _ahead(scene: Scene, forward_m: float, right_m: float = 0.0) -> tuple[float,
 def rehearsals(scene: Scene) -> list[Scene]:
     """The scenes drawn to compile ahead: ``scene`` with one more fire (smoking: its plume too);
     with one more effect of every kind, a point and a spot light and the rain; with a lamp, and a lamp
-    and a spot, that light a patch of the view; with one more fire and the snow; in a scene without local lights, with the rain alone; in a scene with a sea, with
-    each of ``SEA_WINDS`` and with the eye under the surface. Lights and effects are added only while
-    the renderer's limits leave room."""
+    and a spot, that light a patch of the view; with one more fire and the snow; in a scene without
+    local lights, with the rain alone; in a scene with a sea, with each of ``SEA_WINDS`` and with the
+    eye under the surface. Lights and effects are added only while the renderer's limits leave room."""
     base = scene.model_copy(update={
         "channels": [],  # every channel draws with the same programs: the camera's view compiles them
         "quality": scene.quality.model_copy(update={"target_fps": 0.0}),
@@ -86,11 +86,11 @@ def rehearsals(scene: Scene) -> list[Scene]:
         # Lamps whose reach covers part of the view: a pixel then loops over its screen tile's lights
         # (light_tiles.py, LIGHT_TILES), with and without a spot among them. The fire's and the lights'
         # above reach the whole view, which keeps the plain loop.
-        near = [Light(id="rehearsal-lamp", position=_ahead(scene, LAMP_AHEAD_M, LAMP_RIGHT_M), range=LAMP_RANGE_M)]
+        lamp = Light(id="rehearsal-lamp", position=_ahead(scene, LAMP_AHEAD_M, LAMP_RIGHT_M), range=LAMP_RANGE_M)
         spot = Light(id="rehearsal-lamp-spot", type="spot", position=_ahead(scene, LAMP_AHEAD_M, -LAMP_RIGHT_M),
                      range=LAMP_RANGE_M, heading=scene.camera.heading, pitch=-30.0)
-        out.append(base.model_copy(update={"lights": [*scene.lights, *near]}))
-        out.append(base.model_copy(update={"lights": [*scene.lights, *near, spot]}))
+        out.append(base.model_copy(update={"lights": [*scene.lights, lamp]}))
+        out.append(base.model_copy(update={"lights": [*scene.lights, lamp, spot]}))
     if room_effects >= 1:
         out.append(base.model_copy(update={"effects": [*scene.effects, effect(0, "fire")], "weather": weather("snow")}))
     if not scene.lights and not any(EFFECT_KINDS[e.type].casts_light for e in scene.effects):
