@@ -39,6 +39,7 @@ def variant_sources(monkeypatch) -> dict[tuple, str]:
     monkeypatch.setattr(shaders, "assemble", recording)
     renderer = Renderer()
     try:
+        renderer.programs.compute("common/gpu_busy.comp.glsl")  # the bench's GPU head start (bench_gpu.py)
         for name in SCENES:
             scene = apply_patch(load_scene(name), {"camera": {"width": 32, "height": 18}})
             renderer.render(scene)
