@@ -73,9 +73,8 @@ class IGRuntime:
         self._watchdog_task: asyncio.Task | None = None
         self.stopping = asyncio.Event()  # set at shutdown: open streams end so the server can exit
         self.provisional = False  # the picture shown is the start preview (simplified sky), not the scene
-        self.rehearsing = False  # compiling ahead after the first frame (render/rehearsal.py)
-        self._loads_waiting = 0  # database loads whose rehearsal has not begun (compile_ahead)
-        self._rehearsals_running = 0
+        # Rehearsals (render/rehearsal.py) asked for and not finished: the start's, database loads'.
+        self._rehearsals = 0
         self._background: set[asyncio.Task] = set()  # compile_ahead's tasks (held: the loop keeps weak references)
         self.queries = Gate(self.settings.max_concurrent_queries, "water-height queries")
         # queries run on threads of their own, as many as may run at once: each thread that allocates
@@ -112,18 +111,25 @@ class IGRuntime:
         log.info("first picture (simplified sky) %.1f s after start; precomputing the atmosphere tables",
                  time.perf_counter() - t0)
 
-    def _will_rehearse(self) -> bool:
-        return self.settings.rehearse and callable(getattr(self.service, "rehearse", None))
+    @property
+    def rehearsing(self) -> bool:
+        """Compiling ahead (or about to): /v1/ready says so and is not ready meanwhile."""
+        return self._rehearsals > 0
+
+    def _ask_rehearsal(self) -> bool:
+        """Count a rehearsal as asked for, when the settings and the service allow one: ``rehearsing``
+        holds from now, before it begins (the start asks before its first frame: the render process says
+        it is warm from another thread as that frame ends, and /v1/ready must not see a ready moment
+        between). Each rehearsal asked for is run by ``_rehearse``, which ends it."""
+        if not (self.settings.rehearse and callable(getattr(self.service, "rehearse", None))):
+            return False
+        self._rehearsals += 1
+        return True
 
     async def _rehearse(self, scene) -> None:
         """Compile ahead what a fire, lights, precipitation or the sea's states would need
         (render/rehearsal.py), before /v1/ready: a host that starts one at once gets a frame, not a
-        frozen stream. ``rehearsing`` is set before the first frame (the render process says it is warm
-        from another thread as that frame ends: /v1/ready must not see a ready moment between)."""
-        if not self._will_rehearse():
-            return
-        self.rehearsing = True
-        self._rehearsals_running += 1
+        frozen stream. Runs a rehearsal ``_ask_rehearsal`` counted."""
         try:
             done = await self.gateway.call(self.service.rehearse, scene)
             log.info("rehearsed %d scenes unseen in %.1f s: %d programs compiled ahead",
@@ -131,24 +137,16 @@ class IGRuntime:
         except Exception as exc:  # only ahead of time: a program not compiled now is compiled when needed
             log.warning("no rehearsal: %s", exc)
         finally:
-            self._rehearsals_running -= 1
-            self.rehearsing = self._rehearsals_running > 0 or self._loads_waiting > 0
+            self._rehearsals -= 1
 
     def compile_ahead(self, scene) -> bool:
         """A database load (CIGI's IG Control) replaced the whole scene: compile ahead what the new scene
         may come to need, as at the start (the stream waits meanwhile, as a real IG's does while it loads,
         and /v1/ready and CIGI's IG mode say so). Returns whether a rehearsal was started. A host's
         whole-state message over protocol v1 does not start one: hosts may send every frame that way."""
-        if not self._will_rehearse():
+        if not self._ask_rehearsal():
             return False
-        self._loads_waiting += 1
-        self.rehearsing = True
-
-        async def load():
-            self._loads_waiting -= 1
-            await self._rehearse(scene)
-
-        task = asyncio.get_running_loop().create_task(load(), name="igserver-compile-ahead")
+        task = asyncio.get_running_loop().create_task(self._rehearse(scene), name="igserver-compile-ahead")
         self._background.add(task)
         task.add_done_callback(self._background.discard)
         return True
@@ -206,15 +204,19 @@ class IGRuntime:
                 await self.gateway.call(self.service.start)
                 log.info("render process up in %.1f s; rendering the first frame", time.perf_counter() - t0)
                 store = self.store
-                self.rehearsing = self._will_rehearse()  # see _rehearse
-                await self._show_a_first_picture_while_tables_compute(t0)
-                encoded = await self.gateway.render(store.scene, store.revision, store.accepted_at)
-                self.provisional = False
-                self.pump.publish(encoded)
-                await self._rehearse(store.scene)
+                asked = self._ask_rehearsal()  # see _ask_rehearsal
+                try:
+                    await self._show_a_first_picture_while_tables_compute(t0)
+                    encoded = await self.gateway.render(store.scene, store.revision, store.accepted_at)
+                    self.provisional = False
+                    self.pump.publish(encoded)
+                except Exception:
+                    self._rehearsals -= asked  # never run
+                    raise
+                if asked:
+                    await self._rehearse(store.scene)
                 log.info("ready: first frame rendered %.1f s after start", time.perf_counter() - t0)
             except Exception as exc:  # ready stays false; the next render retries the start
-                self.rehearsing = False
                 self.start_error = f"{type(exc).__name__}: {exc}"
                 log.error("render process failed to start: %s", self.start_error)
 
