@@ -164,45 +164,43 @@ def gpu_pass_ms(renderer, scenes, host_ms: float) -> dict:
             head.release()
     except Exception as exc:  # a driver without what the head start needs: time the passes as issued
         reason = f"{type(exc).__name__}: {exc}" if not isinstance(exc, OSError) else str(exc)
-    gpu: dict[str, list[float]] = {}
+    frames = []
     with PassTimers(renderer) as timers:
         for scene in scenes:
             renderer.render(scene)
-            for name, ms in timers.read().items():
-                gpu.setdefault(name, []).append(ms)
-    return {"gpu_pass_ms": {k: statistics.median(v) for k, v in gpu.items()},
-            "gpu_timing": f"as issued, GPU idling included (no head start: {reason})"}
+            frames.append(timers.read())
+    return {"gpu_pass_ms": _medians(frames), "gpu_timing": f"as issued, GPU idling included (no head start: {reason})"}
 
 
-def queued_gpu_pass_ms(renderer, scenes, host_ms: float, head_start=None) -> dict:
-    """GPU ms per pass (medians over ``scenes``), each frame drawn behind a head start longer than
-    its host work: 1.25 x ``host_ms`` + 2 ms, ``host_ms`` being the frame's wall time (GPU and readback
-    included: an upper bound of the host's share), doubled for a frame the check finds it short for. Returns ``gpu_pass_ms``,
-    the head start used last (``gpu_head_start_ms``), how many frames were drawn again because the
-    head start was short (``gpu_frames_redrawn``) and how many were left unconfirmed after the longest
-    (``gpu_frames_unconfirmed``)."""
-    head = head_start or GPUHeadStart(renderer)
+def queued_gpu_pass_ms(renderer, scenes, host_ms: float, head) -> dict:
+    """GPU ms per pass (medians over ``scenes``), each frame drawn behind a head start (``head``,
+    a GPUHeadStart) longer than its host work: 1.25 x ``host_ms`` + 2 ms, ``host_ms`` being the frame's
+    wall time (GPU and readback included: an upper bound of the host's share), doubled for a frame the
+    check finds it short for. Returns ``gpu_pass_ms``, the head start used last (``gpu_head_start_ms``),
+    how many frames were drawn again because the head start was short (``gpu_frames_redrawn``) and how
+    many were left unconfirmed after the longest (``gpu_frames_unconfirmed``)."""
     lead_ms = min(max(1.25 * host_ms + 2.0, 5.0), LONGEST_HEAD_START_MS)
-    gpu: dict[str, list[float]] = {}
+    frames = []
     redrawn = unconfirmed = 0
-    try:
-        with PassTimers(renderer, clock=head.clock_ns) as timers:
-            for scene in scenes:
-                while True:
-                    head.give(lead_ms)
-                    renderer.render(scene)
-                    pass_ms = timers.read()
-                    if timers.issued_ns <= head.finished_ns():
-                        break  # every pass was queued before the GPU reached the frame
-                    if lead_ms >= LONGEST_HEAD_START_MS:
-                        unconfirmed += 1
-                        break
-                    lead_ms = min(2.0 * lead_ms, LONGEST_HEAD_START_MS)
-                    redrawn += 1
-                for name, ms in pass_ms.items():
-                    gpu.setdefault(name, []).append(ms)
-    finally:
-        if head_start is None:
-            head.release()
-    return {"gpu_pass_ms": {k: statistics.median(v) for k, v in gpu.items()}, "gpu_head_start_ms": lead_ms,
+    with PassTimers(renderer, clock=head.clock_ns) as timers:
+        for scene in scenes:
+            while True:
+                head.give(lead_ms)
+                renderer.render(scene)
+                pass_ms = timers.read()
+                if timers.issued_ns <= head.finished_ns():
+                    break  # every pass was queued before the GPU reached the frame
+                if lead_ms >= LONGEST_HEAD_START_MS:
+                    unconfirmed += 1
+                    break
+                lead_ms = min(2.0 * lead_ms, LONGEST_HEAD_START_MS)
+                redrawn += 1
+            frames.append(pass_ms)
+    return {"gpu_pass_ms": _medians(frames), "gpu_head_start_ms": lead_ms,
             "gpu_frames_redrawn": redrawn, "gpu_frames_unconfirmed": unconfirmed}
+
+
+def _medians(frames: list[dict[str, float]]) -> dict[str, float]:
+    """Each pass's median over the frames that drew it."""
+    names = dict.fromkeys(name for frame in frames for name in frame)
+    return {name: statistics.median(f[name] for f in frames if name in f) for name in names}

@@ -151,7 +151,7 @@ def test_a_frame_issued_after_the_gpu_caught_up_is_drawn_again_behind_a_longer_h
 
     scenes = [tiny(), tiny()]
     head = _FakeHeadStart(host_ms=30.0)
-    row = queued_gpu_pass_ms(renderer, scenes, host_ms=1.0, head_start=head)
+    row = queued_gpu_pass_ms(renderer, scenes, host_ms=1.0, head=head)
     # 1.25 x 1 + 2 = 3.25 -> the 5 ms floor, then 10, 20, 40 (> 30: confirmed); the second frame starts at 40
     assert head.given == [5.0, 10.0, 20.0, 40.0, 40.0]
     assert row["gpu_head_start_ms"] == 40.0 and row["gpu_frames_redrawn"] == 3 and row["gpu_frames_unconfirmed"] == 0
@@ -159,7 +159,7 @@ def test_a_frame_issued_after_the_gpu_caught_up_is_drawn_again_behind_a_longer_h
     assert all("execute" not in vars(p) for p in renderer.graph.passes.values())
     # A host slower than the longest head start: drawn at it once more, reported unconfirmed, no loop.
     head = _FakeHeadStart(host_ms=5000.0)
-    row = queued_gpu_pass_ms(renderer, [tiny()], host_ms=400.0, head_start=head)
+    row = queued_gpu_pass_ms(renderer, [tiny()], host_ms=400.0, head=head)
     assert head.given == [502.0, 1000.0] and row["gpu_frames_unconfirmed"] == 1
 
 
